@@ -1,0 +1,393 @@
+//! A robot model parsed from URDF: the kinematic tree with joint limits, validated once.
+//!
+//! [`RobotModel`] is the constant part of a robot (Pinocchio's `Model`): links, joints, their
+//! origins, axes, limits and `<mimic>` couplings. Serial chains between any two links are cut from it
+//! with [`crate::Chain::new`].
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use crate::error::CbError;
+use crate::math::{Iso3, UnitVec3, Vec3, iso_from_xyz_rpy};
+
+/// The kind of a joint, as far as kinematics is concerned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JointKind {
+    /// Rotation about the axis, with position limits.
+    Revolute,
+    /// Rotation about the axis, no position limits.
+    Continuous,
+    /// Translation along the axis.
+    Prismatic,
+    /// Rigid: folded into neighbouring transforms.
+    Fixed,
+}
+
+impl JointKind {
+    /// Whether the joint has a degree of freedom.
+    pub fn is_moving(self) -> bool {
+        !matches!(self, JointKind::Fixed)
+    }
+}
+
+/// Position, velocity and effort limits of one joint (radians or metres; `f64::INFINITY` if absent).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct JointLimits {
+    /// Lower position limit.
+    pub lower: f64,
+    /// Upper position limit.
+    pub upper: f64,
+    /// Velocity limit (rad/s or m/s), `INFINITY` when the URDF gives none.
+    pub velocity: f64,
+    /// Effort limit (N·m or N), `INFINITY` when the URDF gives none.
+    pub effort: f64,
+}
+
+impl JointLimits {
+    /// No limits at all.
+    pub const UNLIMITED: JointLimits = JointLimits {
+        lower: f64::NEG_INFINITY,
+        upper: f64::INFINITY,
+        velocity: f64::INFINITY,
+        effort: f64::INFINITY,
+    };
+}
+
+/// A `<mimic>` coupling: `q = multiplier · q_master + offset`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Mimic {
+    /// The joint this one follows.
+    pub joint: String,
+    /// Gear ratio.
+    pub multiplier: f64,
+    /// Offset (rad or m).
+    pub offset: f64,
+}
+
+/// One joint of the tree.
+#[derive(Debug, Clone)]
+pub struct Joint {
+    /// Name, unique in the model.
+    pub name: String,
+    /// Kind.
+    pub kind: JointKind,
+    /// Index of the parent link in [`RobotModel::links`].
+    pub parent: usize,
+    /// Index of the child link.
+    pub child: usize,
+    /// `parent_from_joint` at q = 0.
+    pub origin: Iso3,
+    /// Axis in the joint frame (unit length).
+    pub axis: UnitVec3,
+    /// Limits.
+    pub limits: JointLimits,
+    /// Coupling to another joint, if any.
+    pub mimic: Option<Mimic>,
+    /// Viscous damping from `<dynamics>` (N·m·s/rad), 0 when absent.
+    pub damping: f64,
+}
+
+/// One link of the tree.
+#[derive(Debug, Clone)]
+pub struct Link {
+    /// Name, unique in the model.
+    pub name: String,
+    /// The joint whose child this link is (`None` for the root).
+    pub parent_joint: Option<usize>,
+    /// Mass in kg (0 when the URDF has no `<inertial>`).
+    pub mass: f64,
+}
+
+/// A validated kinematic tree read from URDF.
+#[derive(Debug, Clone)]
+pub struct RobotModel {
+    /// Robot name from the URDF.
+    pub name: String,
+    /// Links, in file order.
+    pub links: Vec<Link>,
+    /// Joints, in file order.
+    pub joints: Vec<Joint>,
+    /// Index of the root link.
+    pub root: usize,
+    link_index: HashMap<String, usize>,
+    joint_index: HashMap<String, usize>,
+    /// The parsed URDF, kept for consumers that need geometry and inertia (the simulator).
+    pub urdf: urdf_rs::Robot,
+}
+
+impl RobotModel {
+    /// Reads and validates a URDF file.
+    pub fn from_urdf_file(path: impl AsRef<Path>) -> Result<Self, CbError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| CbError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(&text, Some(path))
+    }
+
+    /// Parses and validates URDF text.
+    pub fn from_urdf_str(text: &str) -> Result<Self, CbError> {
+        Self::parse(text, None)
+    }
+
+    fn parse(text: &str, origin: Option<&Path>) -> Result<Self, CbError> {
+        let urdf = urdf_rs::read_from_string(text).map_err(|e| CbError::MalformedUrdf {
+            origin: origin.map(Path::to_path_buf),
+            message: e.to_string(),
+        })?;
+        Self::from_urdf(urdf)
+    }
+
+    /// Builds and validates the model from a parsed `urdf_rs::Robot`.
+    pub fn from_urdf(urdf: urdf_rs::Robot) -> Result<Self, CbError> {
+        let invalid = |element: &'static str, name: &str, problem: String| CbError::InvalidModel {
+            element,
+            name: name.to_string(),
+            problem,
+        };
+        if urdf.links.is_empty() {
+            return Err(invalid("robot", &urdf.name, "has no links".into()));
+        }
+        let mut links = Vec::with_capacity(urdf.links.len());
+        let mut link_index = HashMap::new();
+        for (i, l) in urdf.links.iter().enumerate() {
+            if link_index.insert(l.name.clone(), i).is_some() {
+                return Err(invalid("link", &l.name, "defined twice".into()));
+            }
+            let mass = l.inertial.mass.value;
+            if !mass.is_finite() || mass < 0.0 {
+                return Err(invalid("link", &l.name, format!("mass {mass} is not a non-negative number")));
+            }
+            links.push(Link {
+                name: l.name.clone(),
+                parent_joint: None,
+                mass,
+            });
+        }
+        let mut joints = Vec::with_capacity(urdf.joints.len());
+        let mut joint_index = HashMap::new();
+        for (i, j) in urdf.joints.iter().enumerate() {
+            if joint_index.insert(j.name.clone(), i).is_some() {
+                return Err(invalid("joint", &j.name, "defined twice".into()));
+            }
+            let parent = *link_index.get(&j.parent.link).ok_or_else(|| {
+                invalid("joint", &j.name, format!("parent link '{}' does not exist", j.parent.link))
+            })?;
+            let child = *link_index.get(&j.child.link).ok_or_else(|| {
+                invalid("joint", &j.name, format!("child link '{}' does not exist", j.child.link))
+            })?;
+            if parent == child {
+                return Err(invalid("joint", &j.name, "parent and child are the same link".into()));
+            }
+            if let Some(other) = links[child].parent_joint {
+                return Err(invalid(
+                    "link",
+                    &links[child].name,
+                    format!("has two parent joints ('{}' and '{}')", urdf.joints[other].name, j.name),
+                ));
+            }
+            links[child].parent_joint = Some(i);
+            let xyz = *j.origin.xyz;
+            let rpy = *j.origin.rpy;
+            if xyz.iter().chain(rpy.iter()).any(|v| !v.is_finite()) {
+                return Err(invalid("joint", &j.name, format!("origin xyz {xyz:?} rpy {rpy:?} is not finite")));
+            }
+            let kind = match j.joint_type {
+                urdf_rs::JointType::Revolute => JointKind::Revolute,
+                urdf_rs::JointType::Continuous => JointKind::Continuous,
+                urdf_rs::JointType::Prismatic => JointKind::Prismatic,
+                urdf_rs::JointType::Fixed => JointKind::Fixed,
+                ref other => {
+                    return Err(invalid(
+                        "joint",
+                        &j.name,
+                        format!("type {other:?} is not supported (revolute, continuous, prismatic and fixed are)"),
+                    ));
+                }
+            };
+            let axis_raw = Vec3::from(*j.axis.xyz);
+            let axis = if kind.is_moving() {
+                let n = axis_raw.norm();
+                if !n.is_finite() || n < 1e-12 {
+                    return Err(invalid("joint", &j.name, format!("axis {:?} is zero or not finite", *j.axis.xyz)));
+                }
+                UnitVec3::new_normalize(axis_raw)
+            } else {
+                Vec3::z_axis()
+            };
+            let limits = match kind {
+                JointKind::Fixed => JointLimits::UNLIMITED,
+                JointKind::Continuous => JointLimits {
+                    lower: f64::NEG_INFINITY,
+                    upper: f64::INFINITY,
+                    velocity: positive_or_inf(j.limit.velocity),
+                    effort: positive_or_inf(j.limit.effort),
+                },
+                JointKind::Revolute | JointKind::Prismatic => {
+                    let (lo, hi) = (j.limit.lower, j.limit.upper);
+                    if !lo.is_finite() || !hi.is_finite() || lo > hi {
+                        return Err(invalid(
+                            "joint",
+                            &j.name,
+                            format!("limits lower={lo} upper={hi} must be finite with lower <= upper"),
+                        ));
+                    }
+                    JointLimits {
+                        lower: lo,
+                        upper: hi,
+                        velocity: positive_or_inf(j.limit.velocity),
+                        effort: positive_or_inf(j.limit.effort),
+                    }
+                }
+            };
+            if j.limit.velocity.is_nan() || j.limit.effort.is_nan() {
+                return Err(invalid("joint", &j.name, "velocity or effort limit is NaN".into()));
+            }
+            let mimic = match &j.mimic {
+                Some(m) => {
+                    let multiplier = m.multiplier.unwrap_or(1.0);
+                    let offset = m.offset.unwrap_or(0.0);
+                    if !multiplier.is_finite() || !offset.is_finite() {
+                        return Err(invalid("joint", &j.name, "mimic multiplier/offset not finite".into()));
+                    }
+                    Some(Mimic {
+                        joint: m.joint.clone(),
+                        multiplier,
+                        offset,
+                    })
+                }
+                None => None,
+            };
+            let damping = j.dynamics.as_ref().map(|d| d.damping).unwrap_or(0.0);
+            joints.push(Joint {
+                name: j.name.clone(),
+                kind,
+                parent,
+                child,
+                origin: iso_from_xyz_rpy(xyz, rpy),
+                axis,
+                limits,
+                mimic,
+                damping: if damping.is_finite() { damping } else { 0.0 },
+            });
+        }
+        // Mimic targets must exist, be moving, and not form cycles.
+        for j in &joints {
+            if let Some(m) = &j.mimic {
+                let Some(&t) = joint_index.get(&m.joint) else {
+                    return Err(invalid("joint", &j.name, format!("mimics unknown joint '{}'", m.joint)));
+                };
+                if !joints[t].kind.is_moving() {
+                    return Err(invalid("joint", &j.name, format!("mimics fixed joint '{}'", m.joint)));
+                }
+            }
+        }
+        let roots: Vec<usize> = (0..links.len()).filter(|&i| links[i].parent_joint.is_none()).collect();
+        if roots.len() != 1 {
+            let names: Vec<&str> = roots.iter().map(|&i| links[i].name.as_str()).collect();
+            return Err(invalid(
+                "robot",
+                &urdf.name,
+                format!("must have exactly one root link, found {}: {names:?}", roots.len()),
+            ));
+        }
+        let root = roots[0];
+        let model = RobotModel {
+            name: urdf.name.clone(),
+            links,
+            joints,
+            root,
+            link_index,
+            joint_index,
+            urdf,
+        };
+        // Every link must reach the root (no cycles).
+        for i in 0..model.links.len() {
+            let mut steps = 0;
+            let mut l = i;
+            while let Some(j) = model.links[l].parent_joint {
+                l = model.joints[j].parent;
+                steps += 1;
+                if steps > model.links.len() {
+                    return Err(invalid("link", &model.links[i].name, "is part of a kinematic cycle".into()));
+                }
+            }
+        }
+        for j in &model.joints {
+            model.mimic_root(j)?;
+        }
+        Ok(model)
+    }
+
+    /// Index of the link called `name`.
+    pub fn link(&self, name: &str) -> Result<usize, CbError> {
+        self.link_index.get(name).copied().ok_or_else(|| CbError::UnknownLink {
+            name: name.to_string(),
+            candidates: self.similar_links(name),
+        })
+    }
+
+    /// Index of the joint called `name`.
+    pub fn joint(&self, name: &str) -> Result<usize, CbError> {
+        self.joint_index.get(name).copied().ok_or_else(|| CbError::UnknownJoint { name: name.to_string() })
+    }
+
+    /// The independent joint a (possibly mimicking) joint finally follows, with the composed
+    /// multiplier and offset: `q_joint = m · q_root + o`.
+    pub fn mimic_root(&self, joint: &Joint) -> Result<(usize, f64, f64), CbError> {
+        let mut idx = self.joint(&joint.name)?;
+        let (mut m, mut o) = (1.0, 0.0);
+        for _ in 0..=self.joints.len() {
+            match &self.joints[idx].mimic {
+                None => return Ok((idx, m, o)),
+                Some(mm) => {
+                    // q_idx = mm.multiplier * q_next + mm.offset
+                    o += m * mm.offset;
+                    m *= mm.multiplier;
+                    idx = self.joint(&mm.joint)?;
+                }
+            }
+        }
+        Err(CbError::InvalidModel {
+            element: "joint",
+            name: joint.name.clone(),
+            problem: "mimic couplings form a cycle".into(),
+        })
+    }
+
+    /// Independent moving joints (not fixed, not mimicking another): the robot's degrees of freedom.
+    pub fn actuated_joints(&self) -> impl Iterator<Item = &Joint> {
+        self.joints.iter().filter(|j| j.kind.is_moving() && j.mimic.is_none())
+    }
+
+    /// Link names that look like `name` (same suffix or containing it), for error messages.
+    fn similar_links(&self, name: &str) -> Vec<String> {
+        let tail = name.rsplit('/').next().unwrap_or(name);
+        let mut out: Vec<String> = self
+            .links
+            .iter()
+            .filter(|l| !tail.is_empty() && (l.name.ends_with(tail) || l.name.contains(name)))
+            .map(|l| l.name.clone())
+            .collect();
+        out.truncate(5);
+        out
+    }
+
+    /// Path from the root to `link`: the joints crossed, root first.
+    pub fn joints_from_root(&self, link: usize) -> Vec<usize> {
+        let mut out = Vec::new();
+        let mut l = link;
+        while let Some(j) = self.links[l].parent_joint {
+            out.push(j);
+            l = self.joints[j].parent;
+        }
+        out.reverse();
+        out
+    }
+}
+
+fn positive_or_inf(v: f64) -> f64 {
+    if v.is_finite() && v > 0.0 { v } else { f64::INFINITY }
+}
