@@ -1,0 +1,283 @@
+//! Artificial potentials φ (seed §3.1): scalar fields over a feedback signal whose descent achieves a
+//! reference. Each evaluation yields φ, the gradient `e = ∂φ/∂f` in the feedback space and, with the
+//! feedback Jacobian `J_τ = ∂f/∂u_τ` (3.1), everything the control law (3.4) needs.
+//!
+//! - [`quadratic`]: φ_U = ½ (y − r)ᵀ(y − r) (3.10) with gradient (y − r) (3.11), on positions, on
+//!   configurations and — with the SO(3) logarithm as the difference — on orientations.
+//! - [`manipulability`]: φ_M = −√det(J Jᵀ) (3.14) with its analytic gradient ∂φ_M/∂q (3.16).
+//! - [`joint_limit`]: a quadratic pull towards the middle of each joint's range, normalised by the range.
+//! - [`force_residual`]: ½‖F‖² + ½w²‖M‖² of the net contact wrench, the grasp potential of §3.1.3.3.
+
+use nalgebra::{DVector, Matrix6, Matrix6xX};
+
+use crate::chain::{Chain, ChainState};
+use crate::math::{Rot3, Vec3};
+use crate::model::JointKind;
+
+/// φ_U (3.10) and its gradient (3.11): `e = y − r`, φ = ½ eᵀe. Returns φ.
+pub fn quadratic(y: &[f64], r: &[f64], e: &mut [f64]) -> f64 {
+    let mut phi = 0.0;
+    for ((ei, yi), ri) in e.iter_mut().zip(y).zip(r) {
+        *ei = yi - ri;
+        phi += 0.5 * *ei * *ei;
+    }
+    phi
+}
+
+/// Orientation error on SO(3): `e = log(R Rᵣᵀ)` (a rotation vector in base axes, |e| = geodesic angle
+/// from the reference to the current orientation, ≤ π). Its time derivative is ω to first order, so the
+/// angular rows of the geometric Jacobian serve as the feedback Jacobian.
+pub fn orientation_error(current: &Rot3, reference: &Rot3) -> Vec3 {
+    (current * reference.inverse()).scaled_axis()
+}
+
+/// Which rows of the chain Jacobian enter the manipulability measure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ManipulabilityRows {
+    /// All six rows (translation and rotation).
+    Full,
+    /// The three translational rows (positioning dexterity).
+    Position,
+}
+
+impl ManipulabilityRows {
+    /// Number of Jacobian rows used.
+    pub fn count(self) -> usize {
+        match self {
+            ManipulabilityRows::Full => 6,
+            ManipulabilityRows::Position => 3,
+        }
+    }
+}
+
+/// Scratch space for [`manipulability`] (allocated once).
+#[derive(Debug, Clone)]
+pub struct ManipulabilityWorkspace {
+    b: Matrix6xX<f64>,
+    axes: Vec<Vec3>,
+}
+
+impl ManipulabilityWorkspace {
+    /// Scratch for a chain.
+    pub fn new(chain: &Chain) -> Self {
+        ManipulabilityWorkspace {
+            b: Matrix6xX::zeros(chain.dof()),
+            axes: vec![Vec3::zeros(); chain.joints().len()],
+        }
+    }
+}
+
+/// Yoshikawa's measure w = √det(J Jᵀ) of the tip Jacobian in `state` (after [`crate::jacobian`]) and,
+/// into `grad`, its gradient ∂w/∂q (n). φ_M = −w (3.14), so ∇φ_M = −grad.
+///
+/// ∂w/∂q_k = w · tr(A⁻¹ J ∂Jᵀ/∂q_k) with A = J Jᵀ, and ∂J/∂q_k in closed form from the geometric
+/// Jacobian (for revolute joints f and columns e: z_f × (z_e × (p − p_e)) when f < e, z_e × (z_f × (p − p_f))
+/// when f ≥ e, z_f × z_e on the angular rows when f < e; prismatic joints analogously), so the gradient
+/// is exact and costs O(n²). A tiny Tikhonov term keeps A⁻¹ finite at singularities.
+pub fn manipulability(
+    chain: &Chain,
+    state: &ChainState,
+    rows: ManipulabilityRows,
+    ws: &mut ManipulabilityWorkspace,
+    grad: &mut [f64],
+) -> f64 {
+    let jac = state.jacobian();
+    let n = chain.dof();
+    let m = rows.count();
+    let mut a = Matrix6::<f64>::zeros();
+    for i in 0..m {
+        for j in 0..=i {
+            let mut s = 0.0;
+            for k in 0..n {
+                s += jac[(i, k)] * jac[(j, k)];
+            }
+            a[(i, j)] = s;
+            a[(j, i)] = s;
+        }
+    }
+    for i in m..6 {
+        a[(i, i)] = 1.0;
+    }
+    let det = a.determinant().max(0.0);
+    let w = det.sqrt();
+    let scale = a.diagonal().max().max(1e-300);
+    let mut a_reg = a;
+    for i in 0..m {
+        a_reg[(i, i)] += 1e-12 * scale;
+    }
+    let a_inv = a_reg.try_inverse().unwrap_or_else(Matrix6::zeros);
+    // B = A⁻¹ J (rows ≥ m are zero).
+    ws.b.fill(0.0);
+    for k in 0..n {
+        for i in 0..m {
+            let mut s = 0.0;
+            for j in 0..m {
+                s += a_inv[(i, j)] * jac[(j, k)];
+            }
+            ws.b[(i, k)] = s;
+        }
+    }
+    grad.fill(0.0);
+    let joints = chain.joints();
+    let frames = state.joint_frames();
+    let p = state.tip_pose().translation.vector;
+    for (e, (je, fe)) in joints.iter().zip(frames).enumerate() {
+        ws.axes[e] = (fe.rotation * je.axis.into_inner()) * (je.sign * je.multiplier);
+    }
+    for (e, je) in joints.iter().enumerate() {
+        let ze = ws.axes[e];
+        let pe = frames[e].translation.vector;
+        let be = ws.b.column(je.dof);
+        for (f, jf) in joints.iter().enumerate() {
+            let zf = ws.axes[f];
+            let pf = frames[f].translation.vector;
+            let (dv, dw) = match (je.kind == JointKind::Prismatic, jf.kind == JointKind::Prismatic) {
+                (false, false) => {
+                    if f < e {
+                        (zf.cross(&ze.cross(&(p - pe))), zf.cross(&ze))
+                    } else {
+                        (ze.cross(&zf.cross(&(p - pf))), Vec3::zeros())
+                    }
+                }
+                (false, true) => {
+                    if f < e {
+                        (Vec3::zeros(), Vec3::zeros())
+                    } else {
+                        (ze.cross(&zf), Vec3::zeros())
+                    }
+                }
+                (true, false) => {
+                    if f < e {
+                        (zf.cross(&ze), Vec3::zeros())
+                    } else {
+                        (Vec3::zeros(), Vec3::zeros())
+                    }
+                }
+                (true, true) => (Vec3::zeros(), Vec3::zeros()),
+            };
+            let mut s = 0.0;
+            for r in 0..m.min(3) {
+                s += be[r] * dv[r];
+            }
+            if m == 6 {
+                for r in 0..3 {
+                    s += be[r + 3] * dw[r];
+                }
+            }
+            grad[jf.dof] += w * s;
+        }
+    }
+    w
+}
+
+/// Joint-limit potential φ_L = ½ Σ ((q_i − mid_i) / range_i)² over joints with finite limits; gradient
+/// into `e`. Its descent keeps joints away from their stops; its value is 0 at mid-range and ⅛ for each
+/// joint sitting at a stop.
+pub fn joint_limit(chain: &Chain, q: &[f64], e: &mut [f64]) -> f64 {
+    let mut phi = 0.0;
+    for ((ei, qi), d) in e.iter_mut().zip(q).zip(chain.dofs()) {
+        let (lo, hi) = (d.limits.lower, d.limits.upper);
+        if lo.is_finite() && hi.is_finite() && hi > lo {
+            let range = hi - lo;
+            let x = (qi - 0.5 * (lo + hi)) / range;
+            phi += 0.5 * x * x;
+            *ei = x / range;
+        } else {
+            *ei = 0.0;
+        }
+    }
+    phi
+}
+
+/// A contact between a fingertip (or any chain link) and a grasped object.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contact {
+    /// Chain link carrying the contact (index into [`Chain::links`]).
+    pub link: usize,
+    /// Contact point in the chain's base frame (m).
+    pub point: Vec3,
+    /// Force the link applies to the object at the point, base axes (N).
+    pub force: Vec3,
+}
+
+/// Net wrench of contact forces about `center` (base frame): (F, M) = (Σ fᵢ, Σ (pᵢ − c) × fᵢ).
+pub fn net_wrench(contacts: &[Contact], center: &Vec3) -> (Vec3, Vec3) {
+    let mut f = Vec3::zeros();
+    let mut m = Vec3::zeros();
+    for c in contacts {
+        f += c.force;
+        m += (c.point - center).cross(&c.force);
+    }
+    (f, m)
+}
+
+/// Force-residual potential of the grasp controller (§3.1.3.3, Coelho & Grupen):
+/// φ = ½‖F‖² + ½ w² ‖M‖² for the net wrench about `center`. A force-closure grasp with balanced
+/// contact forces has φ = 0.
+///
+/// Writes into `e` (3 per contact) the gradient of φ with respect to each contact *position* for fixed
+/// contact forces, ∂φ/∂pᵢ = w² fᵢ × M (the net force does not depend on where forces are applied):
+/// moving contacts along it balances the moments. With the contact-point Jacobians as feedback Jacobian
+/// this drives the hand's joints. Returns φ.
+pub fn force_residual(contacts: &[Contact], center: &Vec3, moment_weight: f64, e: &mut [f64]) -> f64 {
+    let (f, m) = net_wrench(contacts, center);
+    let w2 = moment_weight * moment_weight;
+    for (i, c) in contacts.iter().enumerate() {
+        let g = c.force.cross(&m) * w2;
+        e[3 * i] = g.x;
+        e[3 * i + 1] = g.y;
+        e[3 * i + 2] = g.z;
+    }
+    0.5 * f.norm_squared() + 0.5 * w2 * m.norm_squared()
+}
+
+/// Gradient of the force residual with respect to each contact *force* (3 per contact) for fixed
+/// positions: ∂φ/∂fᵢ = F − w² (pᵢ − c) × M. The force-domain half of the grasp controller (squeeze
+/// harder on the finger that balances the wrench).
+pub fn force_residual_force_gradient(contacts: &[Contact], center: &Vec3, moment_weight: f64, out: &mut DVector<f64>) {
+    let (f, m) = net_wrench(contacts, center);
+    let w2 = moment_weight * moment_weight;
+    for (i, c) in contacts.iter().enumerate() {
+        let g = f - (c.point - center).cross(&m) * w2;
+        out[3 * i] = g.x;
+        out[3 * i + 1] = g.y;
+        out[3 * i + 2] = g.z;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn force_residual_zero_for_opposed_pinch_and_gradient_matches_fd() {
+        let c = |p: [f64; 3], f: [f64; 3]| Contact {
+            link: 0,
+            point: Vec3::from(p),
+            force: Vec3::from(f),
+        };
+        let pinch = [c([0.05, 0.0, 0.0], [-2.0, 0.0, 0.0]), c([-0.05, 0.0, 0.0], [2.0, 0.0, 0.0])];
+        let mut e = [0.0; 6];
+        assert!(force_residual(&pinch, &Vec3::zeros(), 10.0, &mut e) < 1e-20);
+        // Offset contact: a couple. Check the position gradient by finite differences.
+        let skew = [c([0.05, 0.01, 0.0], [-2.0, 0.0, 0.0]), c([-0.05, -0.02, 0.01], [2.0, 0.3, 0.0])];
+        let mut g = [0.0; 6];
+        let phi = force_residual(&skew, &Vec3::zeros(), 10.0, &mut g);
+        assert!(phi > 0.0);
+        let h = 1e-7;
+        for i in 0..2 {
+            for a in 0..3 {
+                let mut plus = skew;
+                let mut minus = skew;
+                plus[i].point[a] += h;
+                minus[i].point[a] -= h;
+                let mut tmp = [0.0; 6];
+                let fd = (force_residual(&plus, &Vec3::zeros(), 10.0, &mut tmp)
+                    - force_residual(&minus, &Vec3::zeros(), 10.0, &mut tmp))
+                    / (2.0 * h);
+                assert!((fd - g[3 * i + a]).abs() < 1e-6, "{fd} vs {}", g[3 * i + a]);
+            }
+        }
+    }
+}
