@@ -1,1 +1,112 @@
-fn main() {}
+//! # pbd — robot programming by demonstration, from the command line
+//!
+//! `pbd` is the user's door into the workspace: it records demonstrations in the Dexter simulator,
+//! infers which schema explains them, learns a procedural model and executes it in a new context
+//! (Sweeney 2011). Today it offers the first of those building blocks, `pbd robot`: inspect a URDF and
+//! evaluate the forward kinematics and Jacobian of any serial chain in it.
+//!
+//! Every subcommand runs in three phases, as ripgrep does: **parse** (clap, syntax only; usage errors
+//! exit with 2), **config** (files loaded, names resolved, values validated — every user mistake is
+//! reported here, once, as `error: …` with exit code 1) and **run** (computation and printing, which
+//! cannot fail on user input any more). One file per subcommand; `main` only dispatches.
+
+use std::io::{self, Write};
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod output;
+mod robot;
+
+/// Robot programming by demonstration (teleological PbD, Sweeney 2011).
+#[derive(Debug, Parser)]
+#[command(name = "pbd", version, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Inspect a robot model (URDF) and evaluate its kinematics.
+    #[command(subcommand)]
+    Robot(robot::RobotCommand),
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // Usage errors go to stderr with exit code 2, --help / --version to stdout with 0.
+            let _ = e.print();
+            return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
+        }
+    };
+    let stdout = io::stdout();
+    let mut out = stdout.lock();
+    let result = match cli.command {
+        Command::Robot(cmd) => robot::main(cmd, &mut out),
+    };
+    let result = result.and_then(|()| out.flush().map_err(anyhow::Error::from));
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        // `pbd robot info | head` closes the pipe early: not an error worth reporting.
+        Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}", error_message(&e));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The error and its causes joined by ": ", like anyhow's `{:#}`, but without repeating a cause whose
+/// text its parent already ends with (some library errors print their source themselves).
+fn error_message(e: &anyhow::Error) -> String {
+    let mut msg = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if msg.is_empty() {
+            msg = text;
+        } else if !msg.ends_with(&text) {
+            msg.push_str(": ");
+            msg.push_str(&text);
+        }
+    }
+    msg
+}
+
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<io::Error>()
+            .is_some_and(|io| io.kind() == io::ErrorKind::BrokenPipe)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn error_message_joins_causes_like_anyhow_alternate() {
+        let e = anyhow::anyhow!("inner").context("outer");
+        assert_eq!(error_message(&e), format!("{e:#}"));
+    }
+
+    #[test]
+    fn error_message_does_not_repeat_a_source_already_printed() {
+        #[derive(Debug)]
+        struct Wrap(io::Error);
+        impl std::fmt::Display for Wrap {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                write!(f, "cannot read x: {}", self.0)
+            }
+        }
+        impl std::error::Error for Wrap {
+            fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+                Some(&self.0)
+            }
+        }
+        let e = anyhow::Error::new(Wrap(io::Error::other("gone")));
+        assert_eq!(error_message(&e), "cannot read x: gone");
+    }
+}
