@@ -575,6 +575,11 @@ pub struct StackSettings {
     pub max_contacts: usize,
     /// Scale the whole step down (keeping its direction) so no joint exceeds its URDF velocity limit.
     pub respect_velocity_limits: bool,
+    /// Joint clamping at position limits (saturation in the null space, Flacco et al. 2012): a joint
+    /// whose step would cross its limit is stopped at the limit and its column removed from every
+    /// level, and the composition is recomputed so the remaining joints take over the task. Without it
+    /// a pseudoinverse law keeps pushing a joint into its stop and the whole motion stalls.
+    pub clamp_position_limits: bool,
 }
 
 impl Default for StackSettings {
@@ -584,6 +589,7 @@ impl Default for StackSettings {
             predicate: PredicateSettings::default(),
             max_contacts: 3,
             respect_velocity_limits: true,
+            clamp_position_limits: true,
         }
     }
 }
@@ -606,6 +612,10 @@ pub struct ControlStack {
     level_steps: Vec<DVector<f64>>,
     settings: StackSettings,
     velocity_limits: Vec<f64>,
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+    clamped: Vec<bool>,
+    clamp_to: Vec<f64>,
 }
 
 impl ControlStack {
@@ -646,6 +656,10 @@ impl ControlStack {
             du: DVector::zeros(n),
             settings,
             velocity_limits: chain.dofs().iter().map(|d| d.limits.velocity).collect(),
+            lower: chain.dofs().iter().map(|d| d.limits.lower).collect(),
+            upper: chain.dofs().iter().map(|d| d.limits.upper).collect(),
+            clamped: vec![false; n],
+            clamp_to: vec![0.0; n],
             controllers,
         })
     }
@@ -672,27 +686,47 @@ impl ControlStack {
     pub fn tick(&mut self, chain: &Chain, state: &mut ChainState, contacts: &[Contact], dt_secs: f64) -> &DVector<f64> {
         forward_kinematics(chain, state);
         jacobian(chain, state);
-        self.du.fill(0.0);
-        self.basis.clear();
         for k in 0..self.controllers.len() {
             let c = &self.controllers[k];
             let buf = &mut self.buffers[k];
             let phi = evaluate(c, chain, state, contacts, &self.references[k], buf, dt_secs);
             self.phis[k] = phi;
             self.trackers[k].update(phi, dt_secs);
-            self.level_steps[k].fill(0.0);
-            if phi.is_none() || buf.rows == 0 {
-                continue;
+        }
+        self.clamped.fill(false);
+        self.compose(dt_secs);
+        if self.settings.clamp_position_limits {
+            // At most n rounds: each round clamps at least one more joint or stops.
+            for _ in 0..self.clamped.len() {
+                let mut newly = false;
+                for i in 0..self.du.len() {
+                    if self.clamped[i] {
+                        continue;
+                    }
+                    let next = state.q()[i] + self.du[i];
+                    if next > self.upper[i] || next < self.lower[i] {
+                        self.clamped[i] = true;
+                        self.clamp_to[i] = (self.upper[i] - state.q()[i]).min(self.du[i]).max(self.lower[i] - state.q()[i]);
+                        newly = true;
+                    }
+                }
+                if !newly {
+                    break;
+                }
+                for buf in &mut self.buffers {
+                    for (i, &c) in self.clamped.iter().enumerate() {
+                        if c {
+                            buf.jacobian.column_mut(i).fill(0.0);
+                        }
+                    }
+                }
+                self.compose(dt_secs);
             }
-            // −κ dt J† e, then project out what would disturb the superior levels (3.7).
-            self.dls_info[k] = self
-                .dls
-                .solve_rows(&buf.jacobian, buf.rows, buf.error.as_slice(), self.v.as_mut_slice());
-            self.v *= -c.gain * dt_secs;
-            self.level_steps[k].copy_from(&self.v);
-            self.basis.project_out(&mut self.v);
-            self.du += &self.v;
-            self.basis.add_first_rows(&buf.jacobian, buf.rows);
+            for (i, &c) in self.clamped.iter().enumerate() {
+                if c {
+                    self.du[i] = self.clamp_to[i];
+                }
+            }
         }
         if self.settings.respect_velocity_limits && dt_secs > 0.0 {
             let mut worst: f64 = 1.0;
@@ -706,6 +740,33 @@ impl ControlStack {
             }
         }
         &self.du
+    }
+
+    /// Δu = Σₖ N₁…ₖ₋₁ (−κₖ dt Jₖ† eₖ) (3.7) from the evaluated buffers.
+    fn compose(&mut self, dt_secs: f64) {
+        self.du.fill(0.0);
+        self.basis.clear();
+        for k in 0..self.controllers.len() {
+            let buf = &self.buffers[k];
+            self.level_steps[k].fill(0.0);
+            if self.phis[k].is_none() || buf.rows == 0 {
+                continue;
+            }
+            // −κ dt J† e, then project out what would disturb the superior levels (3.7).
+            self.dls_info[k] = self
+                .dls
+                .solve_rows(&buf.jacobian, buf.rows, buf.error.as_slice(), self.v.as_mut_slice());
+            self.v *= -self.controllers[k].gain * dt_secs;
+            self.level_steps[k].copy_from(&self.v);
+            self.basis.project_out(&mut self.v);
+            self.du += &self.v;
+            self.basis.add_first_rows(&buf.jacobian, buf.rows);
+        }
+    }
+
+    /// Which joints were clamped at a position limit in the last tick.
+    pub fn clamped(&self) -> &[bool] {
+        &self.clamped
     }
 
     /// Δu of the last tick.

@@ -6,7 +6,9 @@
 //! predicate chatter between 0 and 1. [`PredicateTracker`] therefore
 //! 1. low-pass filters φ̇ (first order, time constant `filter_secs`),
 //! 2. requires |φ̇| ≤ ε for `dwell_secs` before entering 1, and
-//! 3. leaves 1 only when |φ̇| exceeds `hysteresis · ε` (with `hysteresis` ≥ 1).
+//! 3. leaves 1 only when |φ̇| exceeds `hysteresis · ε` (with `hysteresis` ≥ 1), and
+//! 4. optionally scales ε with φ (`relative_epsilon`), so a controller stalled far from its reference
+//!    becomes quiescent (0 → 1 at a non-zero φ) instead of creeping for ever.
 //!
 //! A fresh tracker is in `*`. A missing reference gives `∅` at once (the feedback is absent, so there is
 //! nothing to filter); when the reference reappears the filter restarts and the state is 0 until quiescence
@@ -74,6 +76,11 @@ pub fn behaviour_predicate(z: &[Predicate], is_goal: impl Fn(&[Predicate]) -> bo
 pub struct PredicateSettings {
     /// ε: quiescence threshold on |φ̇| (units of φ per second).
     pub epsilon: f64,
+    /// A relative part of the threshold (1/s): quiescent when |φ̇| ≤ ε + ε_rel·φ. The seed's absolute
+    /// ε alone never declares a controller stalled at a large φ (an unreachable target approached ever
+    /// more slowly); with ε_rel a potential changing by less than ε_rel of itself per second is
+    /// quiescent. 0 gives the seed's rule exactly.
+    pub relative_epsilon: f64,
     /// Time constant of the first-order filter on φ̇ (s); 0 disables filtering.
     pub filter_secs: f64,
     /// How long |φ̇| must stay ≤ ε before the predicate becomes 1 (s).
@@ -86,6 +93,7 @@ impl Default for PredicateSettings {
     fn default() -> Self {
         PredicateSettings {
             epsilon: 1e-6,
+            relative_epsilon: 0.01,
             filter_secs: 0.05,
             dwell_secs: 0.1,
             hysteresis: 4.0,
@@ -99,6 +107,9 @@ impl PredicateSettings {
         let bad = |name, value, expected| Err(CbError::InvalidParameter { name, value, expected });
         if !(self.epsilon > 0.0 && self.epsilon.is_finite()) {
             return bad("epsilon", self.epsilon, "a positive finite number");
+        }
+        if !(self.relative_epsilon >= 0.0 && self.relative_epsilon.is_finite()) {
+            return bad("relative_epsilon", self.relative_epsilon, "a non-negative finite rate (1/s)");
         }
         if !(self.filter_secs >= 0.0 && self.filter_secs.is_finite()) {
             return bad("filter_secs", self.filter_secs, "a non-negative finite number");
@@ -190,7 +201,7 @@ impl PredicateTracker {
         self.phi_dot += alpha * (raw - self.phi_dot);
         self.last_phi = Some(phi);
         let mag = self.phi_dot.abs();
-        let eps = self.settings.epsilon;
+        let eps = self.settings.epsilon + self.settings.relative_epsilon * phi.abs();
         match self.state {
             Predicate::Converged => {
                 if mag > self.settings.hysteresis * eps {

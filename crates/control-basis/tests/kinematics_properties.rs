@@ -1,0 +1,98 @@
+//! Jacobians against finite differences (property tests), chains through the tree, mimic joints.
+
+mod common;
+
+use control_basis::{Chain, RobotModel, check_jacobian_matches_finite_difference, forward_kinematics, jacobian};
+use proptest::prelude::*;
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    #[test]
+    fn wam_jacobian_matches_finite_differences(q in proptest::collection::vec(-3.0f64..3.0, 7)) {
+        let chain = common::wam_chain();
+        let worst = check_jacobian_matches_finite_difference(&chain, &q, 1e-6);
+        prop_assert!(worst < 1e-8, "worst {worst:e}");
+    }
+
+    #[test]
+    fn reversed_and_branched_chain_jacobian_matches_finite_differences(q in proptest::collection::vec(-3.0f64..3.0, 7)) {
+        // From the wrist back to the base: every joint climbed child → parent.
+        let model = RobotModel::from_urdf_str(common::WAM_URDF).unwrap();
+        let chain = Chain::new(&model, "flange", "l2").unwrap();
+        prop_assert_eq!(chain.dof(), 5);
+        let worst = check_jacobian_matches_finite_difference(&chain, &q[..5], 1e-6);
+        prop_assert!(worst < 1e-8, "worst {worst:e}");
+    }
+
+    #[test]
+    fn prismatic_and_mimic_jacobian_matches_finite_differences(q in proptest::collection::vec(-1.0f64..1.0, 3)) {
+        let model = RobotModel::from_urdf_str(MIXED).unwrap();
+        let chain = Chain::new(&model, "base", "tip").unwrap();
+        prop_assert_eq!(chain.dof(), 3);
+        let worst = check_jacobian_matches_finite_difference(&chain, &q, 1e-6);
+        prop_assert!(worst < 1e-8, "worst {worst:e}");
+    }
+}
+
+/// A prismatic joint, a continuous joint, and a revolute joint that mimics the first revolute one.
+const MIXED: &str = r#"<robot name="mixed">
+  <link name="base"/><link name="a"/><link name="b"/><link name="c"/><link name="d"/><link name="tip"/>
+  <joint name="slide" type="prismatic"><parent link="base"/><child link="a"/><origin xyz="0.1 0 0.2" rpy="0.3 0 0"/><axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="10" velocity="1"/></joint>
+  <joint name="r1" type="revolute"><parent link="a"/><child link="b"/><origin xyz="0 0.2 0" rpy="0 0.4 0.1"/><axis xyz="0 1 1"/><limit lower="-2" upper="2" effort="10" velocity="1"/></joint>
+  <joint name="spin" type="continuous"><parent link="b"/><child link="c"/><origin xyz="0.3 0 0"/><axis xyz="0 0 1"/></joint>
+  <joint name="follow" type="revolute"><parent link="c"/><child link="d"/><origin xyz="0.2 0 0"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="10" velocity="1"/><mimic joint="r1" multiplier="0.5" offset="0.1"/></joint>
+  <joint name="fixed_tip" type="fixed"><parent link="d"/><child link="tip"/><origin xyz="0.15 0.02 0" rpy="0 0 0.5"/></joint>
+</robot>"#;
+
+#[test]
+fn mimic_joint_follows_master() {
+    let model = RobotModel::from_urdf_str(MIXED).unwrap();
+    let chain = Chain::new(&model, "base", "tip").unwrap();
+    let names: Vec<&str> = chain.dofs().iter().map(|d| d.name.as_str()).collect();
+    assert_eq!(names, ["slide", "r1", "spin"]);
+    let follow = chain.joints().iter().find(|j| j.name == "follow").unwrap();
+    assert_eq!(follow.dof, 1);
+    assert_eq!(follow.multiplier, 0.5);
+    assert_eq!(follow.offset, 0.1);
+}
+
+#[test]
+fn every_link_pose_is_consistent_with_its_own_chain() {
+    // The pose of link l5 computed on the long chain equals the tip pose of the chain that ends there.
+    let model = RobotModel::from_urdf_str(common::WAM_URDF).unwrap();
+    let long = Chain::new(&model, "base", "flange").unwrap();
+    let short = Chain::new(&model, "base", "l5").unwrap();
+    let mut r = common::rng(7);
+    let q = common::random_q(&long, &mut r, 1.0);
+    let mut sl = long.new_state();
+    sl.set_q(&long, &q).unwrap();
+    forward_kinematics(&long, &mut sl);
+    let mut ss = short.new_state();
+    ss.set_q(&short, &q[..5]).unwrap();
+    forward_kinematics(&short, &mut ss);
+    jacobian(&short, &mut ss);
+    let i = long.link_index("l5").unwrap();
+    let d = sl.link_poses()[i].inverse() * ss.tip_pose();
+    assert!(d.translation.vector.norm() < 1e-12 && d.rotation.angle() < 1e-12);
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    use control_basis::CbError;
+    assert!(matches!(RobotModel::from_urdf_str("<robot"), Err(CbError::MalformedUrdf { .. })));
+    assert!(matches!(RobotModel::from_urdf_str("not xml at all"), Err(CbError::MalformedUrdf { .. })));
+    let nan = common::WAM_URDF.replace(r#"xyz="0.045 0 0.55""#, r#"xyz="NaN 0 0.55""#);
+    assert!(matches!(RobotModel::from_urdf_str(&nan), Err(CbError::InvalidModel { .. })));
+    let dangling = common::WAM_URDF.replace(r#"<child link="l7"/>"#, r#"<child link="nowhere"/>"#);
+    assert!(matches!(RobotModel::from_urdf_str(&dangling), Err(CbError::InvalidModel { .. })));
+    let model = RobotModel::from_urdf_str(common::WAM_URDF).unwrap();
+    let err = Chain::new(&model, "base", "l77").unwrap_err();
+    assert!(matches!(err, CbError::UnknownLink { .. }));
+    assert!(err.to_string().contains("l77"));
+    let chain = Chain::new(&model, "base", "l7").unwrap();
+    let mut s = chain.new_state();
+    assert!(matches!(s.set_q(&chain, &[0.0; 6]), Err(CbError::DimensionMismatch { expected: 7, got: 6, .. })));
+    assert!(matches!(s.set_q(&chain, &[0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0]), Err(CbError::NotFinite { index: 2, .. })));
+    assert!(matches!(RobotModel::from_urdf_file("/nonexistent/robot.urdf"), Err(CbError::Io { .. })));
+}
