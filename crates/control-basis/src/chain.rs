@@ -67,6 +67,8 @@ pub struct ChainLink {
     pub after: Option<usize>,
     /// `joint_frame_from_link` (or `base_from_link` when `after` is `None`).
     pub offset: Iso3,
+    /// `offset` is exactly the identity (the usual case: a joint's child link), so FK copies the frame.
+    pub offset_is_identity: bool,
 }
 
 /// A serial chain between two links: constant once built.
@@ -117,6 +119,7 @@ impl Chain {
             name: base.to_string(),
             after: None,
             offset: Iso3::identity(),
+            offset_is_identity: true,
         }];
         let mut dofs: Vec<Dof> = Vec::new();
         let mut dof_of_root: HashMap<usize, usize> = HashMap::new();
@@ -166,6 +169,7 @@ impl Chain {
                 name: model.links[joint.parent].name.clone(),
                 after: joints.len().checked_sub(1),
                 offset: pending,
+                offset_is_identity: pending == Iso3::identity(),
             });
         }
         // Descend from the common ancestor to the tip.
@@ -180,6 +184,7 @@ impl Chain {
                 name: model.links[joint.child].name.clone(),
                 after: joints.len().checked_sub(1),
                 offset: pending,
+                offset_is_identity: pending == Iso3::identity(),
             });
         }
         if dofs.is_empty() {
@@ -324,6 +329,7 @@ pub fn forward_kinematics(chain: &Chain, state: &mut ChainState) {
     }
     for (pose, link) in state.link_poses.iter_mut().zip(&chain.links) {
         *pose = match link.after {
+            Some(a) if link.offset_is_identity => state.frames[a],
             Some(a) => state.frames[a] * link.offset,
             None => link.offset,
         };

@@ -409,6 +409,8 @@ pub struct TaskBuffers {
     pub jacobian: DMatrix<f64>,
     /// Rows valid this tick.
     pub rows: usize,
+    /// J is the identity on the motor units (configuration-space potentials): J†e = e on τ.
+    pub identity: bool,
     scratch: Matrix6xX<f64>,
     manip: ManipulabilityWorkspace,
 }
@@ -422,6 +424,7 @@ impl TaskBuffers {
             error: DVector::zeros(rows),
             jacobian: DMatrix::zeros(rows, chain.dof()),
             rows: 0,
+            identity: false,
             scratch: Matrix6xX::zeros(chain.dof()),
             manip: ManipulabilityWorkspace::new(chain),
         }
@@ -461,6 +464,7 @@ pub fn evaluate(
 ) -> Option<f64> {
     filter_reference(controller.feedback.operator, reference, &mut buf.filtered, dt_secs);
     let n = chain.dof();
+    buf.identity = matches!(controller.feedback.sensor, Sensor::JointPositions);
     let q = state.q().as_slice();
     let phi = match (controller.feedback.sensor, controller.potential) {
         (Sensor::JointPositions, Potential::Quadratic { .. }) => {
@@ -550,9 +554,10 @@ fn none(buf: &mut TaskBuffers) -> Option<f64> {
 }
 
 fn set_identity(j: &mut DMatrix<f64>, n: usize) {
-    j.fill(0.0);
-    for i in 0..n {
-        j[(i, i)] = 1.0;
+    for c in 0..n {
+        for r in 0..n {
+            j[(r, c)] = if r == c { 1.0 } else { 0.0 };
+        }
     }
 }
 
@@ -604,7 +609,7 @@ pub struct ControlStack {
     trackers: Vec<PredicateTracker>,
     phis: Vec<Option<f64>>,
     dls_info: Vec<DlsInfo>,
-    dls: DampedLeastSquares,
+    dls: Vec<DampedLeastSquares>,
     basis: RowSpaceBasis,
     v: DVector<f64>,
     du: DVector<f64>,
@@ -633,12 +638,6 @@ impl ControlStack {
             c.check_against(chain)?;
         }
         let n = chain.dof();
-        let max_rows = controllers
-            .iter()
-            .map(|c| c.max_rows(chain, settings.max_contacts))
-            .max()
-            .unwrap_or(1)
-            .max(1);
         let trackers = controllers
             .iter()
             .map(|_| PredicateTracker::new(settings.predicate))
@@ -650,7 +649,10 @@ impl ControlStack {
             phis: vec![None; controllers.len()],
             dls_info: vec![DlsInfo::default(); controllers.len()],
             level_steps: vec![DVector::zeros(n); controllers.len()],
-            dls: DampedLeastSquares::new(max_rows, settings.dls),
+            dls: controllers
+                .iter()
+                .map(|c| DampedLeastSquares::new(c.max_rows(chain, settings.max_contacts).max(1), settings.dls))
+                .collect(),
             basis: RowSpaceBasis::new(n),
             v: DVector::zeros(n),
             du: DVector::zeros(n),
@@ -753,14 +755,22 @@ impl ControlStack {
                 continue;
             }
             // −κ dt J† e, then project out what would disturb the superior levels (3.7).
-            self.dls_info[k] = self
-                .dls
-                .solve_rows(&buf.jacobian, buf.rows, buf.error.as_slice(), self.v.as_mut_slice());
+            if buf.identity {
+                // J = I restricted to τ (columns zeroed by τ or clamping): J†e = e on those columns.
+                for i in 0..self.v.len() {
+                    self.v[i] = if buf.jacobian[(i, i)] != 0.0 { buf.error[i] } else { 0.0 };
+                }
+                self.dls_info[k] = DlsInfo { sigma_min: 1.0, lambda_sq: 0.0 };
+            } else {
+                self.dls_info[k] = self.dls[k].solve_rows(&buf.jacobian, buf.rows, buf.error.as_slice(), self.v.as_mut_slice());
+            }
             self.v *= -self.controllers[k].gain * dt_secs;
             self.level_steps[k].copy_from(&self.v);
             self.basis.project_out(&mut self.v);
             self.du += &self.v;
-            self.basis.add_first_rows(&buf.jacobian, buf.rows);
+            if k + 1 < self.controllers.len() {
+                self.basis.add_first_rows(&buf.jacobian, buf.rows);
+            }
         }
     }
 

@@ -8,7 +8,7 @@
 //! - [`joint_limit`]: a quadratic pull towards the middle of each joint's range, normalised by the range.
 //! - [`force_residual`]: ½‖F‖² + ½w²‖M‖² of the net contact wrench, the grasp potential of §3.1.3.3.
 
-use nalgebra::{DVector, Matrix6, Matrix6xX};
+use nalgebra::{DVector, Matrix6xX};
 
 use crate::chain::{Chain, ChainState};
 use crate::math::{Rot3, Vec3};
@@ -85,37 +85,43 @@ pub fn manipulability(
     let jac = state.jacobian();
     let n = chain.dof();
     let m = rows.count();
-    let mut a = Matrix6::<f64>::zeros();
-    for i in 0..m {
-        for j in 0..=i {
-            let mut s = 0.0;
-            for k in 0..n {
-                s += jac[(i, k)] * jac[(j, k)];
-            }
-            a[(i, j)] = s;
-            a[(j, i)] = s;
-        }
-    }
-    for i in m..6 {
-        a[(i, i)] = 1.0;
-    }
-    let det = a.determinant().max(0.0);
-    let w = det.sqrt();
-    let scale = a.diagonal().max().max(1e-300);
-    let mut a_reg = a;
-    for i in 0..m {
-        a_reg[(i, i)] += 1e-12 * scale;
-    }
-    let a_inv = a_reg.try_inverse().unwrap_or_else(Matrix6::zeros);
-    // B = A⁻¹ J (rows ≥ m are zero).
-    ws.b.fill(0.0);
+    // A = J Jᵀ (m×m, column-major), factored by Cholesky: det A = Π Lᵢᵢ², and B = A⁻¹ J by m×m solves.
+    let mut a = [0.0f64; 36];
     for k in 0..n {
         for i in 0..m {
-            let mut s = 0.0;
-            for j in 0..m {
-                s += a_inv[(i, j)] * jac[(j, k)];
+            let ci = jac[(i, k)];
+            for j in 0..=i {
+                a[i + j * m] += ci * jac[(j, k)];
             }
-            ws.b[(i, k)] = s;
+        }
+    }
+    for i in 0..m {
+        for j in 0..i {
+            a[j + i * m] = a[i + j * m];
+        }
+    }
+    let scale = (0..m).map(|i| a[i + i * m]).fold(0.0, f64::max).max(1e-300);
+    let mut l = a;
+    let w = if crate::linalg::cholesky_in_place(&mut l[..m * m], m) {
+        (0..m).map(|i| l[i + i * m]).product::<f64>()
+    } else {
+        0.0
+    };
+    // A tiny Tikhonov term keeps A⁻¹ finite at singularities (where w → 0 anyway).
+    let mut l = a;
+    for i in 0..m {
+        l[i + i * m] += 1e-12 * scale;
+    }
+    let ok = crate::linalg::cholesky_in_place(&mut l[..m * m], m);
+    ws.b.fill(0.0);
+    if ok {
+        let mut col = [0.0f64; 6];
+        for k in 0..n {
+            col[..m].copy_from_slice(&jac.column(k).as_slice()[..m]);
+            crate::linalg::cholesky_solve(&l[..m * m], m, &mut col[..m]);
+            for i in 0..m {
+                ws.b[(i, k)] = col[i];
+            }
         }
     }
     grad.fill(0.0);
