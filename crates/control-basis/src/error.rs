@@ -7,7 +7,7 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum CbError {
     /// The URDF file could not be read.
-    #[error("cannot read URDF file {path}: {source}")]
+    #[error("cannot read URDF file {path}")]
     Io {
         /// The file.
         path: PathBuf,

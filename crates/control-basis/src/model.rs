@@ -227,6 +227,14 @@ impl RobotModel {
                 },
                 JointKind::Revolute | JointKind::Prismatic => {
                     let (lo, hi) = (j.limit.lower, j.limit.upper);
+                    // urdf-rs fills an absent <limit> with zeros; the URDF spec requires one here.
+                    if lo == 0.0 && hi == 0.0 && j.limit.effort == 0.0 && j.limit.velocity == 0.0 {
+                        return Err(invalid(
+                            "joint",
+                            &j.name,
+                            "a revolute or prismatic joint needs a <limit lower upper effort velocity> element".into(),
+                        ));
+                    }
                     if !lo.is_finite() || !hi.is_finite() || lo > hi {
                         return Err(invalid(
                             "joint",

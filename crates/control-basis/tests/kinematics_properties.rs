@@ -86,6 +86,9 @@ fn bad_input_is_an_error_not_a_panic() {
     assert!(matches!(RobotModel::from_urdf_str(&nan), Err(CbError::InvalidModel { .. })));
     let dangling = common::WAM_URDF.replace(r#"<child link="l7"/>"#, r#"<child link="nowhere"/>"#);
     assert!(matches!(RobotModel::from_urdf_str(&dangling), Err(CbError::InvalidModel { .. })));
+    let no_limit = common::WAM_URDF.replace(r#"<limit lower="-3" upper="3" effort="10" velocity="2"/>"#, "");
+    let err = RobotModel::from_urdf_str(&no_limit).unwrap_err();
+    assert!(err.to_string().contains("j7") && err.to_string().contains("<limit"), "{err}");
     let model = RobotModel::from_urdf_str(common::WAM_URDF).unwrap();
     let err = Chain::new(&model, "base", "l77").unwrap_err();
     assert!(matches!(err, CbError::UnknownLink { .. }));
