@@ -19,10 +19,7 @@ pub fn num(x: f64, decimals: usize) -> String {
     }
     let s = format!("{x:.decimals$}");
     // Avoid "-0.000000": a value that rounds to zero is zero.
-    if s.trim_start_matches('-')
-        .chars()
-        .all(|c| c == '0' || c == '.')
-    {
+    if s.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
         format!("{:.decimals$}", 0.0)
     } else {
         s

@@ -37,8 +37,7 @@ fn ok(args: &[&str]) -> String {
 /// Runs `pbd` expecting success with `--json` and parses stdout.
 fn ok_json(args: &[&str]) -> Value {
     let text = ok(args);
-    serde_json::from_str(&text)
-        .unwrap_or_else(|e| panic!("pbd {args:?} printed invalid JSON ({e}):\n{text}"))
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("pbd {args:?} printed invalid JSON ({e}):\n{text}"))
 }
 
 /// Runs `pbd` expecting a clean failure (exit code 1, `error: …` on stderr, nothing on stdout, no panic)
@@ -56,11 +55,7 @@ fn fails(args: &[&str]) -> String {
         "pbd {args:?}: stderr should start with 'error: ': {err}"
     );
     assert!(!err.contains("panicked"), "pbd {args:?} panicked: {err}");
-    assert!(
-        o.stdout.is_empty(),
-        "pbd {args:?} printed to stdout: {}",
-        stdout(&o)
-    );
+    assert!(o.stdout.is_empty(), "pbd {args:?} printed to stdout: {}", stdout(&o));
     err
 }
 
@@ -71,10 +66,7 @@ impl TempFile {
     fn new(tag: &str, contents: &str) -> Self {
         static COUNTER: AtomicUsize = AtomicUsize::new(0);
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let path = std::env::temp_dir().join(format!(
-            "pbd-robot-cli-{}-{n}-{tag}.urdf",
-            std::process::id()
-        ));
+        let path = std::env::temp_dir().join(format!("pbd-robot-cli-{}-{n}-{tag}.urdf", std::process::id()));
         std::fs::write(&path, contents).unwrap();
         TempFile(path)
     }
@@ -103,10 +95,7 @@ fn q_arg(q: &[f64]) -> String {
 
 fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
     assert_eq!(a.len(), b.len());
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
 }
 
 const LEFT_ARM: [&str; 4] = ["--base", "left/base_link", "--tip", "left/wrist_palm_link"];
@@ -153,20 +142,14 @@ fn info_json_parses_with_documented_fields() {
         }
     }
     let mimic = v["mimic"].as_array().unwrap();
-    assert!(
-        !mimic.is_empty(),
-        "the BarrettHand fingers have <mimic> joints"
-    );
+    assert!(!mimic.is_empty(), "the BarrettHand fingers have <mimic> joints");
     assert!(
         mimic
             .iter()
             .all(|m| m["follows"].is_string() && m["multiplier"].is_f64())
     );
     let named = v["named_chains"].as_array().unwrap();
-    let left = named
-        .iter()
-        .find(|c| c["name"] == "left arm")
-        .expect("left arm");
+    let left = named.iter().find(|c| c["name"] == "left arm").expect("left arm");
     assert_eq!(left["base"], "left/base_link");
     assert_eq!(left["tip"], "left/wrist_palm_link");
     assert_eq!(left["dof"], 7);
@@ -177,11 +160,7 @@ fn info_json_parses_with_documented_fields() {
         .expect("head camera");
     assert_eq!(head["base"], "head/base_link");
     let leaves = v["leaf_chains"].as_array().unwrap();
-    assert!(
-        leaves
-            .iter()
-            .any(|c| c["link"] == "right/bhand/finger_2/tip_link")
-    );
+    assert!(leaves.iter().any(|c| c["link"] == "right/bhand/finger_2/tip_link"));
 }
 
 #[test]
@@ -241,10 +220,7 @@ fn fk_on_dexter_arm_prints_pose_and_jacobian() {
     assert_eq!(f64s(&v["rotation_rowmajor"]).len(), 9);
     assert_eq!(f64s(&v["quaternion_xyzw"]).len(), 4);
     assert_eq!(f64s(&v["jacobian_rowmajor"]).len(), 42);
-    assert_eq!(
-        v["rows"],
-        serde_json::json!(["vx", "vy", "vz", "wx", "wy", "wz"])
-    );
+    assert_eq!(v["rows"], serde_json::json!(["vx", "vy", "vz", "wx", "wy", "wz"]));
     // The rotation is orthonormal.
     let r = f64s(&v["rotation_rowmajor"]);
     for i in 0..3 {
@@ -394,9 +370,7 @@ fn fk_on_wam_prints_pinocchio_numbers_to_1e_9() {
     let mut worst: f64 = 0.0;
     for (i, case) in cases.iter().enumerate() {
         let q = q_arg(&f64s(&case["q"]));
-        let out = ok_json(&[
-            "robot", "fk", urdf, "--base", base, "--tip", tip, "--q", &q, "--json",
-        ]);
+        let out = ok_json(&["robot", "fk", urdf, "--base", base, "--tip", tip, "--q", &q, "--json"]);
         assert_eq!(&out["joint_names"], joint_names, "case {i}");
         // The printed q round-trips exactly.
         assert_eq!(f64s(&out["q"]), f64s(&case["q"]), "case {i}");
@@ -406,10 +380,7 @@ fn fk_on_wam_prints_pinocchio_numbers_to_1e_9() {
             ("jacobian_rowmajor", "jacobian_world_aligned_6x7_rowmajor"),
         ] {
             let d = max_abs_diff(&f64s(&out[got]), &f64s(&case[want]));
-            assert!(
-                d < 1e-9,
-                "case {i}: {got} differs from Pinocchio's {want} by {d:e}"
-            );
+            assert!(d < 1e-9, "case {i}: {got} differs from Pinocchio's {want} by {d:e}");
             worst = worst.max(d);
         }
         let out = ok_json(&[
@@ -417,10 +388,7 @@ fn fk_on_wam_prints_pinocchio_numbers_to_1e_9() {
         ]);
         for (got, want) in [
             ("position", "flange_position"),
-            (
-                "jacobian_rowmajor",
-                "flange_jacobian_world_aligned_6x7_rowmajor",
-            ),
+            ("jacobian_rowmajor", "flange_jacobian_world_aligned_6x7_rowmajor"),
         ] {
             let d = max_abs_diff(&f64s(&out[got]), &f64s(&case[want]));
             assert!(
@@ -430,10 +398,7 @@ fn fk_on_wam_prints_pinocchio_numbers_to_1e_9() {
             worst = worst.max(d);
         }
     }
-    eprintln!(
-        "worst deviation from Pinocchio over {} cases: {worst:e}",
-        cases.len()
-    );
+    eprintln!("worst deviation from Pinocchio over {} cases: {worst:e}", cases.len());
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -441,16 +406,10 @@ fn fk_on_wam_prints_pinocchio_numbers_to_1e_9() {
 
 #[test]
 fn missing_urdf_file_is_reported_with_its_path() {
-    let missing = std::env::temp_dir().join(format!(
-        "pbd-robot-cli-{}-does-not-exist.urdf",
-        std::process::id()
-    ));
+    let missing = std::env::temp_dir().join(format!("pbd-robot-cli-{}-does-not-exist.urdf", std::process::id()));
     let missing = missing.to_str().unwrap();
     let err = fails(&["robot", "info", missing]);
-    assert!(
-        err.contains(missing) && err.contains("cannot read"),
-        "{err}"
-    );
+    assert!(err.contains(missing) && err.contains("cannot read"), "{err}");
     let err = fails(&["robot", "fk", missing, "--base", "a", "--tip", "b"]);
     assert!(err.contains(missing), "{err}");
 }
@@ -459,10 +418,7 @@ fn missing_urdf_file_is_reported_with_its_path() {
 fn urdf_that_is_not_xml_is_malformed() {
     let f = TempFile::new("not-xml", "this is not xml at all {");
     let err = fails(&["robot", "info", f.path()]);
-    assert!(
-        err.contains("malformed URDF") && err.contains(f.path()),
-        "{err}"
-    );
+    assert!(err.contains("malformed URDF") && err.contains(f.path()), "{err}");
 }
 
 #[test]
@@ -470,10 +426,7 @@ fn urdf_with_missing_attributes_is_malformed() {
     // A link without its name attribute.
     let f = TempFile::new("no-name", r#"<robot name="r"><link/></robot>"#);
     let err = fails(&["robot", "info", f.path()]);
-    assert!(
-        err.contains("malformed URDF") && err.contains("name"),
-        "{err}"
-    );
+    assert!(err.contains("malformed URDF") && err.contains("name"), "{err}");
     // A joint without its parent element.
     let f = TempFile::new(
         "no-parent",
@@ -481,10 +434,7 @@ fn urdf_with_missing_attributes_is_malformed() {
            <joint name="j" type="revolute"><child link="b"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"#,
     );
     let err = fails(&["robot", "fk", f.path(), "--base", "a", "--tip", "b"]);
-    assert!(
-        err.contains("malformed URDF") && err.contains("parent"),
-        "{err}"
-    );
+    assert!(err.contains("malformed URDF") && err.contains("parent"), "{err}");
 }
 
 #[test]
@@ -495,22 +445,12 @@ fn unsupported_joint_type_is_rejected() {
            <joint name="slide" type="planar"><parent link="a"/><child link="b"/></joint></robot>"#,
     );
     let err = fails(&["robot", "info", f.path()]);
-    assert!(
-        err.contains("slide") && err.contains("not supported"),
-        "{err}"
-    );
+    assert!(err.contains("slide") && err.contains("not supported"), "{err}");
 }
 
 #[test]
 fn unknown_link_is_named_with_suggestions() {
-    let err = fails(&[
-        "robot",
-        "fk",
-        "--base",
-        "left/base_link",
-        "--tip",
-        "wrist_palm_link",
-    ]);
+    let err = fails(&["robot", "fk", "--base", "left/base_link", "--tip", "wrist_palm_link"]);
     assert!(err.contains("unknown link 'wrist_palm_link'"), "{err}");
     assert!(
         err.contains("left/wrist_palm_link") && err.contains("right/wrist_palm_link"),
@@ -606,27 +546,13 @@ fn empty_and_non_numeric_q_entries_are_rejected() {
 
 #[test]
 fn base_equal_to_tip_is_rejected() {
-    let err = fails(&[
-        "robot",
-        "fk",
-        "--base",
-        "left/base_link",
-        "--tip",
-        "left/base_link",
-    ]);
+    let err = fails(&["robot", "fk", "--base", "left/base_link", "--tip", "left/base_link"]);
     assert!(err.contains("same link"), "{err}");
 }
 
 #[test]
 fn chain_without_moving_joint_is_rejected() {
-    let err = fails(&[
-        "robot",
-        "fk",
-        "--base",
-        "world",
-        "--tip",
-        "chassis/left_camera_link",
-    ]);
+    let err = fails(&["robot", "fk", "--base", "world", "--tip", "chassis/left_camera_link"]);
     assert!(err.contains("no moving joint"), "{err}");
 }
 

@@ -29,14 +29,25 @@ fn arm_stack(chain: &Chain) -> ControlStack {
 fn config_stack(chain: &Chain) -> ControlStack {
     let c = Controller::new(
         "preshape",
-        FeedbackElement { sensor: Sensor::JointPositions, operator: Operator::Identity },
-        Potential::Quadratic { orientation_weight: 1.0 },
+        FeedbackElement {
+            sensor: Sensor::JointPositions,
+            operator: Operator::Identity,
+        },
+        Potential::Quadratic {
+            orientation_weight: 1.0,
+        },
         MotorUnits::all(chain.dof()),
         5.0,
     )
     .unwrap();
     let mut stack = ControlStack::new(chain, vec![c], StackSettings::default()).unwrap();
-    stack.set_reference(chain, 0, Reference::Configuration(DVector::from_element(chain.dof(), 0.5))).unwrap();
+    stack
+        .set_reference(
+            chain,
+            0,
+            Reference::Configuration(DVector::from_element(chain.dof(), 0.5)),
+        )
+        .unwrap();
     stack
 }
 
@@ -44,15 +55,26 @@ fn gaze_stack(chain: &Chain) -> ControlStack {
     let tip = chain.links().len() - 1;
     let track = Controller::new(
         "track",
-        FeedbackElement { sensor: Sensor::LinkOrientation { link: tip }, operator: Operator::LowPass { time_constant_secs: 0.05 } },
-        Potential::Quadratic { orientation_weight: 1.0 },
+        FeedbackElement {
+            sensor: Sensor::LinkOrientation { link: tip },
+            operator: Operator::LowPass {
+                time_constant_secs: 0.05,
+            },
+        },
+        Potential::Quadratic {
+            orientation_weight: 1.0,
+        },
         MotorUnits::all(chain.dof()),
         5.0,
     )
     .unwrap();
     let mut stack = ControlStack::new(chain, vec![track], StackSettings::default()).unwrap();
     stack
-        .set_reference(chain, 0, Reference::Orientation(nalgebra::UnitQuaternion::from_euler_angles(0.1, 0.4, 0.2)))
+        .set_reference(
+            chain,
+            0,
+            Reference::Orientation(nalgebra::UnitQuaternion::from_euler_angles(0.1, 0.4, 0.2)),
+        )
         .unwrap();
     stack
 }
@@ -78,14 +100,19 @@ fn bench(c: &mut Criterion) {
 
     let reach_only = {
         let tip = arm.links().len() - 1;
-        let mut st =
-            ControlStack::new(&arm, vec![Controller::reach_pose(&arm, tip, 5.0).unwrap()], StackSettings::default())
-                .unwrap();
+        let mut st = ControlStack::new(
+            &arm,
+            vec![Controller::reach_pose(&arm, tip, 5.0).unwrap()],
+            StackSettings::default(),
+        )
+        .unwrap();
         st.set_reference(&arm, 0, Reference::Pose(*s.tip_pose())).unwrap();
         st
     };
     let mut reach_only = reach_only;
-    c.bench_function("arm_tick_reach_only", |b| b.iter(|| black_box(reach_only.tick(&arm, &mut s, &[], 0.002)[0])));
+    c.bench_function("arm_tick_reach_only", |b| {
+        b.iter(|| black_box(reach_only.tick(&arm, &mut s, &[], 0.002)[0]))
+    });
 
     // Whole robot: two arms (reach ◁ manipulability), six finger chains, two head-camera chains.
     let mut chains: Vec<(Chain, ControlStack, control_basis::ChainState)> = Vec::new();
@@ -96,8 +123,12 @@ fn bench(c: &mut Criterion) {
         state.set_q(&ch, &[0.3, -0.4, 0.5, 1.2, -0.3, 0.4, 0.2]).unwrap();
         chains.push((ch, st, state));
         for f in 1..=3 {
-            let ch = Chain::new(&model, &format!("{side}/bhand/palm_link"), &format!("{side}/bhand/finger_{f}/tip_link"))
-                .unwrap();
+            let ch = Chain::new(
+                &model,
+                &format!("{side}/bhand/palm_link"),
+                &format!("{side}/bhand/finger_{f}/tip_link"),
+            )
+            .unwrap();
             let st = config_stack(&ch);
             let state = ch.new_state();
             chains.push((ch, st, state));

@@ -9,8 +9,8 @@
 //! Run: `cargo run --release -p control-basis --example embed_custom_robot [-- my_robot.urdf BASE TIP]`
 
 use control_basis::{
-    CbError, Chain, ChainBinding, ControlStack, Controller, ManipulabilityRows, Plant, Predicate, Reference, RobotModel,
-    StackSettings, forward_kinematics, predicate::format_vector,
+    CbError, Chain, ChainBinding, ControlStack, Controller, ManipulabilityRows, Plant, Predicate, Reference,
+    RobotModel, StackSettings, forward_kinematics, predicate::format_vector,
 };
 
 const PLANAR_ARM: &str = r#"<robot name="planar3">
@@ -68,7 +68,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let (model, base, tip) = match args.as_slice() {
         [path, base, tip] => (RobotModel::from_urdf_file(path)?, base.clone(), tip.clone()),
-        [] => (RobotModel::from_urdf_str(PLANAR_ARM)?, "base".to_string(), "tool".to_string()),
+        [] => (
+            RobotModel::from_urdf_str(PLANAR_ARM)?,
+            "base".to_string(),
+            "tool".to_string(),
+        ),
         _ => return Err("usage: embed_custom_robot [URDF BASE TIP]".into()),
     };
     let chain = Chain::new(&model, &base, &tip)?;
@@ -101,7 +105,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             sensor: control_basis::Sensor::LinkPosition { link: tool },
             operator: control_basis::Operator::Identity,
         },
-        control_basis::Potential::Quadratic { orientation_weight: 1.0 },
+        control_basis::Potential::Quadratic {
+            orientation_weight: 1.0,
+        },
         control_basis::MotorUnits::all(chain.dof()),
         4.0,
     )?;
@@ -129,7 +135,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         stack.predicates_into(&mut z);
         let shown = format_vector(&z);
         if shown != last {
-            println!("t = {:5.2} s  z = [P(R) P(M)] = {shown}  φ_R = {:.3e}", robot.time_secs(), stack.potentials()[0].unwrap_or(f64::NAN));
+            println!(
+                "t = {:5.2} s  z = [P(R) P(M)] = {shown}  φ_R = {:.3e}",
+                robot.time_secs(),
+                stack.potentials()[0].unwrap_or(f64::NAN)
+            );
             last = shown;
         }
         if z[0] == Predicate::Converged {
@@ -144,5 +154,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 }
 
 fn names(chain: &Chain) -> String {
-    chain.dofs().iter().map(|d| d.name.as_str()).collect::<Vec<_>>().join(", ")
+    chain
+        .dofs()
+        .iter()
+        .map(|d| d.name.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
 }

@@ -108,11 +108,7 @@ impl Chain {
         }
         let from_root_b = model.joints_from_root(b);
         let from_root_t = model.joints_from_root(t);
-        let common = from_root_b
-            .iter()
-            .zip(&from_root_t)
-            .take_while(|(x, y)| x == y)
-            .count();
+        let common = from_root_b.iter().zip(&from_root_t).take_while(|(x, y)| x == y).count();
 
         let mut joints = Vec::new();
         let mut links = vec![ChainLink {

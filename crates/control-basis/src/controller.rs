@@ -392,7 +392,10 @@ impl Controller {
             Err(CbError::InvalidModel {
                 element: "controller",
                 name: self.name.clone(),
-                problem: format!("reference {reference:?} does not fit sensor {:?} (or is not finite)", self.feedback.sensor),
+                problem: format!(
+                    "reference {reference:?} does not fit sensor {:?} (or is not finite)",
+                    self.feedback.sensor
+                ),
             })
         }
     }
@@ -468,7 +471,9 @@ pub fn evaluate(
     let q = state.q().as_slice();
     let phi = match (controller.feedback.sensor, controller.potential) {
         (Sensor::JointPositions, Potential::Quadratic { .. }) => {
-            let Reference::Configuration(r) = &buf.filtered else { return none(buf) };
+            let Reference::Configuration(r) = &buf.filtered else {
+                return none(buf);
+            };
             buf.rows = n;
             let phi = quadratic(q, r.as_slice(), &mut buf.error.as_mut_slice()[..n]);
             set_identity(&mut buf.jacobian, n);
@@ -489,7 +494,9 @@ pub fn evaluate(
             -w
         }
         (Sensor::LinkPosition { link }, Potential::Quadratic { .. }) => {
-            let Reference::Position(r) = &buf.filtered else { return none(buf) };
+            let Reference::Position(r) = &buf.filtered else {
+                return none(buf);
+            };
             link_jacobian(chain, state, link, &mut buf.scratch);
             let y = state.link_poses()[link].translation.vector;
             buf.rows = 3;
@@ -497,7 +504,9 @@ pub fn evaluate(
             quadratic(y.as_slice(), r.as_slice(), &mut buf.error.as_mut_slice()[..3])
         }
         (Sensor::LinkOrientation { link }, Potential::Quadratic { .. }) => {
-            let Reference::Orientation(r) = &buf.filtered else { return none(buf) };
+            let Reference::Orientation(r) = &buf.filtered else {
+                return none(buf);
+            };
             link_jacobian(chain, state, link, &mut buf.scratch);
             let err = orientation_error(&state.link_poses()[link].rotation, r);
             buf.rows = 3;
@@ -506,7 +515,9 @@ pub fn evaluate(
             0.5 * err.norm_squared()
         }
         (Sensor::LinkPose { link }, Potential::Quadratic { orientation_weight: w }) => {
-            let Reference::Pose(r) = &buf.filtered else { return none(buf) };
+            let Reference::Pose(r) = &buf.filtered else {
+                return none(buf);
+            };
             link_jacobian(chain, state, link, &mut buf.scratch);
             let pose = &state.link_poses()[link];
             let ep = pose.translation.vector - r.translation.vector;
@@ -644,7 +655,10 @@ impl ControlStack {
             .collect::<Result<Vec<_>, _>>()?;
         Ok(ControlStack {
             references: vec![Reference::Undefined; controllers.len()],
-            buffers: controllers.iter().map(|c| TaskBuffers::new(c, chain, settings.max_contacts)).collect(),
+            buffers: controllers
+                .iter()
+                .map(|c| TaskBuffers::new(c, chain, settings.max_contacts))
+                .collect(),
             trackers,
             phis: vec![None; controllers.len()],
             dls_info: vec![DlsInfo::default(); controllers.len()],
@@ -708,7 +722,9 @@ impl ControlStack {
                     let next = state.q()[i] + self.du[i];
                     if next > self.upper[i] || next < self.lower[i] {
                         self.clamped[i] = true;
-                        self.clamp_to[i] = (self.upper[i] - state.q()[i]).min(self.du[i]).max(self.lower[i] - state.q()[i]);
+                        self.clamp_to[i] = (self.upper[i] - state.q()[i])
+                            .min(self.du[i])
+                            .max(self.lower[i] - state.q()[i]);
                         newly = true;
                     }
                 }
@@ -760,9 +776,13 @@ impl ControlStack {
                 for i in 0..self.v.len() {
                     self.v[i] = if buf.jacobian[(i, i)] != 0.0 { buf.error[i] } else { 0.0 };
                 }
-                self.dls_info[k] = DlsInfo { sigma_min: 1.0, lambda_sq: 0.0 };
+                self.dls_info[k] = DlsInfo {
+                    sigma_min: 1.0,
+                    lambda_sq: 0.0,
+                };
             } else {
-                self.dls_info[k] = self.dls[k].solve_rows(&buf.jacobian, buf.rows, buf.error.as_slice(), self.v.as_mut_slice());
+                self.dls_info[k] =
+                    self.dls[k].solve_rows(&buf.jacobian, buf.rows, buf.error.as_slice(), self.v.as_mut_slice());
             }
             self.v *= -self.controllers[k].gain * dt_secs;
             self.level_steps[k].copy_from(&self.v);

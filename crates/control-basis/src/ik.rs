@@ -59,7 +59,12 @@ pub struct IkSolution {
 }
 
 /// Finds q within the joint limits with `base_from_tip(q) = target`, starting from `q_start`.
-pub fn inverse_kinematics(chain: &Chain, target: &Iso3, q_start: &[f64], settings: &IkSettings) -> Result<IkSolution, CbError> {
+pub fn inverse_kinematics(
+    chain: &Chain,
+    target: &Iso3,
+    q_start: &[f64],
+    settings: &IkSettings,
+) -> Result<IkSolution, CbError> {
     chain.check_q(q_start)?;
     check_finite("IK target translation", target.translation.vector.as_slice())?;
     check_finite("IK target rotation", target.rotation.coords.as_slice())?;
@@ -89,7 +94,10 @@ pub fn inverse_kinematics(chain: &Chain, target: &Iso3, q_start: &[f64], setting
                 q.as_mut_slice().copy_from_slice(q_start);
             } else {
                 for (qi, d) in q.iter_mut().zip(chain.dofs()) {
-                    let (lo, hi) = (d.limits.lower.max(-std::f64::consts::PI), d.limits.upper.min(std::f64::consts::PI));
+                    let (lo, hi) = (
+                        d.limits.lower.max(-std::f64::consts::PI),
+                        d.limits.upper.min(std::f64::consts::PI),
+                    );
                     *qi = lo + (hi - lo) * uniform(&mut rng);
                 }
             }

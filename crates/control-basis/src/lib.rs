@@ -46,6 +46,7 @@
 pub mod chain;
 pub mod controller;
 pub mod error;
+pub mod ik;
 pub mod linalg;
 pub mod math;
 pub mod model;
@@ -53,6 +54,7 @@ pub mod monitor;
 pub mod plant;
 pub mod potential;
 pub mod predicate;
+pub mod qp;
 
 pub use chain::{
     Chain, ChainJoint, ChainLink, ChainState, Dof, check_jacobian_matches_finite_difference, forward_kinematics,
@@ -63,9 +65,11 @@ pub use controller::{
     PotentialType, Reference, Sensor, StackSettings, TaskBuffers, evaluate,
 };
 pub use error::CbError;
+pub use ik::{IkSettings, IkSolution, inverse_kinematics};
 pub use linalg::{DampedLeastSquares, DlsInfo, DlsSettings, RowSpaceBasis};
 pub use model::{JointKind, JointLimits, RobotModel};
 pub use monitor::Monitor;
 pub use plant::{ChainBinding, KinematicPlant, Plant};
 pub use potential::{Contact, ManipulabilityRows};
 pub use predicate::{Predicate, PredicateSettings, PredicateTracker, behaviour_predicate};
+pub use qp::{QpComposer, QpReport, QpSettings, QpStatus};

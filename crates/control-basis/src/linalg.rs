@@ -83,7 +83,11 @@ impl DampedLeastSquares {
         let n = jac.ncols();
         debug_assert!(m <= jac.nrows());
         let e = &e[..m];
-        assert!(m <= self.max_rows(), "task has {m} rows, workspace sized for {}", self.max_rows());
+        assert!(
+            m <= self.max_rows(),
+            "task has {m} rows, workspace sized for {}",
+            self.max_rows()
+        );
         debug_assert_eq!(e.len(), m);
         debug_assert_eq!(out.len(), n);
         out.fill(0.0);
@@ -357,7 +361,12 @@ mod tests {
         let near = DMatrix::from_row_slice(2, 3, &[1.0, 0.2, 0.0, 1.0, 0.2 + 1e-3, 1e-3]);
         let info = dls.solve(&near, &e, &mut out);
         let smin = near.svd(false, false).singular_values.min();
-        assert!((info.sigma_min - smin).abs() < 1e-6 * smin, "{} vs {}", info.sigma_min, smin);
+        assert!(
+            (info.sigma_min - smin).abs() < 1e-6 * smin,
+            "{} vs {}",
+            info.sigma_min,
+            smin
+        );
         assert!(info.lambda_sq > 0.0);
     }
 
@@ -368,12 +377,17 @@ mod tests {
         let mut dls = DampedLeastSquares::new(2, DlsSettings::default());
         let info = dls.solve(&j, &[1.0, -1.0], &mut out);
         assert!(info.lambda_sq > 0.0);
-        assert!(out.iter().all(|v| v.is_finite() && v.abs() <= 1.0 / (2.0 * 0.05) + 1e-9));
+        assert!(
+            out.iter()
+                .all(|v| v.is_finite() && v.abs() <= 1.0 / (2.0 * 0.05) + 1e-9)
+        );
     }
 
     #[test]
     fn check_nullspace_projector_idempotent() {
-        let j = DMatrix::from_fn(3, 7, |i, k| (((i + 1) * (k + 2)) as f64 * 0.37).sin() + 0.1 * (i * k) as f64);
+        let j = DMatrix::from_fn(3, 7, |i, k| {
+            (((i + 1) * (k + 2)) as f64 * 0.37).sin() + 0.1 * (i * k) as f64
+        });
         let mut b = RowSpaceBasis::new(7);
         b.add_rows(&j);
         b.add_rows(&j); // dependent rows add nothing

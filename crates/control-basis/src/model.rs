@@ -158,7 +158,11 @@ impl RobotModel {
             }
             let mass = l.inertial.mass.value;
             if !mass.is_finite() || mass < 0.0 {
-                return Err(invalid("link", &l.name, format!("mass {mass} is not a non-negative number")));
+                return Err(invalid(
+                    "link",
+                    &l.name,
+                    format!("mass {mass} is not a non-negative number"),
+                ));
             }
             links.push(Link {
                 name: l.name.clone(),
@@ -173,10 +177,18 @@ impl RobotModel {
                 return Err(invalid("joint", &j.name, "defined twice".into()));
             }
             let parent = *link_index.get(&j.parent.link).ok_or_else(|| {
-                invalid("joint", &j.name, format!("parent link '{}' does not exist", j.parent.link))
+                invalid(
+                    "joint",
+                    &j.name,
+                    format!("parent link '{}' does not exist", j.parent.link),
+                )
             })?;
             let child = *link_index.get(&j.child.link).ok_or_else(|| {
-                invalid("joint", &j.name, format!("child link '{}' does not exist", j.child.link))
+                invalid(
+                    "joint",
+                    &j.name,
+                    format!("child link '{}' does not exist", j.child.link),
+                )
             })?;
             if parent == child {
                 return Err(invalid("joint", &j.name, "parent and child are the same link".into()));
@@ -192,7 +204,11 @@ impl RobotModel {
             let xyz = *j.origin.xyz;
             let rpy = *j.origin.rpy;
             if xyz.iter().chain(rpy.iter()).any(|v| !v.is_finite()) {
-                return Err(invalid("joint", &j.name, format!("origin xyz {xyz:?} rpy {rpy:?} is not finite")));
+                return Err(invalid(
+                    "joint",
+                    &j.name,
+                    format!("origin xyz {xyz:?} rpy {rpy:?} is not finite"),
+                ));
             }
             let kind = match j.joint_type {
                 urdf_rs::JointType::Revolute => JointKind::Revolute,
@@ -211,7 +227,11 @@ impl RobotModel {
             let axis = if kind.is_moving() {
                 let n = axis_raw.norm();
                 if !n.is_finite() || n < 1e-12 {
-                    return Err(invalid("joint", &j.name, format!("axis {:?} is zero or not finite", *j.axis.xyz)));
+                    return Err(invalid(
+                        "joint",
+                        &j.name,
+                        format!("axis {:?} is zero or not finite", *j.axis.xyz),
+                    ));
                 }
                 UnitVec3::new_normalize(axis_raw)
             } else {
@@ -319,7 +339,11 @@ impl RobotModel {
                 l = model.joints[j].parent;
                 steps += 1;
                 if steps > model.links.len() {
-                    return Err(invalid("link", &model.links[i].name, "is part of a kinematic cycle".into()));
+                    return Err(invalid(
+                        "link",
+                        &model.links[i].name,
+                        "is part of a kinematic cycle".into(),
+                    ));
                 }
             }
         }
@@ -339,7 +363,10 @@ impl RobotModel {
 
     /// Index of the joint called `name`.
     pub fn joint(&self, name: &str) -> Result<usize, CbError> {
-        self.joint_index.get(name).copied().ok_or_else(|| CbError::UnknownJoint { name: name.to_string() })
+        self.joint_index
+            .get(name)
+            .copied()
+            .ok_or_else(|| CbError::UnknownJoint { name: name.to_string() })
     }
 
     /// The independent joint a (possibly mimicking) joint finally follows, with the composed

@@ -19,7 +19,12 @@ pub struct Monitor {
 
 impl Monitor {
     /// A monitor of `controller`'s potential on `chain` (its motor units are never driven).
-    pub fn new(controller: Controller, chain: &Chain, settings: PredicateSettings, max_contacts: usize) -> Result<Self, CbError> {
+    pub fn new(
+        controller: Controller,
+        chain: &Chain,
+        settings: PredicateSettings,
+        max_contacts: usize,
+    ) -> Result<Self, CbError> {
         let buffers = TaskBuffers::new(&controller, chain, max_contacts);
         Ok(Monitor {
             tracker: PredicateTracker::new(settings)?,
@@ -40,7 +45,15 @@ impl Monitor {
     ) -> Predicate {
         forward_kinematics(chain, state);
         jacobian(chain, state);
-        self.phi = evaluate(&self.controller, chain, state, contacts, reference, &mut self.buffers, dt_secs);
+        self.phi = evaluate(
+            &self.controller,
+            chain,
+            state,
+            contacts,
+            reference,
+            &mut self.buffers,
+            dt_secs,
+        );
         self.tracker.update(self.phi, dt_secs)
     }
 

@@ -155,7 +155,12 @@ impl Plant for KinematicPlant {
             *q = (*q + d).clamp(l.lower, l.upper);
         }
         for (n, q) in self.noisy.iter_mut().zip(&self.q) {
-            *n = *q + if self.encoder_noise > 0.0 { self.encoder_noise * self.rng.normal() } else { 0.0 };
+            *n = *q
+                + if self.encoder_noise > 0.0 {
+                    self.encoder_noise * self.rng.normal()
+                } else {
+                    0.0
+                };
         }
         self.time += dt_secs;
         Ok(())

@@ -119,8 +119,8 @@ pub fn manipulability(
         for k in 0..n {
             col[..m].copy_from_slice(&jac.column(k).as_slice()[..m]);
             crate::linalg::cholesky_solve(&l[..m * m], m, &mut col[..m]);
-            for i in 0..m {
-                ws.b[(i, k)] = col[i];
+            for (i, c) in col[..m].iter().enumerate() {
+                ws.b[(i, k)] = *c;
             }
         }
     }
@@ -263,11 +263,17 @@ mod tests {
             point: Vec3::from(p),
             force: Vec3::from(f),
         };
-        let pinch = [c([0.05, 0.0, 0.0], [-2.0, 0.0, 0.0]), c([-0.05, 0.0, 0.0], [2.0, 0.0, 0.0])];
+        let pinch = [
+            c([0.05, 0.0, 0.0], [-2.0, 0.0, 0.0]),
+            c([-0.05, 0.0, 0.0], [2.0, 0.0, 0.0]),
+        ];
         let mut e = [0.0; 6];
         assert!(force_residual(&pinch, &Vec3::zeros(), 10.0, &mut e) < 1e-20);
         // Offset contact: a couple. Check the position gradient by finite differences.
-        let skew = [c([0.05, 0.01, 0.0], [-2.0, 0.0, 0.0]), c([-0.05, -0.02, 0.01], [2.0, 0.3, 0.0])];
+        let skew = [
+            c([0.05, 0.01, 0.0], [-2.0, 0.0, 0.0]),
+            c([-0.05, -0.02, 0.01], [2.0, 0.3, 0.0]),
+        ];
         let mut g = [0.0; 6];
         let phi = force_residual(&skew, &Vec3::zeros(), 10.0, &mut g);
         assert!(phi > 0.0);

@@ -109,7 +109,11 @@ impl PredicateSettings {
             return bad("epsilon", self.epsilon, "a positive finite number");
         }
         if !(self.relative_epsilon >= 0.0 && self.relative_epsilon.is_finite()) {
-            return bad("relative_epsilon", self.relative_epsilon, "a non-negative finite rate (1/s)");
+            return bad(
+                "relative_epsilon",
+                self.relative_epsilon,
+                "a non-negative finite rate (1/s)",
+            );
         }
         if !(self.filter_secs >= 0.0 && self.filter_secs.is_finite()) {
             return bad("filter_secs", self.filter_secs, "a non-negative finite number");
@@ -191,7 +195,11 @@ impl PredicateTracker {
             self.state = Predicate::Converging;
             return self.state;
         };
-        let dt = if dt_secs > 0.0 && dt_secs.is_finite() { dt_secs } else { 1e-3 };
+        let dt = if dt_secs > 0.0 && dt_secs.is_finite() {
+            dt_secs
+        } else {
+            1e-3
+        };
         let raw = (phi - prev) / dt;
         let alpha = if self.settings.filter_secs > 0.0 {
             dt / (self.settings.filter_secs + dt)
@@ -277,7 +285,10 @@ mod tests {
             }
             prev_state = p;
         }
-        assert!(raw_crossings > 100, "the noise should defeat an unfiltered predicate ({raw_crossings})");
+        assert!(
+            raw_crossings > 100,
+            "the noise should defeat an unfiltered predicate ({raw_crossings})"
+        );
         assert_eq!(t.state(), Predicate::Converged);
         assert!(switches <= 2, "{switches} switches");
     }
@@ -290,7 +301,10 @@ mod tests {
         assert_eq!(behaviour_predicate(&[NoReference, NoReference], goal), NoReference);
         assert_eq!(behaviour_predicate(&[Unknown, Converged], goal), Converged);
         assert_eq!(behaviour_predicate(&[Unknown, Converging], goal), Converging);
-        assert_eq!(format_vector(&[Unknown, NoReference, Converging, Converged]), "[* ∅ 0 1]");
+        assert_eq!(
+            format_vector(&[Unknown, NoReference, Converging, Converged]),
+            "[* ∅ 0 1]"
+        );
     }
 
     #[test]

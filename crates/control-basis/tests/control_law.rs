@@ -4,8 +4,7 @@ mod common;
 
 use control_basis::{
     Chain, ControlStack, Controller, FeedbackElement, KinematicPlant, ManipulabilityRows, MotorUnits, Operator, Plant,
-    Potential, Predicate, Reference, Sensor, StackSettings, forward_kinematics, jacobian,
-    math::Iso3,
+    Potential, Predicate, Reference, Sensor, StackSettings, forward_kinematics, jacobian, math::Iso3,
 };
 use nalgebra::DVector;
 
@@ -65,7 +64,11 @@ fn manipulability_gradient_matches_finite_differences() {
                 qp[k] += h;
                 qm[k] -= h;
                 let fd = (w(&qp) - w(&qm)) / (2.0 * h);
-                assert!((-grad[k] - fd).abs() < 1e-7, "rows {rows:?} k {k}: {} vs {fd}", -grad[k]);
+                assert!(
+                    (-grad[k] - fd).abs() < 1e-7,
+                    "rows {rows:?} k {k}: {} vs {fd}",
+                    -grad[k]
+                );
             }
         }
     }
@@ -83,16 +86,26 @@ fn inferior_objectives_do_not_move_superior_ones() {
         // Two to four ranked controllers: position reach, orientation reach, manipulability, joint limits.
         let position = Controller::new(
             "position",
-            FeedbackElement { sensor: Sensor::LinkPosition { link: tip(&chain) }, operator: Operator::Identity },
-            Potential::Quadratic { orientation_weight: 1.0 },
+            FeedbackElement {
+                sensor: Sensor::LinkPosition { link: tip(&chain) },
+                operator: Operator::Identity,
+            },
+            Potential::Quadratic {
+                orientation_weight: 1.0,
+            },
             MotorUnits::all(n),
             3.0,
         )
         .unwrap();
         let orientation = Controller::new(
             "orientation",
-            FeedbackElement { sensor: Sensor::LinkOrientation { link: tip(&chain) }, operator: Operator::Identity },
-            Potential::Quadratic { orientation_weight: 1.0 },
+            FeedbackElement {
+                sensor: Sensor::LinkOrientation { link: tip(&chain) },
+                operator: Operator::Identity,
+            },
+            Potential::Quadratic {
+                orientation_weight: 1.0,
+            },
             MotorUnits::all(n),
             2.0,
         )
@@ -100,7 +113,10 @@ fn inferior_objectives_do_not_move_superior_ones() {
         let manip = Controller::manipulability(&chain, ManipulabilityRows::Full, 5.0).unwrap();
         let limits = Controller::new(
             "limits",
-            FeedbackElement { sensor: Sensor::JointPositions, operator: Operator::Identity },
+            FeedbackElement {
+                sensor: Sensor::JointPositions,
+                operator: Operator::Identity,
+            },
             Potential::JointLimit,
             MotorUnits::all(n),
             1.0,
@@ -110,8 +126,12 @@ fn inferior_objectives_do_not_move_superior_ones() {
         ctrls.truncate(2 + case % 3);
         let levels = ctrls.len();
         let mut stack = ControlStack::new(&chain, ctrls, no_vel_scaling()).unwrap();
-        stack.set_reference(&chain, 0, Reference::Position(target.translation.vector)).unwrap();
-        stack.set_reference(&chain, 1, Reference::Orientation(target.rotation)).unwrap();
+        stack
+            .set_reference(&chain, 0, Reference::Position(target.translation.vector))
+            .unwrap();
+        stack
+            .set_reference(&chain, 1, Reference::Orientation(target.rotation))
+            .unwrap();
         let mut s = chain.new_state();
         s.set_q(&chain, &q).unwrap();
         let du = stack.tick(&chain, &mut s, &[], 0.01).clone();
@@ -126,8 +146,10 @@ fn inferior_objectives_do_not_move_superior_ones() {
                 let mut s2 = chain.new_state();
                 s2.set_q(&chain, &q).unwrap();
                 let mut st2 = ControlStack::new(&chain, stack.controllers()[..2].to_vec(), no_vel_scaling()).unwrap();
-                st2.set_reference(&chain, 0, Reference::Position(target.translation.vector)).unwrap();
-                st2.set_reference(&chain, 1, Reference::Orientation(target.rotation)).unwrap();
+                st2.set_reference(&chain, 0, Reference::Position(target.translation.vector))
+                    .unwrap();
+                st2.set_reference(&chain, 1, Reference::Orientation(target.rotation))
+                    .unwrap();
                 st2.tick(&chain, &mut s2, &[], 0.01).clone()
             };
             worst = worst.max((&j2 * (&du - &upto2)).amax());
@@ -201,14 +223,20 @@ fn run_reach(chain: &Chain, q0: &[f64], target: &Iso3, max_ticks: usize) -> (Pre
     let mut stack = if ik.converged {
         let joint_reach = Controller::new(
             "reach_q",
-            FeedbackElement { sensor: Sensor::JointPositions, operator: Operator::Identity },
-            Potential::Quadratic { orientation_weight: 1.0 },
+            FeedbackElement {
+                sensor: Sensor::JointPositions,
+                operator: Operator::Identity,
+            },
+            Potential::Quadratic {
+                orientation_weight: 1.0,
+            },
             MotorUnits::all(chain.dof()),
             5.0,
         )
         .unwrap();
         let mut st = ControlStack::new(chain, vec![joint_reach], settings).unwrap();
-        st.set_reference(chain, 0, Reference::Configuration(ik.q.clone())).unwrap();
+        st.set_reference(chain, 0, Reference::Configuration(ik.q.clone()))
+            .unwrap();
         st
     } else {
         let mut st = ControlStack::new(chain, vec![reach], settings).unwrap();
@@ -244,7 +272,13 @@ fn run_reach(chain: &Chain, q0: &[f64], target: &Iso3, max_ticks: usize) -> (Pre
     let pose = pose_at(chain, plant.true_positions());
     let ep = (pose.translation.vector - target.translation.vector).norm();
     let er = (pose.rotation * target.rotation.inverse()).angle();
-    (*history.last().unwrap(), ep, er, monitor.potential().unwrap_or(f64::NAN), history)
+    (
+        *history.last().unwrap(),
+        ep,
+        er,
+        monitor.potential().unwrap_or(f64::NAN),
+        history,
+    )
 }
 
 #[test]
@@ -319,8 +353,13 @@ fn stretched_out_arm_gives_bounded_joint_steps() {
     ] {
         let position = Controller::new(
             "position",
-            FeedbackElement { sensor: Sensor::LinkPosition { link: tip(&chain) }, operator: Operator::Identity },
-            Potential::Quadratic { orientation_weight: 1.0 },
+            FeedbackElement {
+                sensor: Sensor::LinkPosition { link: tip(&chain) },
+                operator: Operator::Identity,
+            },
+            Potential::Quadratic {
+                orientation_weight: 1.0,
+            },
             MotorUnits::all(7),
             5.0,
         )
@@ -333,7 +372,10 @@ fn stretched_out_arm_gives_bounded_joint_steps() {
         let bound = 5.0 * 0.01 * e / (2.0 * 0.05);
         assert!(du.iter().all(|v| v.is_finite()));
         assert!(du.norm() <= bound + 1e-12, "|du| {} > {bound}", du.norm());
-        assert!(stack.dls_info()[0].lambda_sq > 0.0, "damping engaged at the singularity");
+        assert!(
+            stack.dls_info()[0].lambda_sq > 0.0,
+            "damping engaged at the singularity"
+        );
         if settings.respect_velocity_limits {
             assert!(du.amax() <= 2.0 * 0.01 + 1e-12);
         }
@@ -345,7 +387,11 @@ fn reference_of_wrong_kind_is_rejected() {
     let chain = common::wam_chain();
     let reach = Controller::reach_pose(&chain, tip(&chain), 5.0).unwrap();
     let mut stack = ControlStack::new(&chain, vec![reach], StackSettings::default()).unwrap();
-    assert!(stack.set_reference(&chain, 0, Reference::Position(nalgebra::Vector3::zeros())).is_err());
+    assert!(
+        stack
+            .set_reference(&chain, 0, Reference::Position(nalgebra::Vector3::zeros()))
+            .is_err()
+    );
     assert!(stack.set_reference(&chain, 3, Reference::Undefined).is_err());
     let mut bad = Iso3::identity();
     bad.translation.vector.x = f64::NAN;
@@ -353,11 +399,15 @@ fn reference_of_wrong_kind_is_rejected() {
     assert!(Controller::reach_pose(&chain, tip(&chain), f64::NAN).is_err());
     let wrong = Controller::new(
         "bad",
-        FeedbackElement { sensor: Sensor::ContactLoads, operator: Operator::Identity },
-        Potential::Manipulability { rows: ManipulabilityRows::Full },
+        FeedbackElement {
+            sensor: Sensor::ContactLoads,
+            operator: Operator::Identity,
+        },
+        Potential::Manipulability {
+            rows: ManipulabilityRows::Full,
+        },
         MotorUnits::all(7),
         1.0,
     );
     assert!(wrong.is_err());
 }
-

@@ -80,22 +80,50 @@ fn every_link_pose_is_consistent_with_its_own_chain() {
 #[test]
 fn bad_input_is_an_error_not_a_panic() {
     use control_basis::CbError;
-    assert!(matches!(RobotModel::from_urdf_str("<robot"), Err(CbError::MalformedUrdf { .. })));
-    assert!(matches!(RobotModel::from_urdf_str("not xml at all"), Err(CbError::MalformedUrdf { .. })));
+    assert!(matches!(
+        RobotModel::from_urdf_str("<robot"),
+        Err(CbError::MalformedUrdf { .. })
+    ));
+    assert!(matches!(
+        RobotModel::from_urdf_str("not xml at all"),
+        Err(CbError::MalformedUrdf { .. })
+    ));
     let nan = common::WAM_URDF.replace(r#"xyz="0.045 0 0.55""#, r#"xyz="NaN 0 0.55""#);
-    assert!(matches!(RobotModel::from_urdf_str(&nan), Err(CbError::InvalidModel { .. })));
+    assert!(matches!(
+        RobotModel::from_urdf_str(&nan),
+        Err(CbError::InvalidModel { .. })
+    ));
     let dangling = common::WAM_URDF.replace(r#"<child link="l7"/>"#, r#"<child link="nowhere"/>"#);
-    assert!(matches!(RobotModel::from_urdf_str(&dangling), Err(CbError::InvalidModel { .. })));
+    assert!(matches!(
+        RobotModel::from_urdf_str(&dangling),
+        Err(CbError::InvalidModel { .. })
+    ));
     let no_limit = common::WAM_URDF.replace(r#"<limit lower="-3" upper="3" effort="10" velocity="2"/>"#, "");
     let err = RobotModel::from_urdf_str(&no_limit).unwrap_err();
-    assert!(err.to_string().contains("j7") && err.to_string().contains("<limit"), "{err}");
+    assert!(
+        err.to_string().contains("j7") && err.to_string().contains("<limit"),
+        "{err}"
+    );
     let model = RobotModel::from_urdf_str(common::WAM_URDF).unwrap();
     let err = Chain::new(&model, "base", "l77").unwrap_err();
     assert!(matches!(err, CbError::UnknownLink { .. }));
     assert!(err.to_string().contains("l77"));
     let chain = Chain::new(&model, "base", "l7").unwrap();
     let mut s = chain.new_state();
-    assert!(matches!(s.set_q(&chain, &[0.0; 6]), Err(CbError::DimensionMismatch { expected: 7, got: 6, .. })));
-    assert!(matches!(s.set_q(&chain, &[0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0]), Err(CbError::NotFinite { index: 2, .. })));
-    assert!(matches!(RobotModel::from_urdf_file("/nonexistent/robot.urdf"), Err(CbError::Io { .. })));
+    assert!(matches!(
+        s.set_q(&chain, &[0.0; 6]),
+        Err(CbError::DimensionMismatch {
+            expected: 7,
+            got: 6,
+            ..
+        })
+    ));
+    assert!(matches!(
+        s.set_q(&chain, &[0.0, 0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0]),
+        Err(CbError::NotFinite { index: 2, .. })
+    ));
+    assert!(matches!(
+        RobotModel::from_urdf_file("/nonexistent/robot.urdf"),
+        Err(CbError::Io { .. })
+    ));
 }

@@ -41,7 +41,10 @@ fn control_tick_allocates_nothing() {
     let manip = Controller::manipulability(&chain, ManipulabilityRows::Full, 10.0).unwrap();
     let limits = Controller::new(
         "limits",
-        FeedbackElement { sensor: Sensor::JointPositions, operator: Operator::Identity },
+        FeedbackElement {
+            sensor: Sensor::JointPositions,
+            operator: Operator::Identity,
+        },
         Potential::JointLimit,
         MotorUnits::all(n),
         1.0,
@@ -49,7 +52,12 @@ fn control_tick_allocates_nothing() {
     .unwrap();
     let grasp = Controller::new(
         "grasp",
-        FeedbackElement { sensor: Sensor::ContactLoads, operator: Operator::LowPass { time_constant_secs: 0.05 } },
+        FeedbackElement {
+            sensor: Sensor::ContactLoads,
+            operator: Operator::LowPass {
+                time_constant_secs: 0.05,
+            },
+        },
         Potential::ForceResidual { moment_weight: 10.0 },
         MotorUnits::all(n),
         1.0,
@@ -63,8 +71,16 @@ fn control_tick_allocates_nothing() {
     target.translation.vector.x += 0.3;
     stack.set_reference(&chain, 0, Reference::Pose(target)).unwrap();
     let contacts = [
-        Contact { link: tip, point: Vec3::new(0.5, 0.0, 0.8), force: Vec3::new(-1.0, 0.0, 0.0) },
-        Contact { link: tip, point: Vec3::new(0.4, 0.02, 0.8), force: Vec3::new(1.0, 0.1, 0.0) },
+        Contact {
+            link: tip,
+            point: Vec3::new(0.5, 0.0, 0.8),
+            force: Vec3::new(-1.0, 0.0, 0.0),
+        },
+        Contact {
+            link: tip,
+            point: Vec3::new(0.4, 0.02, 0.8),
+            force: Vec3::new(1.0, 0.1, 0.0),
+        },
     ];
     // Warm up (first evaluation may size buffers), then count.
     for _ in 0..3 {
@@ -79,6 +95,10 @@ fn control_tick_allocates_nothing() {
         }
     }
     let after = ALLOCS.load(Ordering::SeqCst);
-    assert_eq!(after - before, 0, "the control tick allocated {} times in 1000 ticks", after - before);
+    assert_eq!(
+        after - before,
+        0,
+        "the control tick allocated {} times in 1000 ticks",
+        after - before
+    );
 }
-

@@ -50,7 +50,10 @@ pub fn worst_deviation(chain: &Chain) -> f64 {
 fn wam_urdf_matches_pinocchio_to_1e_9() {
     let urdf = repo().join("../shared/reference/wam7/wam7.urdf");
     if !urdf.exists() {
-        eprintln!("SKIPPED: {} not found (the GPL WAM URDF lives in ../shared beside the repository)", urdf.display());
+        eprintln!(
+            "SKIPPED: {} not found (the GPL WAM URDF lives in ../shared beside the repository)",
+            urdf.display()
+        );
         return;
     }
     let model = RobotModel::from_urdf_file(&urdf).unwrap();
@@ -81,8 +84,12 @@ fn dexter_hands_match_pinocchio_bhand_fingertips() {
     let mut checked = 0;
     for side in ["left", "right"] {
         for (f, prox, med, key) in [(1, Some(0), 1, "f1"), (2, Some(3), 4, "f2"), (3, None, 6, "f3")] {
-            let chain =
-                Chain::new(&model, &format!("{side}/bhand/palm_link"), &format!("{side}/bhand/finger_{f}/tip_link")).unwrap();
+            let chain = Chain::new(
+                &model,
+                &format!("{side}/bhand/palm_link"),
+                &format!("{side}/bhand/finger_{f}/tip_link"),
+            )
+            .unwrap();
             let mut s = chain.new_state();
             for case in v["cases"].as_array().unwrap() {
                 let hq = f64s(&case["hand_q"]);
@@ -102,8 +109,8 @@ fn dexter_hands_match_pinocchio_bhand_fingertips() {
                 s.set_q(&chain, &q).unwrap();
                 forward_kinematics(&chain, &mut s);
                 let pos = f64s(&case[format!("{key}_tip_position")]);
-                for i in 0..3 {
-                    worst = worst.max((s.tip_pose().translation.vector[i] - pos[i]).abs());
+                for (i, p) in pos.iter().enumerate() {
+                    worst = worst.max((s.tip_pose().translation.vector[i] - p).abs());
                 }
                 checked += 1;
             }

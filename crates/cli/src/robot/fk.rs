@@ -109,13 +109,10 @@ fn parse_q(text: &str) -> anyhow::Result<Vec<f64>> {
         .map(|(i, raw)| {
             let entry = raw.trim();
             let pos = i + 1;
-            ensure!(
-                !entry.is_empty(),
-                "--q entry {pos} of {count} is empty (in '{text}')"
-            );
-            let v: f64 = entry.parse().map_err(|_| {
-                anyhow::anyhow!("--q entry {pos} of {count} ('{entry}') is not a number")
-            })?;
+            ensure!(!entry.is_empty(), "--q entry {pos} of {count} is empty (in '{text}')");
+            let v: f64 = entry
+                .parse()
+                .map_err(|_| anyhow::anyhow!("--q entry {pos} of {count} ('{entry}') is not a number"))?;
             ensure!(
                 v.is_finite(),
                 "--q entry {pos} of {count} ('{entry}') is not a finite number"
@@ -271,10 +268,7 @@ fn write_tables(r: &FkReport, out: &mut dyn Write) -> anyhow::Result<()> {
     )?;
     let mut t = Table::new(std::iter::once(String::new()).chain((1..=n).map(|c| format!("j{c}"))));
     for (row, label) in ROWS.iter().enumerate() {
-        t.row(
-            std::iter::once(label.to_string())
-                .chain((0..n).map(|c| num(r.jacobian_rowmajor[row * n + c], d))),
-        );
+        t.row(std::iter::once(label.to_string()).chain((0..n).map(|c| num(r.jacobian_rowmajor[row * n + c], d))));
     }
     t.write(out, 2)?;
     Ok(())
@@ -286,10 +280,7 @@ mod tests {
 
     #[test]
     fn parse_q_accepts_spaces_signs_and_exponents() {
-        assert_eq!(
-            parse_q("0.5, -1,+2e-1 ,3").unwrap(),
-            vec![0.5, -1.0, 0.2, 3.0]
-        );
+        assert_eq!(parse_q("0.5, -1,+2e-1 ,3").unwrap(), vec![0.5, -1.0, 0.2, 3.0]);
     }
 
     #[test]

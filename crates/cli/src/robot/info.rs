@@ -237,9 +237,7 @@ fn named_chain_candidates(model: &RobotModel) -> Vec<(String, String, String)> {
                 arms.push((format!("{prefix} arm"), base, tip.to_string()));
             }
         }
-        if let Some((hand, finger)) = tip
-            .strip_suffix("/tip_link")
-            .and_then(|r| r.rsplit_once('/'))
+        if let Some((hand, finger)) = tip.strip_suffix("/tip_link").and_then(|r| r.rsplit_once('/'))
             && finger.starts_with("finger")
         {
             let base = format!("{hand}/palm_link");
@@ -296,16 +294,10 @@ fn write_tables(s: &RobotSummary, out: &mut dyn Write) -> anyhow::Result<()> {
         ]);
     }
     t.write(out, 2)?;
-    writeln!(
-        out,
-        "  (rad or m; rad/s or m/s; N·m or N; inf = no limit given)"
-    )?;
+    writeln!(out, "  (rad or m; rad/s or m/s; N·m or N; inf = no limit given)")?;
     if !s.mimic.is_empty() {
         writeln!(out)?;
-        writeln!(
-            out,
-            "mimic couplings: q_joint = multiplier * q_follows + offset"
-        )?;
+        writeln!(out, "mimic couplings: q_joint = multiplier * q_follows + offset")?;
         let mut t = Table::new(["joint", "follows", "multiplier", "offset"]);
         for m in &s.mimic {
             t.row([
@@ -319,18 +311,10 @@ fn write_tables(s: &RobotSummary, out: &mut dyn Write) -> anyhow::Result<()> {
     }
     if !s.named_chains.is_empty() {
         writeln!(out)?;
-        writeln!(
-            out,
-            "named chains (use with: pbd robot fk --base BASE --tip TIP --q …)"
-        )?;
+        writeln!(out, "named chains (use with: pbd robot fk --base BASE --tip TIP --q …)")?;
         let mut t = Table::new(["chain", "base", "tip", "dof"]);
         for c in &s.named_chains {
-            t.row([
-                c.name.clone(),
-                c.base.clone(),
-                c.tip.clone(),
-                c.dof.to_string(),
-            ]);
+            t.row([c.name.clone(), c.base.clone(), c.tip.clone(), c.dof.to_string()]);
         }
         t.write(out, 2)?;
     }
@@ -387,10 +371,7 @@ mod tests {
             .find(|c| c.link == "left/bhand/finger_2/tip_link")
             .unwrap();
         assert_eq!(f2.dof, 9);
-        assert!(
-            f2.dof_names
-                .contains(&"left/bhand/finger_1/prox_joint".to_string())
-        );
+        assert!(f2.dof_names.contains(&"left/bhand/finger_1/prox_joint".to_string()));
     }
 
     #[test]
