@@ -3,8 +3,8 @@
 //! can take.
 
 use control_basis::{
-    Chain, ChainState, ControlStack, Controller, ManipulabilityRows, QpComposer, QpReport,
-    QpSettings, Reference, RobotModel, StackSettings, forward_kinematics,
+    Chain, ChainState, ControlStack, Controller, ManipulabilityRows, QpComposer, QpReport, QpSettings, Reference,
+    RobotModel, StackSettings, forward_kinematics,
 };
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::DVector;
@@ -29,9 +29,7 @@ fn stack_at(chain: &Chain, q: &[f64], offset_x: f64) -> ControlStack {
     forward_kinematics(chain, &mut s);
     let mut target = s.link_poses()[tip];
     target.translation.vector.x += offset_x;
-    stack
-        .set_reference(chain, 0, Reference::Pose(target))
-        .unwrap();
+    stack.set_reference(chain, 0, Reference::Pose(target)).unwrap();
     stack
 }
 

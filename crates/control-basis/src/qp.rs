@@ -1,13 +1,15 @@
 //! The ranked composition C_k ◁ … ◁ C₁ as a quadratic programme with joint position and velocity limits.
 //!
 //! [`ControlStack::tick`] composes its levels by the pseudoinverse law (3.5–3.7),
-//! Δu_ref = Σₖ N₁…ₖ₋₁ (−κₖ dt Jₖ† eₖ), and can only *scale the whole step* to respect velocity limits; it
-//! knows nothing of position limits. Near a limit the law drives the joint through it, and clipping the
-//! joint afterwards bends the superior task off its course. [`QpComposer`] instead asks, every tick, for
-//! the step closest to Δu_ref that keeps each joint inside its limits while moving the superior task
-//! along *exactly the direction* the pseudoinverse law chose — as far along it as the limits allow.
-//! This is the task-scaling idea of Drake's `DoDifferentialInverseKinematics` (a scale α ∈ [0, 1] on
-//! the commanded task velocity, and the statuses found / stuck), carried over to the control basis.
+//! Δu_ref = Σₖ N₁…ₖ₋₁ (−κₖ dt Jₖ† eₖ). Velocity limits it can only meet by scaling the whole step, and
+//! position limits by clamping (stop the joint at its limit, drop its column, recompose), which bends
+//! the superior task off the direction the law chose whenever the remaining joints cannot realise it.
+//! [`QpComposer`] instead asks, every tick, for the step closest to Δu_ref that keeps each joint inside
+//! its position and velocity limits while moving the superior task along *exactly the direction* the
+//! pseudoinverse law chose — as far along it as the limits allow, and reports when that is nowhere
+//! ([`QpStatus::Stuck`]). This is the task-scaling idea of Drake's `DoDifferentialInverseKinematics` (a
+//! scale α ∈ [0, 1] on the commanded task velocity; statuses found / stuck), carried over to the control
+//! basis. Build the stack with `clamp_position_limits = false`: the QP replaces the clamping.
 //!
 //! With J₁ the Jacobian of the first active level, d₁ = J₁ Δu_ref the task motion it asks for, and
 //! per-joint bounds lo ≤ Δu ≤ hi (below), the step solves, lexicographically,
@@ -55,7 +57,8 @@
 //! there; that only tightens them, and only against steps a thousand times larger than the one asked for.
 //!
 //! Clarabel allocates when a solver is built, so a tick that calls it is not allocation-free, unlike
-//! [`ControlStack::tick`]; the composer's own buffers are reused.
+//! [`ControlStack::tick`]; the composer's own buffers are reused, and a tick in which no limit binds
+//! (Δu_ref returned as is) calls no solver and allocates nothing.
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
