@@ -317,6 +317,12 @@ impl RowSpaceBasis {
         }
     }
 
+    /// Basis vector `b` (< rank) of the span, unit length.
+    pub fn vector(&self, b: usize) -> nalgebra::DVectorView<'_, f64> {
+        debug_assert!(b < self.rank);
+        self.basis.column(b)
+    }
+
     /// `v ← (I − V Vᵀ) v`: removes from `v` every component that would move the spanned tasks.
     pub fn project_out(&self, v: &mut DVector<f64>) {
         for b in 0..self.rank {

@@ -65,7 +65,7 @@ use clarabel::solver::{
     DefaultSettings, DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, SupportedConeT,
     ZeroConeT,
 };
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 
 use crate::chain::{Chain, ChainState};
 use crate::controller::ControlStack;
@@ -83,9 +83,6 @@ const ALPHA_SLACK: f64 = 1e-7;
 const ALPHA_PULL: f64 = 10.0;
 /// A first-stage α* this close to 1 means "the whole of d₁": the second stage then fixes α = 1 exactly.
 const ALPHA_SNAP: f64 = 1e-8;
-/// Rows of J₁ whose component outside the span so far is below this fraction of their norm are dependent
-/// (the same tolerance as [`RowSpaceBasis`], so the QP constrains exactly what the stack projects out).
-const ROW_TOL: f64 = 1e-10;
 /// d₁ (in step units) below this is "the superior task asks for no motion".
 const IDLE_TOL: f64 = 1e-12;
 
@@ -216,9 +213,9 @@ pub struct QpComposer {
     basis: RowSpaceBasis,
     v: DVector<f64>,
     /// Orthonormal basis of J₁'s row space in its first `rank` columns.
-    rows: DMatrix<f64>,
+    /// Orthonormal basis of the superior task's rows (dependent rows dropped).
+    rows: RowSpaceBasis,
     rank: usize,
-    tmp: DVector<f64>,
     /// Problem data in step units.
     y_ref: Vec<f64>,
     y_lo: Vec<f64>,
@@ -265,9 +262,8 @@ impl QpComposer {
             hi: vec![0.0; n],
             basis: RowSpaceBasis::new(n),
             v: DVector::zeros(n),
-            rows: DMatrix::zeros(n, n),
+            rows: RowSpaceBasis::new(n),
             rank: 0,
-            tmp: DVector::zeros(n),
             y_ref: vec![0.0; n],
             y_lo: vec![0.0; n],
             y_hi: vec![0.0; n],
@@ -337,13 +333,15 @@ impl QpComposer {
         self.rank = match first {
             Some(k) => {
                 let buf = &stack.buffers()[k];
-                self.orthonormal_rows(&buf.jacobian, buf.rows)
+                self.rows.clear();
+                self.rows.add_first_rows(&buf.jacobian, buf.rows);
+                self.rows.rank()
             }
             None => 0,
         };
         let mut c_norm_sq = 0.0;
         for bi in 0..self.rank {
-            let cb: f64 = (0..n).map(|j| self.rows[(j, bi)] * self.y_ref[j]).sum();
+            let cb: f64 = (0..n).map(|j| self.rows.vector(bi)[j] * self.y_ref[j]).sum();
             self.c[bi] = cb;
             c_norm_sq += cb * cb;
         }
@@ -507,39 +505,6 @@ impl QpComposer {
             .all(|(d, (lo, hi))| *lo <= *d && *d <= *hi)
     }
 
-    /// Orthonormal basis of the first `m` rows of `jac` into `self.rows` (twice-orthogonalised
-    /// Gram–Schmidt, dependent rows dropped); returns its rank.
-    fn orthonormal_rows(&mut self, jac: &DMatrix<f64>, m: usize) -> usize {
-        let n = self.n;
-        let mut rank = 0;
-        for r in 0..m {
-            if rank == n {
-                break;
-            }
-            for k in 0..n {
-                self.tmp[k] = jac[(r, k)];
-            }
-            let norm0 = self.tmp.norm();
-            if norm0 == 0.0 || !norm0.is_finite() {
-                continue;
-            }
-            for _ in 0..2 {
-                for b in 0..rank {
-                    let col = self.rows.column(b);
-                    let d = col.dot(&self.tmp);
-                    self.tmp.axpy(-d, &col, 1.0);
-                }
-            }
-            let norm = self.tmp.norm();
-            if norm > ROW_TOL * norm0 {
-                self.tmp /= norm;
-                self.rows.column_mut(rank).copy_from(&self.tmp);
-                rank += 1;
-            }
-        }
-        rank
-    }
-
     /// Writes P, q, A, b and the cones of one stage. Variables x = (y, α) with y = Δu / ‖Δu_ref‖∞.
     /// Rows: [Vᵀ  −c] x = 0 (zero cone, c = Vᵀ y_ref; with α = 1 also in the zero cone when it is fixed),
     /// then y_j ≤ hi_j, −y_j ≤ −lo_j (finite sides only), and α ≤ 1, −α ≤ −α_lo when α is free.
@@ -594,7 +559,7 @@ impl QpComposer {
         for j in 0..n {
             for bi in 0..r {
                 a.rowval.push(bi);
-                a.nzval.push(self.rows[(j, bi)]);
+                a.nzval.push(self.rows.vector(bi)[j]);
             }
             if self.y_hi[j].is_finite() {
                 a.rowval.push(row);
