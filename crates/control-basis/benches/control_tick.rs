@@ -27,19 +27,7 @@ fn arm_stack(chain: &Chain) -> ControlStack {
 }
 
 fn config_stack(chain: &Chain) -> ControlStack {
-    let c = Controller::new(
-        "preshape",
-        FeedbackElement {
-            sensor: Sensor::JointPositions,
-            operator: Operator::Identity,
-        },
-        Potential::Quadratic {
-            orientation_weight: 1.0,
-        },
-        MotorUnits::all(chain.dof()),
-        5.0,
-    )
-    .unwrap();
+    let c = Controller::configuration(chain, 5.0).unwrap();
     let mut stack = ControlStack::new(chain, vec![c], StackSettings::default()).unwrap();
     stack
         .set_reference(

@@ -298,6 +298,52 @@ impl Controller {
         )
     }
 
+    /// Configuration reach (σ_q, δ, φ_U, τ) over all motor units: drives q to a `Reference::Configuration`.
+    pub fn configuration(chain: &Chain, gain: f64) -> Result<Self, CbError> {
+        Controller::new(
+            "reach_q",
+            FeedbackElement {
+                sensor: Sensor::JointPositions,
+                operator: Operator::Identity,
+            },
+            Potential::Quadratic {
+                orientation_weight: 1.0,
+            },
+            MotorUnits::all(chain.dof()),
+            gain,
+        )
+    }
+
+    /// Position reach (σ_x, δ, φ_U, τ) of chain link `link` to a `Reference::Position`.
+    pub fn reach_position(chain: &Chain, link: usize, gain: f64) -> Result<Self, CbError> {
+        Controller::new(
+            "reach_position",
+            FeedbackElement {
+                sensor: Sensor::LinkPosition { link },
+                operator: Operator::Identity,
+            },
+            Potential::Quadratic {
+                orientation_weight: 1.0,
+            },
+            MotorUnits::all(chain.dof()),
+            gain,
+        )
+    }
+
+    /// Joint-limit avoidance (σ_q, δ, φ_L, τ) over all motor units.
+    pub fn joint_limits(chain: &Chain, gain: f64) -> Result<Self, CbError> {
+        Controller::new(
+            "joint_limits",
+            FeedbackElement {
+                sensor: Sensor::JointPositions,
+                operator: Operator::Identity,
+            },
+            Potential::JointLimit,
+            MotorUnits::all(chain.dof()),
+            gain,
+        )
+    }
+
     /// Manipulability M = (σ_q, δ, φ_M, τ) over all motor units.
     pub fn manipulability(chain: &Chain, rows: ManipulabilityRows, gain: f64) -> Result<Self, CbError> {
         Controller::new(

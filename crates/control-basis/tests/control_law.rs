@@ -111,17 +111,7 @@ fn inferior_objectives_do_not_move_superior_ones() {
         )
         .unwrap();
         let manip = Controller::manipulability(&chain, ManipulabilityRows::Full, 5.0).unwrap();
-        let limits = Controller::new(
-            "limits",
-            FeedbackElement {
-                sensor: Sensor::JointPositions,
-                operator: Operator::Identity,
-            },
-            Potential::JointLimit,
-            MotorUnits::all(n),
-            1.0,
-        )
-        .unwrap();
+        let limits = Controller::joint_limits(&chain, 1.0).unwrap();
         let mut ctrls = vec![position, orientation, manip, limits];
         ctrls.truncate(2 + case % 3);
         let levels = ctrls.len();
@@ -221,19 +211,7 @@ fn run_reach(chain: &Chain, q0: &[f64], target: &Iso3, max_ticks: usize) -> (Pre
     let reach = Controller::reach_pose(chain, tip(chain), 5.0).unwrap();
     let mut monitor = control_basis::Monitor::new(reach.clone(), chain, settings.predicate, 0).unwrap();
     let mut stack = if ik.converged {
-        let joint_reach = Controller::new(
-            "reach_q",
-            FeedbackElement {
-                sensor: Sensor::JointPositions,
-                operator: Operator::Identity,
-            },
-            Potential::Quadratic {
-                orientation_weight: 1.0,
-            },
-            MotorUnits::all(chain.dof()),
-            5.0,
-        )
-        .unwrap();
+        let joint_reach = Controller::configuration(chain, 5.0).unwrap();
         let mut st = ControlStack::new(chain, vec![joint_reach], settings).unwrap();
         st.set_reference(chain, 0, Reference::Configuration(ik.q.clone()))
             .unwrap();

@@ -39,17 +39,7 @@ fn control_tick_allocates_nothing() {
     let tip = chain.links().len() - 1;
     let reach = Controller::reach_pose(&chain, tip, 5.0).unwrap();
     let manip = Controller::manipulability(&chain, ManipulabilityRows::Full, 10.0).unwrap();
-    let limits = Controller::new(
-        "limits",
-        FeedbackElement {
-            sensor: Sensor::JointPositions,
-            operator: Operator::Identity,
-        },
-        Potential::JointLimit,
-        MotorUnits::all(n),
-        1.0,
-    )
-    .unwrap();
+    let limits = Controller::joint_limits(&chain, 1.0).unwrap();
     let grasp = Controller::new(
         "grasp",
         FeedbackElement {
