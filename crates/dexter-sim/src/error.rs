@@ -1,0 +1,50 @@
+//! The one error type of `dexter-sim`.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong building or running the simulator.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// A file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// A TOML file did not parse (syntax or types); the message names the line and key.
+    #[error("{path}: {message}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message.
+        message: String,
+    },
+    /// A value parsed but is not valid (negative size, unknown name, overlap, …).
+    #[error("{path}: {field}: {message}")]
+    Invalid {
+        /// The file (or `<builtin>`).
+        path: PathBuf,
+        /// The field, as a TOML path such as `objects[3].shape.radius`.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A name that does not exist (object, place, presentation, arm, link).
+    #[error("unknown {kind} `{name}`{}", if .candidates.is_empty() { String::new() } else { format!("; known: {}", .candidates.join(", ")) })]
+    Unknown {
+        /// What kind of name.
+        kind: &'static str,
+        /// The name asked for.
+        name: String,
+        /// Names that exist.
+        candidates: Vec<String>,
+    },
+    /// The robot model is unusable for the simulator.
+    #[error(transparent)]
+    Model(#[from] control_basis::CbError),
+    /// A task could not be carried out (no arm reaches, IK failed, …).
+    #[error("{0}")]
+    Task(String),
+}
