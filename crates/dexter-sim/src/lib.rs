@@ -6,6 +6,7 @@ pub mod error;
 pub mod geometry;
 pub mod scene;
 pub mod snapshot;
+pub mod vision;
 
 pub use snapshot::Arm;
 

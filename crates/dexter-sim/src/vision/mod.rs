@@ -1,0 +1,1 @@
+//! Stereo vision: ray-cast rendering, background subtraction, segments and their features, triangulation.
