@@ -1,11 +1,15 @@
 //! Dexter in simulation.
 #![warn(missing_docs)]
 
+pub mod control;
 pub mod convert;
 pub mod error;
 pub mod geometry;
+pub mod physics;
+pub mod rng;
 pub mod scene;
 pub mod snapshot;
+pub mod task;
 pub mod vision;
 
 pub use snapshot::Arm;

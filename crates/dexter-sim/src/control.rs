@@ -1,0 +1,244 @@
+//! Control-basis controllers bound to the simulated Dexter: Reach (φ_U on the palm pose with
+//! Manipulability subordinate, (3.17)), the hand's motor units, and the Grasp predicate.
+//!
+//! Each controller runs at the control rate on the encoder readings and writes motor references
+//! (`q_ref = q + Δq`, `q̇_ref = Δq / Δt`): the PD motor units of [`crate::physics`] then track them.
+
+use control_basis::math::{Iso3, Rot3, Vec3};
+use control_basis::{
+    Chain, ChainBinding, ChainState, ControlStack, Controller, ManipulabilityRows, Predicate, Reference, StackSettings,
+};
+
+use crate::error::SimError;
+use crate::physics::DexterSim;
+use crate::snapshot::Arm;
+
+/// The tool frame that Reach servoes: the centre of the palm surface, z = approach direction.
+pub fn tool_link(arm: Arm) -> String {
+    format!("{}/bhand/palm_surface_link", arm.prefix())
+}
+
+/// Reach with Manipulability subordinate, C_M ◁ C_R (3.17), for one arm, in the world frame.
+///
+/// The reference is a pose of the tool frame. A reference generator (the operator ω of the feedback
+/// element in the seed's terms) moves the commanded pose towards the goal at bounded linear and
+/// angular speed, so that large motions follow a straight line in Cartesian space.
+#[derive(Debug)]
+pub struct ReachControl {
+    arm: Arm,
+    chain: Chain,
+    state: ChainState,
+    stack: ControlStack,
+    binding: ChainBinding,
+    q_chain: Vec<f64>,
+    goal: Iso3,
+    commanded: Iso3,
+    /// Linear speed limit of the reference (m/s).
+    pub max_speed: f64,
+    /// Angular speed limit of the reference (rad/s).
+    pub max_angular_speed: f64,
+    active: bool,
+}
+
+impl ReachControl {
+    /// Builds the controller for `arm` of `sim`.
+    pub fn new(sim: &DexterSim, arm: Arm) -> Result<Self, SimError> {
+        let chain = Chain::new(sim.model(), "world", &tool_link(arm))?;
+        let tip = chain.links().len() - 1;
+        let reach = Controller::reach_pose(&chain, tip, 6.0)?;
+        let manip = Controller::manipulability(&chain, ManipulabilityRows::Full, 0.5)?;
+        let settings = StackSettings { clamp_position_limits: true, ..StackSettings::default() };
+        let stack = ControlStack::new(&chain, vec![reach, manip], settings)?;
+        let binding = ChainBinding::by_name(&chain, sim.joint_names())?;
+        let state = chain.new_state();
+        let n = chain.dof();
+        let mut rc = ReachControl {
+            arm,
+            chain,
+            state,
+            stack,
+            binding,
+            q_chain: vec![0.0; n],
+            goal: Iso3::identity(),
+            commanded: Iso3::identity(),
+            max_speed: 0.3,
+            max_angular_speed: 1.2,
+            active: false,
+        };
+        let pose = rc.tool_pose(sim);
+        rc.goal = pose;
+        rc.commanded = pose;
+        Ok(rc)
+    }
+
+    /// The arm.
+    pub fn arm(&self) -> Arm {
+        self.arm
+    }
+
+    /// The kinematic chain (world → tool).
+    pub fn chain(&self) -> &Chain {
+        &self.chain
+    }
+
+    /// The tool pose computed from the encoders.
+    pub fn tool_pose(&mut self, sim: &DexterSim) -> Iso3 {
+        self.binding.gather(sim.joint_positions(), &mut self.q_chain);
+        if self.state.set_q(&self.chain, &self.q_chain).is_ok() {
+            control_basis::forward_kinematics(&self.chain, &mut self.state);
+        }
+        *self.state.tip_pose()
+    }
+
+    /// Sets the goal; the commanded reference starts from the current tool pose.
+    pub fn set_goal(&mut self, sim: &DexterSim, goal: Iso3) {
+        self.commanded = self.tool_pose(sim);
+        self.goal = goal;
+        self.active = true;
+        self.stack.reset_predicates();
+    }
+
+    /// The goal.
+    pub fn goal(&self) -> Iso3 {
+        self.goal
+    }
+
+    /// Stops servoing: the motor references stay where they are.
+    pub fn release(&mut self) {
+        self.active = false;
+    }
+
+    /// Whether the controller is engaged.
+    pub fn is_active(&self) -> bool {
+        self.active
+    }
+
+    /// One control tick of `dt` seconds: advance the reference, run the stack, write motor references.
+    pub fn tick(&mut self, sim: &mut DexterSim, dt: f64) {
+        if !self.active {
+            return;
+        }
+        // Reference generator: move `commanded` towards `goal` at bounded speed.
+        let dp = self.goal.translation.vector - self.commanded.translation.vector;
+        let step = self.max_speed * dt;
+        let dist = dp.norm();
+        if dist > step {
+            self.commanded.translation.vector += dp * (step / dist);
+        } else {
+            self.commanded.translation.vector = self.goal.translation.vector;
+        }
+        let dr = self.commanded.rotation.rotation_to(&self.goal.rotation);
+        let angle = dr.angle();
+        let astep = self.max_angular_speed * dt;
+        self.commanded.rotation = if angle > astep {
+            self.commanded.rotation.slerp(&self.goal.rotation, astep / angle)
+        } else {
+            self.goal.rotation
+        };
+        let _ = self.stack.set_reference(&self.chain, 0, Reference::Pose(self.commanded));
+        let _ = self.stack.set_reference(&self.chain, 1, Reference::Undefined);
+        self.binding.gather(sim.joint_positions(), &mut self.q_chain);
+        if self.state.set_q(&self.chain, &self.q_chain).is_err() {
+            return;
+        }
+        let du = self.stack.tick(&self.chain, &mut self.state, &[], dt);
+        for i in 0..self.q_chain.len() {
+            let j = self.binding.plant_index(i);
+            sim.set_joint_target(j, self.q_chain[i] + du[i], du[i] / dt);
+        }
+    }
+
+    /// Distance (m) and angle (rad) between the measured tool pose and the goal.
+    pub fn goal_error(&mut self, sim: &DexterSim) -> (f64, f64) {
+        let pose = self.tool_pose(sim);
+        let d = (pose.translation.vector - self.goal.translation.vector).norm();
+        let a = pose.rotation.angle_to(&self.goal.rotation);
+        (d, a)
+    }
+
+    /// Whether the reference has reached the goal and the tool is within `tol` (m, rad) of it.
+    pub fn at_goal(&mut self, sim: &DexterSim, tol_pos: f64, tol_rot: f64) -> bool {
+        let reference_done = (self.commanded.translation.vector - self.goal.translation.vector).norm() < 1e-9
+            && self.commanded.rotation.angle_to(&self.goal.rotation) < 1e-9;
+        let (d, a) = self.goal_error(sim);
+        reference_done && d < tol_pos && a < tol_rot
+    }
+
+    /// Convergence predicate of the Reach controller (3.18).
+    pub fn predicate(&self) -> Predicate {
+        self.stack.predicate(0)
+    }
+}
+
+/// The BarrettHand's motor units: spread and the three flexion joints.
+#[derive(Debug, Clone)]
+pub struct HandControl {
+    arm: Arm,
+    spread: usize,
+    flex: [usize; 3],
+}
+
+/// Flexion (rad) of the medial joints at which the hand counts as fully closed.
+pub const FLEX_CLOSED: f64 = 2.4;
+
+impl HandControl {
+    /// The hand of `arm`.
+    pub fn new(sim: &DexterSim, arm: Arm) -> Result<Self, SimError> {
+        let p = arm.prefix();
+        Ok(HandControl {
+            arm,
+            spread: sim.dof(&format!("{p}/bhand/finger_1/prox_joint"))?,
+            flex: [
+                sim.dof(&format!("{p}/bhand/finger_1/med_joint"))?,
+                sim.dof(&format!("{p}/bhand/finger_2/med_joint"))?,
+                sim.dof(&format!("{p}/bhand/finger_3/med_joint"))?,
+            ],
+        })
+    }
+
+    /// The arm.
+    pub fn arm(&self) -> Arm {
+        self.arm
+    }
+
+    /// Sets all three flexion references and the spread.
+    pub fn set(&self, sim: &mut DexterSim, flex: f64, spread: f64) {
+        for &f in &self.flex {
+            sim.set_joint_target(f, flex, 0.0);
+        }
+        sim.set_joint_target(self.spread, spread, 0.0);
+    }
+
+    /// Measured flexion of the three fingers.
+    pub fn flexion(&self, sim: &DexterSim) -> [f64; 3] {
+        let q = sim.joint_positions();
+        [q[self.flex[0]], q[self.flex[1]], q[self.flex[2]]]
+    }
+
+    /// Largest flexion speed (rad/s).
+    pub fn max_flex_speed(&self, sim: &DexterSim) -> f64 {
+        let qd = sim.joint_velocities();
+        self.flex.iter().map(|&f| qd[f].abs()).fold(0.0, f64::max)
+    }
+}
+
+/// A top-down grasp pose: the palm surface above the object's centre, palm normal down, the
+/// fingers closing along `axis` (a horizontal unit vector), F3 on the side of +axis or −axis,
+/// whichever turns the hand less from `current`.
+pub fn top_down_orientation(axis: &Vec3, current: &Rot3) -> Rot3 {
+    let z = -Vec3::z();
+    let mut best = Rot3::identity();
+    let mut best_angle = f64::INFINITY;
+    for s in [1.0, -1.0] {
+        let y = (axis * s).normalize();
+        let x = y.cross(&z);
+        let m = nalgebra::Matrix3::from_columns(&[x, y, z]);
+        let r = Rot3::from_matrix(&m);
+        let a = r.angle_to(current);
+        if a < best_angle {
+            best_angle = a;
+            best = r;
+        }
+    }
+    best
+}

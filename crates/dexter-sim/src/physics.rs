@@ -1,0 +1,1038 @@
+//! Dexter and a scene in Rapier: bodies built from the URDF, reduced-coordinate multibody joints,
+//! motor units (PD on every independent DOF), mimic couplings, objects, table and bins.
+//!
+//! # How the URDF becomes Rapier bodies
+//! Links joined by `fixed` joints are merged into one rigid body (their colliders and inertias are
+//! combined in the frame of the first link of the group). Every moving joint becomes a multibody joint
+//! (reduced coordinates, exact in the joint space), so each arm with its hand is one multibody rooted on
+//! its fixed mounting plate, and the head is another; the torso is a fixed body. `<mimic>` joints are
+//! kept as joints of their own and tied to their master by an exact DOF coupling
+//! (`q_mimic = multiplier · q_master + offset`), which is how the BarrettHand's distal links follow
+//! the medial ones (dist = med/3) and finger 2's spread follows finger 1's.
+//!
+//! # Motor units (§3.1)
+//! Each independent DOF has a force-based PD motor `τ = kp (q_ref − q) + kd (q̇_ref − q̇)` clipped to
+//! the URDF effort limit: the τ of a control-basis controller writes `q_ref` (and `q̇_ref`). Joint
+//! position limits are enforced by the joint itself. Gravity on the robot's own links is compensated
+//! exactly (ideal gravity feed-forward, as on a real WAM), so the PD only carries payloads, contacts and
+//! dynamics.
+//!
+//! # Settings
+//! The contact settings are those measured in `../shared/NOTES-grasp-physics.md`: 1 ms steps, 4
+//! solver iterations, contact natural frequency 60 Hz, 2 mm contact skin, capsule fingers.
+
+use std::collections::HashMap;
+
+use control_basis::RobotModel;
+use control_basis::math::{Iso3, Rot3, Vec3};
+use nalgebra::{Matrix3, Translation3};
+use rapier3d_f64::glamx::{DMat3, DVec3};
+use rapier3d_f64::prelude::*;
+
+use crate::convert::{iso_from_glam, iso_to_glam, vec_from_glam, vec_to_glam};
+use crate::error::SimError;
+use crate::geometry;
+use crate::rng::SplitMix64;
+use crate::scene::{ObjectSpec, Scene};
+use crate::snapshot::{Arm, FingertipWrench, ObjectState, Snapshot, SnapshotHeader};
+
+/// Dexter's URDF, embedded.
+pub const DEXTER_URDF: &str = include_str!("../../../assets/dexter.urdf");
+
+/// Collision groups.
+mod groups {
+    use rapier3d_f64::prelude::Group;
+    pub const STATIC: Group = Group::GROUP_1;
+    pub const OBJECT: Group = Group::GROUP_2;
+    pub const HAND: Group = Group::GROUP_3;
+    pub const ARM: Group = Group::GROUP_4;
+}
+
+/// Physics and motor settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimSettings {
+    /// Physics step (s).
+    pub dt: f64,
+    /// Rapier solver iterations per step.
+    pub solver_iterations: usize,
+    /// Contact natural frequency (Hz); stiffer contacts penetrate less.
+    pub contact_hz: f64,
+    /// Contact skin (m).
+    pub contact_skin: f64,
+    /// Gravity (m/s², positive down).
+    pub gravity: f64,
+    /// Encoder noise, standard deviation (rad).
+    pub encoder_noise: f64,
+    /// Seed for every random choice of the simulator (encoder noise, placement jitter).
+    pub seed: u64,
+    /// Random placement jitter of each object: position (m, uniform ±) and yaw (rad, uniform ±).
+    pub placement_jitter: (f64, f64),
+    /// Let bodies at rest sleep (objects only; the robot never sleeps).
+    pub allow_sleep: bool,
+}
+
+impl Default for SimSettings {
+    fn default() -> Self {
+        Self {
+            dt: 1e-3,
+            solver_iterations: 4,
+            contact_hz: 60.0,
+            contact_skin: 0.002,
+            gravity: 9.81,
+            encoder_noise: 1e-4,
+            seed: 0,
+            placement_jitter: (0.003, 0.05),
+            allow_sleep: true,
+        }
+    }
+}
+
+/// PD gains and limits of one motor unit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotorGains {
+    /// Stiffness (N·m/rad).
+    pub kp: f64,
+    /// Damping (N·m·s/rad).
+    pub kd: f64,
+    /// Effort limit (N·m).
+    pub max_effort: f64,
+}
+
+/// Default gains for a Dexter joint, from its name (WAM gains from the grasp-physics probe).
+pub fn default_gains(joint: &str, effort: f64) -> MotorGains {
+    let arm = [
+        ("base_yaw_joint", 2500.0),
+        ("shoulder_pitch_joint", 2500.0),
+        ("shoulder_yaw_joint", 1000.0),
+        ("elbow_pitch_joint", 800.0),
+        ("wrist_yaw_joint", 100.0),
+        ("wrist_pitch_joint", 100.0),
+        ("palm_yaw_joint", 20.0),
+    ];
+    for (suffix, kp) in arm {
+        if joint.ends_with(suffix) && !joint.contains("bhand") {
+            return MotorGains { kp, kd: 0.05 * kp, max_effort: effort };
+        }
+    }
+    if joint.contains("med_joint") {
+        // Unsaturated low-kp PD: closes gently and does not squeeze the object out (probe).
+        return MotorGains { kp: 1.5, kd: 0.05, max_effort: effort.min(1.5) };
+    }
+    if joint.contains("prox_joint") {
+        return MotorGains { kp: 4.0, kd: 0.1, max_effort: effort };
+    }
+    if joint.starts_with("head/") {
+        return MotorGains { kp: 20.0, kd: 1.0, max_effort: effort };
+    }
+    MotorGains { kp: 10.0, kd: 0.5, max_effort: effort }
+}
+
+/// One independent DOF (motor unit).
+#[derive(Debug, Clone)]
+struct Dof {
+    name: String,
+    /// Child body of the joint (the multibody joint handle is derived from it).
+    body: RigidBodyHandle,
+    lower: f64,
+    upper: f64,
+    velocity_limit: f64,
+    gains: MotorGains,
+}
+
+/// A mimic joint, coupled to a master DOF.
+#[derive(Debug, Clone)]
+struct MimicDof {
+    body: RigidBodyHandle,
+    master: usize,
+    multiplier: f64,
+    offset: f64,
+}
+
+/// A placed object in the world.
+#[derive(Debug, Clone)]
+pub struct SimObject {
+    /// Unique name (presentation, `#k` appended if repeated).
+    pub name: String,
+    /// Index into the scene's catalog.
+    pub catalog_index: usize,
+    /// Index into the scene's placed objects.
+    pub scene_index: usize,
+    /// The rigid body.
+    pub body: RigidBodyHandle,
+    /// Its collider.
+    pub collider: ColliderHandle,
+    /// Mass (kg).
+    pub mass: f64,
+}
+
+/// Which part of the robot a collider belongs to (for the sensors).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Part {
+    Palm(Arm),
+    /// Finger (1–3) of a hand: medial, distal and tip links.
+    Finger(Arm, u8),
+    Other,
+}
+
+/// Dexter and a scene, in Rapier.
+pub struct DexterSim {
+    world: PhysicsWorld,
+    settings: SimSettings,
+    model: RobotModel,
+    dofs: Vec<Dof>,
+    mimics: Vec<MimicDof>,
+    dof_index: HashMap<String, usize>,
+    /// For each URDF link: its body and the link's pose in the body frame.
+    link_body: Vec<(RigidBodyHandle, Iso3)>,
+    collider_part: HashMap<ColliderHandle, Part>,
+    objects: Vec<SimObject>,
+    object_by_collider: HashMap<ColliderHandle, usize>,
+    /// Motor references.
+    q_ref: Vec<f64>,
+    qd_ref: Vec<f64>,
+    /// Encoder readings, refreshed by [`DexterSim::step`].
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    rng: SplitMix64,
+    time: f64,
+    steps: u64,
+    header: SnapshotHeader,
+}
+
+impl std::fmt::Debug for DexterSim {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DexterSim")
+            .field("time", &self.time)
+            .field("dofs", &self.dofs.len())
+            .field("objects", &self.objects.len())
+            .finish()
+    }
+}
+
+fn builtin_path() -> std::path::PathBuf {
+    std::path::PathBuf::from("<builtin dexter.urdf>")
+}
+
+/// A rotation mapping x onto `axis`.
+fn rotation_x_to(axis: &Vec3) -> Rot3 {
+    Rot3::rotation_between(&Vec3::x(), axis).unwrap_or_else(|| Rot3::from_axis_angle(&Vec3::z_axis(), std::f64::consts::PI))
+}
+
+fn urdf_iso(pose: &urdf_rs::Pose) -> Iso3 {
+    control_basis::math::iso_from_xyz_rpy(*pose.xyz, *pose.rpy)
+}
+
+impl DexterSim {
+    /// Builds Dexter (from the embedded URDF) and `scene`.
+    pub fn new(scene: &Scene, settings: SimSettings) -> Result<Self, SimError> {
+        let model = RobotModel::from_urdf_str(DEXTER_URDF)?;
+        Self::with_model(model, scene, settings)
+    }
+
+    /// Builds the robot `model` (a Dexter-like URDF: arm prefixes `left/`, `right/`) and `scene`.
+    pub fn with_model(model: RobotModel, scene: &Scene, settings: SimSettings) -> Result<Self, SimError> {
+        for (field, v) in [("dt", settings.dt), ("contact_hz", settings.contact_hz), ("gravity", settings.gravity)] {
+            if !v.is_finite() || v < 0.0 || (field != "gravity" && v == 0.0) {
+                return Err(SimError::Invalid {
+                    path: "<settings>".into(),
+                    field: field.into(),
+                    message: format!("must be a finite positive number (got {v})"),
+                });
+            }
+        }
+        let mut world = PhysicsWorld::new();
+        world.gravity = DVec3::new(0.0, 0.0, -settings.gravity);
+        let ip = &mut world.integration_parameters;
+        ip.dt = settings.dt;
+        ip.num_solver_iterations = settings.solver_iterations.max(1);
+        ip.contact_softness.natural_frequency = settings.contact_hz;
+        ip.static_contact_softness.natural_frequency = 2.0 * settings.contact_hz;
+
+        let mut sim = DexterSim {
+            world,
+            rng: SplitMix64::new(settings.seed),
+            settings,
+            dofs: Vec::new(),
+            mimics: Vec::new(),
+            dof_index: HashMap::new(),
+            link_body: Vec::new(),
+            collider_part: HashMap::new(),
+            objects: Vec::new(),
+            object_by_collider: HashMap::new(),
+            q_ref: Vec::new(),
+            qd_ref: Vec::new(),
+            q: Vec::new(),
+            qd: Vec::new(),
+            time: 0.0,
+            steps: 0,
+            header: SnapshotHeader {
+                joint_names: Vec::new(),
+                link_names: Vec::new(),
+                link_parents: Vec::new(),
+                object_names: Vec::new(),
+            },
+            model,
+        };
+        sim.build_robot()?;
+        sim.build_scene(scene)?;
+        sim.read_encoders();
+        sim.q_ref.clone_from(&sim.q);
+        sim.apply_motor_targets();
+        Ok(sim)
+    }
+
+    fn build_robot(&mut self) -> Result<(), SimError> {
+        let model = &self.model;
+        let n = model.links.len();
+        // 1. Group links into bodies: a link starts a new body unless it hangs on a fixed joint whose
+        //    parent is not the world root group boundary we want to keep separate.
+        let mut body_root = vec![usize::MAX; n];
+        let mut link_in_root = vec![Iso3::identity(); n];
+        let order = topological_links(model);
+        for &l in &order {
+            match model.links[l].parent_joint {
+                None => body_root[l] = l,
+                Some(j) => {
+                    let joint = &model.joints[j];
+                    let name = &model.links[l].name;
+                    let own_fixed_root = name.ends_with("/base_link"); // arm and head mounting plates
+                    if joint.kind.is_moving() || own_fixed_root {
+                        body_root[l] = l;
+                    } else {
+                        body_root[l] = body_root[joint.parent];
+                        link_in_root[l] = link_in_root[joint.parent] * joint.origin;
+                    }
+                }
+            }
+        }
+        // World poses at q = 0 (bodies are created there, then the joints are set).
+        let mut world_pose = vec![Iso3::identity(); n];
+        for &l in &order {
+            if let Some(j) = model.links[l].parent_joint {
+                world_pose[l] = world_pose[model.joints[j].parent] * model.joints[j].origin;
+            }
+        }
+        // Fixed bodies: roots whose parent joint is fixed or absent.
+        let urdf_links: HashMap<&str, &urdf_rs::Link> = model.urdf.links.iter().map(|l| (l.name.as_str(), l)).collect();
+        let mut handles: HashMap<usize, RigidBodyHandle> = HashMap::new();
+        for &l in &order {
+            if body_root[l] != l {
+                continue;
+            }
+            let moving = model.links[l].parent_joint.is_some_and(|j| model.joints[j].kind.is_moving());
+            // Mass properties of every link of the group, in the root frame.
+            let mut mprops = MassProperties::default();
+            for m in (0..n).filter(|&m| body_root[m] == l) {
+                let Some(ul) = urdf_links.get(model.links[m].name.as_str()) else { continue };
+                let inertial = &ul.inertial;
+                if inertial.mass.value <= 0.0 {
+                    continue;
+                }
+                let i = &inertial.inertia;
+                let tensor = Matrix3::new(i.ixx, i.ixy, i.ixz, i.ixy, i.iyy, i.iyz, i.ixz, i.iyz, i.izz);
+                let frame = link_in_root[m] * urdf_iso(&inertial.origin);
+                // Rotate the tensor into the root frame; the COM goes through `frame`.
+                let r = frame.rotation.to_rotation_matrix();
+                let t = r.matrix() * tensor * r.matrix().transpose();
+                let com = frame.translation.vector;
+                mprops += MassProperties::with_inertia_matrix(
+                    vec_to_glam(&com),
+                    inertial.mass.value,
+                    DMat3::from_cols_array(&[
+                        t[(0, 0)],
+                        t[(1, 0)],
+                        t[(2, 0)],
+                        t[(0, 1)],
+                        t[(1, 1)],
+                        t[(2, 1)],
+                        t[(0, 2)],
+                        t[(1, 2)],
+                        t[(2, 2)],
+                    ]),
+                );
+            }
+            let builder = if moving { RigidBodyBuilder::dynamic() } else { RigidBodyBuilder::fixed() };
+            let body = builder
+                .pose(iso_to_glam(&world_pose[l]))
+                .gravity_scale(0.0) // ideal gravity compensation of the robot's own links
+                .can_sleep(false)
+                .additional_mass_properties(mprops)
+                .user_data(l as u128)
+                .build();
+            let h = self.world.insert_body(body);
+            handles.insert(l, h);
+        }
+        // 2. Colliders.
+        for (l, link) in model.links.iter().enumerate() {
+            let Some(ul) = urdf_links.get(link.name.as_str()) else { continue };
+            let root = body_root[l];
+            let body = handles[&root];
+            let part = part_of(&link.name);
+            let (membership, filter) = match part {
+                Part::Palm(_) | Part::Finger(..) => (groups::HAND, groups::OBJECT | groups::STATIC),
+                Part::Other if !model.links[root].parent_joint.is_some_and(|j| model.joints[j].kind.is_moving()) => {
+                    (groups::STATIC, groups::OBJECT | groups::HAND)
+                }
+                Part::Other => (groups::ARM, groups::OBJECT),
+            };
+            let is_finger = link.name.contains("/finger_");
+            for (ci, c) in ul.collision.iter().enumerate() {
+                let local = link_in_root[l] * urdf_iso(&c.origin);
+                let (shape, shape_offset) = match &c.geometry {
+                    urdf_rs::Geometry::Box { size } if is_finger => {
+                        // Finger phalanges as capsules along their long axis (box fingers penetrate
+                        // up to 11 mm in the probe; capsules ≤ 3 mm).
+                        let s = [size[0], size[1], size[2]];
+                        let (ax, len) = s.iter().copied().enumerate().fold((0, 0.0), |a, (i, v)| if v > a.1 { (i, v) } else { a });
+                        let r = s.iter().enumerate().filter(|&(i, _)| i != ax).map(|(_, &v)| v).fold(f64::INFINITY, f64::min) / 2.0;
+                        let half = (len / 2.0 - r).max(1e-4);
+                        let mut a = DVec3::ZERO;
+                        a[ax] = half;
+                        (SharedShape::capsule(-a, a, r), Iso3::identity())
+                    }
+                    urdf_rs::Geometry::Box { size } => (SharedShape::cuboid(size[0] / 2.0, size[1] / 2.0, size[2] / 2.0), Iso3::identity()),
+                    urdf_rs::Geometry::Cylinder { radius, length } => {
+                        geometry::to_parry(&crate::scene::Shape::Cylinder { radius: *radius, height: *length })
+                    }
+                    urdf_rs::Geometry::Capsule { radius, length } => {
+                        geometry::to_parry(&crate::scene::Shape::Capsule { radius: *radius, height: *length })
+                    }
+                    urdf_rs::Geometry::Sphere { radius } => (SharedShape::ball(*radius), Iso3::identity()),
+                    urdf_rs::Geometry::Mesh { filename, .. } => {
+                        return Err(SimError::Invalid {
+                            path: builtin_path(),
+                            field: format!("link `{}` collision[{ci}]", link.name),
+                            message: format!("mesh collisions are not supported yet ({filename}); use primitives"),
+                        });
+                    }
+                };
+                let collider = ColliderBuilder::new(shape)
+                    .position(iso_to_glam(&(local * shape_offset)))
+                    .density(0.0)
+                    .friction(1.0)
+                    .contact_skin(self.settings.contact_skin)
+                    .collision_groups(InteractionGroups::new(membership, filter, InteractionTestMode::And))
+                    .build();
+                let ch = self.world.insert_collider(collider, Some(body));
+                self.collider_part.insert(ch, part);
+            }
+        }
+        // 3. Joints.
+        self.link_body = (0..n).map(|l| (handles[&body_root[l]], link_in_root[l])).collect();
+        let mut masters: Vec<(RigidBodyHandle, usize)> = Vec::new(); // (mimic body, joint index)
+        for &l in &order {
+            let Some(j) = model.links[l].parent_joint else { continue };
+            let joint = &model.joints[j];
+            if !joint.kind.is_moving() {
+                continue;
+            }
+            if joint.kind == control_basis::model::JointKind::Prismatic {
+                return Err(SimError::Invalid {
+                    path: builtin_path(),
+                    field: format!("joint `{}`", joint.name),
+                    message: "prismatic joints are not supported by the simulator".into(),
+                });
+            }
+            let parent_body = handles[&body_root[joint.parent]];
+            let child_body = handles[&l];
+            let r = rotation_x_to(&joint.axis.into_inner());
+            let frame1 = link_in_root[joint.parent] * joint.origin * Iso3::from_parts(Translation3::identity(), r);
+            let frame2 = Iso3::from_parts(Translation3::identity(), r);
+            let mut builder = GenericJointBuilder::new(JointAxesMask::LOCKED_REVOLUTE_AXES)
+                .local_frame1(iso_to_glam(&frame1))
+                .local_frame2(iso_to_glam(&frame2))
+                .contacts_enabled(false);
+            let lim = joint.limits;
+            if joint.kind == control_basis::model::JointKind::Revolute && lim.lower.is_finite() && lim.upper.is_finite() {
+                builder = builder.limits(JointAxis::AngX, [lim.lower, lim.upper]);
+            }
+            if joint.mimic.is_none() {
+                let gains = default_gains(&joint.name, lim.effort);
+                builder = builder
+                    .motor_model(JointAxis::AngX, MotorModel::ForceBased)
+                    .motor_max_force(JointAxis::AngX, gains.max_effort);
+                self.dof_index.insert(joint.name.clone(), self.dofs.len());
+                self.dofs.push(Dof {
+                    name: joint.name.clone(),
+                    body: child_body,
+                    lower: lim.lower,
+                    upper: lim.upper,
+                    velocity_limit: lim.velocity,
+                    gains,
+                });
+            } else {
+                masters.push((child_body, j));
+            }
+            if self.world.insert_multibody_joint(parent_body, child_body, builder.build()).is_none() {
+                return Err(SimError::Invalid {
+                    path: builtin_path(),
+                    field: format!("joint `{}`", joint.name),
+                    message: "Rapier refused the joint (kinematic loop?)".into(),
+                });
+            }
+        }
+        for (body, j) in masters {
+            let (master, multiplier, offset) = model.mimic_root(&model.joints[j])?;
+            let master_name = &model.joints[master].name;
+            let &m = self.dof_index.get(master_name).ok_or_else(|| SimError::Unknown {
+                kind: "mimic master joint",
+                name: master_name.clone(),
+                candidates: vec![],
+            })?;
+            self.mimics.push(MimicDof { body, master: m, multiplier, offset });
+        }
+        // Couplings and per-DOF damping.
+        for mimic in &self.mimics {
+            let master_body = self.dofs[mimic.master].body;
+            let mb_joints = &mut self.world.multibody_joints;
+            let (Some(&l1), Some(&l2)) =
+                (mb_joints.rigid_body_link(master_body), mb_joints.rigid_body_link(mimic.body))
+            else {
+                continue;
+            };
+            if l1.multibody != l2.multibody {
+                return Err(SimError::Task("mimic joint and master are on different multibodies".into()));
+            }
+            if let Some(mb) = mb_joints.get_multibody_mut(l1.multibody) {
+                mb.add_dof_coupling(MultibodyDofCoupling {
+                    link1: l1.id,
+                    dof1: 0,
+                    axis1: 3,
+                    link2: l2.id,
+                    dof2: 0,
+                    axis2: 3,
+                    coeff: mimic.multiplier,
+                    offset: mimic.offset,
+                });
+            }
+        }
+        for (i, dof) in self.dofs.iter().enumerate() {
+            let j = model.joint(&dof.name)?;
+            let damping = model.joints[j].damping;
+            let mb_joints = &mut self.world.multibody_joints;
+            if let Some(&id) = mb_joints.rigid_body_link(dof.body)
+                && let Some(mb) = mb_joints.get_multibody_mut(id.multibody)
+            {
+                mb.set_self_contacts_enabled(false);
+                let a = mb.link(id.id).map(|l| l.assembly_id());
+                if let Some(a) = a {
+                    mb.damping_mut()[a] = damping.max(0.0);
+                }
+            }
+            let _ = i;
+        }
+        let nd = self.dofs.len();
+        self.q_ref = vec![0.0; nd];
+        self.qd_ref = vec![0.0; nd];
+        self.q = vec![0.0; nd];
+        self.qd = vec![0.0; nd];
+        self.header.joint_names = self.dofs.iter().map(|d| d.name.clone()).collect();
+        self.header.link_names = model.links.iter().map(|l| l.name.clone()).collect();
+        self.header.link_parents = model
+            .links
+            .iter()
+            .map(|l| l.parent_joint.map(|j| model.links[model.joints[j].parent].name.clone()))
+            .collect();
+        Ok(())
+    }
+
+    fn build_scene(&mut self, scene: &Scene) -> Result<(), SimError> {
+        let spec = &scene.spec;
+        let t = &spec.table;
+        // Table: a 4 cm slab whose top is at `height`, plus a leg block below it to the floor.
+        let table_thickness = 0.04;
+        let table = self.world.insert_body(RigidBodyBuilder::fixed().build());
+        let top = ColliderBuilder::cuboid(t.size[0] / 2.0, t.size[1] / 2.0, table_thickness / 2.0)
+            .translation(DVec3::new(t.center[0], t.center[1], t.height - table_thickness / 2.0))
+            .friction(t.friction)
+            .contact_skin(self.settings.contact_skin)
+            .collision_groups(InteractionGroups::new(groups::STATIC, groups::OBJECT | groups::HAND, InteractionTestMode::And))
+            .build();
+        self.world.insert_collider(top, Some(table));
+        // Bins: a floor plate (2 mm, on the table) and four walls.
+        for place in &spec.places {
+            let (cx, cy) = (place.center[0], place.center[1]);
+            let (sx, sy) = (place.size[0], place.size[1]);
+            let wall = 0.01;
+            let mut parts = vec![(DVec3::new(cx, cy, t.height + 0.001), DVec3::new(sx / 2.0, sy / 2.0, 0.001))];
+            if place.wall_height > 0.0 {
+                let h = place.wall_height;
+                let z = t.height + h / 2.0;
+                parts.push((DVec3::new(cx + (sx + wall) / 2.0, cy, z), DVec3::new(wall / 2.0, sy / 2.0 + wall, h / 2.0)));
+                parts.push((DVec3::new(cx - (sx + wall) / 2.0, cy, z), DVec3::new(wall / 2.0, sy / 2.0 + wall, h / 2.0)));
+                parts.push((DVec3::new(cx, cy + (sy + wall) / 2.0, z), DVec3::new(sx / 2.0, wall / 2.0, h / 2.0)));
+                parts.push((DVec3::new(cx, cy - (sy + wall) / 2.0, z), DVec3::new(sx / 2.0, wall / 2.0, h / 2.0)));
+            }
+            for (c, half) in parts {
+                let col = ColliderBuilder::cuboid(half.x, half.y, half.z)
+                    .translation(c)
+                    .friction(t.friction)
+                    .contact_skin(self.settings.contact_skin)
+                    .collision_groups(InteractionGroups::new(groups::STATIC, groups::OBJECT | groups::HAND, InteractionTestMode::And))
+                    .build();
+                self.world.insert_collider(col, Some(table));
+            }
+        }
+        // Objects.
+        let mut seen: HashMap<&str, usize> = HashMap::new();
+        for (k, placed) in scene.resolved.iter().enumerate() {
+            let spec: &ObjectSpec = &scene.catalog.objects[placed.object];
+            let count = seen.entry(placed.presentation.as_str()).or_insert(0);
+            *count += 1;
+            let name = if *count == 1 { placed.presentation.clone() } else { format!("{}#{}", placed.presentation, count) };
+            let (jp, jy) = self.settings.placement_jitter;
+            let dx = jp * (2.0 * self.rng.next_f64() - 1.0);
+            let dy = jp * (2.0 * self.rng.next_f64() - 1.0);
+            let dyaw = jy * (2.0 * self.rng.next_f64() - 1.0);
+            let mut pose = placed.pose;
+            pose.translation.vector += Vec3::new(dx, dy, 0.0);
+            pose.rotation = Rot3::from_axis_angle(&Vec3::z_axis(), dyaw) * pose.rotation;
+            let (shape, object_from_shape) = geometry::to_parry(&spec.shape);
+            let volume = geometry::volume(&spec.shape);
+            let body = self.world.insert_body(
+                RigidBodyBuilder::dynamic()
+                    .pose(iso_to_glam(&pose))
+                    .can_sleep(self.settings.allow_sleep)
+                    .user_data((1u128 << 64) | k as u128)
+                    .build(),
+            );
+            let collider = ColliderBuilder::new(shape)
+                .position(iso_to_glam(&object_from_shape))
+                .density(spec.mass / volume)
+                .friction(spec.friction)
+                .contact_skin(self.settings.contact_skin)
+                .collision_groups(InteractionGroups::new(groups::OBJECT, Group::ALL, InteractionTestMode::And))
+                .build();
+            let ch = self.world.insert_collider(collider, Some(body));
+            self.object_by_collider.insert(ch, self.objects.len());
+            self.header.object_names.push(name.clone());
+            self.objects.push(SimObject {
+                name,
+                catalog_index: placed.object,
+                scene_index: k,
+                body,
+                collider: ch,
+                mass: spec.mass,
+            });
+        }
+        Ok(())
+    }
+
+    /// The robot model.
+    pub fn model(&self) -> &RobotModel {
+        &self.model
+    }
+
+    /// Settings in use.
+    pub fn settings(&self) -> &SimSettings {
+        &self.settings
+    }
+
+    /// Names of the independent DOFs (the motor units), in the order of every joint vector.
+    pub fn joint_names(&self) -> &[String] {
+        &self.header.joint_names
+    }
+
+    /// Index of a DOF by joint name.
+    pub fn dof(&self, name: &str) -> Result<usize, SimError> {
+        self.dof_index.get(name).copied().ok_or_else(|| SimError::Unknown {
+            kind: "joint",
+            name: name.into(),
+            candidates: self.header.joint_names.clone(),
+        })
+    }
+
+    /// Position and velocity limits of DOF `i`: (lower, upper, velocity).
+    pub fn dof_limits(&self, i: usize) -> (f64, f64, f64) {
+        let d = &self.dofs[i];
+        (d.lower, d.upper, d.velocity_limit)
+    }
+
+    /// Motor gains of DOF `i`.
+    pub fn gains(&self, i: usize) -> MotorGains {
+        self.dofs[i].gains
+    }
+
+    /// Changes the gains of DOF `i`.
+    pub fn set_gains(&mut self, i: usize, gains: MotorGains) {
+        self.dofs[i].gains = gains;
+        self.apply_motor_target(i);
+    }
+
+    /// Static names for snapshots.
+    pub fn header(&self) -> &SnapshotHeader {
+        &self.header
+    }
+
+    /// The objects.
+    pub fn objects(&self) -> &[SimObject] {
+        &self.objects
+    }
+
+    /// Index of an object by name.
+    pub fn object(&self, name: &str) -> Result<usize, SimError> {
+        self.objects.iter().position(|o| o.name == name).ok_or_else(|| SimError::Unknown {
+            kind: "object",
+            name: name.into(),
+            candidates: self.objects.iter().map(|o| o.name.clone()).collect(),
+        })
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Physics steps taken.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Encoder readings (rad), with noise.
+    pub fn joint_positions(&self) -> &[f64] {
+        &self.q
+    }
+
+    /// Joint velocities (rad/s).
+    pub fn joint_velocities(&self) -> &[f64] {
+        &self.qd
+    }
+
+    /// Motor references.
+    pub fn joint_targets(&self) -> &[f64] {
+        &self.q_ref
+    }
+
+    /// Sets the motor reference of DOF `i` (clamped to its limits) with velocity feed-forward `qd`.
+    pub fn set_joint_target(&mut self, i: usize, q: f64, qd: f64) {
+        let d = &self.dofs[i];
+        let q = if q.is_finite() { q.clamp(d.lower, d.upper) } else { self.q_ref[i] };
+        self.q_ref[i] = q;
+        self.qd_ref[i] = if qd.is_finite() { qd.clamp(-d.velocity_limit, d.velocity_limit) } else { 0.0 };
+        self.apply_motor_target(i);
+    }
+
+    fn apply_motor_targets(&mut self) {
+        for i in 0..self.dofs.len() {
+            self.apply_motor_target(i);
+        }
+    }
+
+    fn apply_motor_target(&mut self, i: usize) {
+        let d = &self.dofs[i];
+        let (q, qd, g) = (self.q_ref[i], self.qd_ref[i], d.gains);
+        let mbj = &mut self.world.multibody_joints;
+        if let Some(&id) = mbj.rigid_body_link(d.body)
+            && let Some(mb) = mbj.get_multibody_mut(id.multibody)
+            && let Some(link) = mb.link_mut(id.id)
+        {
+            link.joint.data.set_motor(JointAxis::AngX, q, qd, g.kp, g.kd);
+            link.joint.data.set_motor_max_force(JointAxis::AngX, g.max_effort);
+        }
+    }
+
+    /// True joint position of DOF `i` (no noise).
+    fn true_position(&self, body: RigidBodyHandle) -> (f64, f64) {
+        let mbj = &self.world.multibody_joints;
+        if let Some(&id) = mbj.rigid_body_link(body)
+            && let Some(mb) = mbj.get_multibody(id.multibody)
+            && let Some(link) = mb.link(id.id)
+        {
+            let q = link.joint.coords()[3];
+            let v = mb.joint_velocity(link);
+            return (q, if v.is_empty() { 0.0 } else { v[0] });
+        }
+        (0.0, 0.0)
+    }
+
+    fn read_encoders(&mut self) {
+        for i in 0..self.dofs.len() {
+            let (q, qd) = self.true_position(self.dofs[i].body);
+            let noise = self.settings.encoder_noise * self.rng.normal();
+            self.q[i] = q + noise;
+            self.qd[i] = qd;
+        }
+    }
+
+    /// Puts the robot at configuration `q` (all independent DOFs, zero velocity) and sets the motor
+    /// references there. Mimic joints follow. Use before the run starts.
+    pub fn set_configuration(&mut self, q: &[f64]) -> Result<(), SimError> {
+        if q.len() != self.dofs.len() {
+            return Err(SimError::Task(format!("configuration has {} values, the robot {} DOFs", q.len(), self.dofs.len())));
+        }
+        let mut targets: Vec<(RigidBodyHandle, f64)> = Vec::new();
+        for (i, d) in self.dofs.iter().enumerate() {
+            targets.push((d.body, q[i].clamp(d.lower, d.upper)));
+        }
+        for m in &self.mimics {
+            targets.push((m.body, m.multiplier * q[m.master].clamp(self.dofs[m.master].lower, self.dofs[m.master].upper) + m.offset));
+        }
+        let mbj = &mut self.world.multibody_joints;
+        let mut touched = Vec::new();
+        for (body, value) in targets {
+            if let Some(&id) = mbj.rigid_body_link(body)
+                && let Some(mb) = mbj.get_multibody_mut(id.multibody)
+            {
+                let nd = mb.ndofs();
+                let Some(link) = mb.link(id.id) else { continue };
+                let current = link.joint.coords()[3];
+                let a = link.assembly_id();
+                let mut disp = vec![0.0; nd];
+                disp[a] = value - current;
+                mb.apply_displacements(&disp);
+                mb.generalized_velocity_mut().fill(0.0);
+                if !touched.contains(&id.multibody) {
+                    touched.push(id.multibody);
+                }
+            }
+        }
+        for idx in touched {
+            if let Some(mb) = self.world.multibody_joints.get_multibody_mut(idx) {
+                mb.forward_kinematics(&self.world.bodies, true);
+                mb.update_rigid_bodies(&mut self.world.bodies, true);
+            }
+        }
+        for (i, &v) in q.iter().enumerate() {
+            self.q_ref[i] = v.clamp(self.dofs[i].lower, self.dofs[i].upper);
+            self.qd_ref[i] = 0.0;
+        }
+        self.apply_motor_targets();
+        self.read_encoders();
+        Ok(())
+    }
+
+    /// Advances the physics by one step.
+    pub fn step(&mut self) {
+        self.world.step();
+        self.time += self.settings.dt;
+        self.steps += 1;
+        self.read_encoders();
+    }
+
+    /// World pose of URDF link `link` (index into the model's links).
+    pub fn link_pose(&self, link: usize) -> Iso3 {
+        let (body, offset) = &self.link_body[link];
+        match self.world.bodies.get(*body) {
+            Some(b) => iso_from_glam(b.position()) * offset,
+            None => Iso3::identity(),
+        }
+    }
+
+    /// World pose of URDF link `name`.
+    pub fn link_pose_by_name(&self, name: &str) -> Result<Iso3, SimError> {
+        Ok(self.link_pose(self.model.link(name)?))
+    }
+
+    /// State of object `i`.
+    pub fn object_state(&self, i: usize) -> ObjectState {
+        let b = &self.world.bodies[self.objects[i].body];
+        ObjectState { pose: iso_from_glam(b.position()), linvel: vec_from_glam(b.linvel()) }
+    }
+
+    /// Angular velocity of object `i` (rad/s).
+    pub fn object_angvel(&self, i: usize) -> Vec3 {
+        vec_from_glam(self.world.bodies[self.objects[i].body].angvel())
+    }
+
+    /// Moves object `i` to `pose` at rest (tests, resets).
+    pub fn teleport_object(&mut self, i: usize, pose: &Iso3) {
+        if let Some(b) = self.world.bodies.get_mut(self.objects[i].body) {
+            b.set_position(iso_to_glam(pose), true);
+            b.set_linvel(DVec3::ZERO, true);
+            b.set_angvel(DVec3::ZERO, true);
+        }
+    }
+
+    /// Contact forces on the robot's sensing parts (the six fingers), written into `out` (left F1–F3,
+    /// right F1–F3). Each is a 6-axis force/torque sensor at the finger: force and torque about the
+    /// fingertip frame, from normal *and* friction impulses of the contacts the solver used.
+    pub fn fingertip_wrenches(&self, out: &mut [FingertipWrench; 6]) {
+        for (k, w) in out.iter_mut().enumerate() {
+            let arm = if k < 3 { Arm::Left } else { Arm::Right };
+            *w = FingertipWrench { arm, finger: (k % 3) as u8 + 1, force: [0.0; 3], torque: [0.0; 3], in_contact: false };
+        }
+        let tip_origin = |arm: Arm, finger: u8| -> Vec3 {
+            let name = format!("{}/bhand/finger_{}/tip_link", arm.prefix(), finger);
+            self.model.link(&name).map(|l| self.link_pose(l).translation.vector).unwrap_or_default()
+        };
+        let mut origins = [Vec3::zeros(); 6];
+        for (k, o) in origins.iter_mut().enumerate() {
+            *o = tip_origin(if k < 3 { Arm::Left } else { Arm::Right }, (k % 3) as u8 + 1);
+        }
+        self.for_each_contact_force(|part, _other, point, force| {
+            if let Part::Finger(arm, f) = part {
+                let k = if arm == Arm::Left { 0 } else { 3 } + (f as usize - 1);
+                let w = &mut out[k];
+                let torque = (point - origins[k]).cross(&force);
+                for a in 0..3 {
+                    w.force[a] += force[a];
+                    w.torque[a] += torque[a];
+                }
+                w.in_contact = true;
+            }
+        });
+    }
+
+    /// The net contact force and torque (about the object's centre of mass) that `arm`'s hand
+    /// applies to object `i`, and the number of the hand's parts (palm, fingers) touching it.
+    pub fn hand_wrench_on_object(&self, arm: Arm, i: usize) -> (Vec3, Vec3, usize) {
+        let obj_collider = self.objects[i].collider;
+        let com = vec_from_glam(self.world.bodies[self.objects[i].body].center_of_mass());
+        let mut f = Vec3::zeros();
+        let mut t = Vec3::zeros();
+        let mut parts = [false; 4];
+        self.for_each_contact_force(|part, other, point, force| {
+            if other != Some(obj_collider) {
+                return;
+            }
+            let slot = match part {
+                Part::Palm(a) if a == arm => 0,
+                Part::Finger(a, k) if a == arm => k as usize,
+                _ => return,
+            };
+            parts[slot] = true;
+            // `force` acts on the robot part; the object feels the opposite.
+            f -= force;
+            t -= (point - com).cross(&force);
+        });
+        (f, t, parts.iter().filter(|&&p| p).count())
+    }
+
+    /// Total contact force on object `i` from everything except `arm`'s hand (the table, a bin,
+    /// other objects): the support the Place controller waits for.
+    pub fn support_force_on_object(&self, i: usize) -> Vec3 {
+        let obj = self.objects[i].collider;
+        let mut f = Vec3::zeros();
+        for pair in self.world.narrow_phase.contact_pairs_with(obj) {
+            let other = if pair.collider1 == obj { pair.collider2 } else { pair.collider1 };
+            if self.collider_part.contains_key(&other) {
+                continue;
+            }
+            let force_on_1 = pair_force_on_collider1(pair, self.settings.dt, &self.world.bodies, |_p, fc| fc);
+            f += if pair.collider1 == obj { force_on_1 } else { -force_on_1 };
+        }
+        f
+    }
+
+    /// Calls `visit(part, other_collider, world_point, force_on_part)` for every active contact
+    /// point on a robot hand part.
+    fn for_each_contact_force(&self, mut visit: impl FnMut(Part, Option<ColliderHandle>, Vec3, Vec3)) {
+        let dt = self.settings.dt;
+        for pair in self.world.narrow_phase.contact_pairs() {
+            let p1 = self.collider_part.get(&pair.collider1).copied();
+            let p2 = self.collider_part.get(&pair.collider2).copied();
+            let (part, other, on_first) = match (p1, p2) {
+                (Some(p), None) if p != Part::Other => (p, pair.collider2, true),
+                (None, Some(p)) if p != Part::Other => (p, pair.collider1, false),
+                _ => continue,
+            };
+            for m in pair.solver_manifolds() {
+                let n = m.data.normal;
+                let d1 = -n;
+                let t1 = d1.any_orthonormal_vector();
+                let t2 = d1.cross(t1);
+                for c in m.data.solver_contacts.iter() {
+                    let idx = c.contact_indices()[0] as usize;
+                    let Some(pt) = m.points.get(idx) else { continue };
+                    let imp = pt.data.impulse * d1 + pt.data.tangent_impulse.x * t1 + pt.data.tangent_impulse.y * t2;
+                    let f1 = vec_from_glam(imp / dt);
+                    let (w1, w2) = m.data.solver_contact_world_points(c, &self.world.bodies);
+                    let point = vec_from_glam((w1 + w2) * 0.5);
+                    let force = if on_first { f1 } else { -f1 };
+                    visit(part, Some(other), point, force);
+                }
+            }
+        }
+    }
+
+    /// A snapshot of everything (allocates; for logs).
+    pub fn snapshot(&self, activity: &str) -> Snapshot {
+        let mut tips = [FingertipWrench {
+            arm: Arm::Left,
+            finger: 1,
+            force: [0.0; 3],
+            torque: [0.0; 3],
+            in_contact: false,
+        }; 6];
+        self.fingertip_wrenches(&mut tips);
+        Snapshot {
+            time: self.time,
+            q: self.q.clone(),
+            qd: self.qd.clone(),
+            q_ref: self.q_ref.clone(),
+            link_poses: (0..self.model.links.len()).map(|l| self.link_pose(l)).collect(),
+            objects: (0..self.objects.len()).map(|i| self.object_state(i)).collect(),
+            fingertips: tips.to_vec(),
+            activity: activity.to_string(),
+        }
+    }
+
+    /// The Rapier world (read-only), for rendering and queries.
+    pub fn world(&self) -> &PhysicsWorld {
+        &self.world
+    }
+
+    /// Number of rigid bodies and colliders (for reports).
+    pub fn counts(&self) -> (usize, usize) {
+        (self.world.bodies.len(), self.world.colliders.len())
+    }
+}
+
+/// The force (normal + friction) that `pair` applies to its `collider1`, summed over the solver's
+/// active contacts; `map(point, force)` may transform each contribution.
+fn pair_force_on_collider1(
+    pair: &ContactPair,
+    dt: f64,
+    _bodies: &RigidBodySet,
+    mut map: impl FnMut(DVec3, Vec3) -> Vec3,
+) -> Vec3 {
+    let mut total = Vec3::zeros();
+    for m in pair.solver_manifolds() {
+        let d1 = -m.data.normal;
+        let t1 = d1.any_orthonormal_vector();
+        let t2 = d1.cross(t1);
+        for c in m.data.solver_contacts.iter() {
+            let idx = c.contact_indices()[0] as usize;
+            let Some(pt) = m.points.get(idx) else { continue };
+            let imp = pt.data.impulse * d1 + pt.data.tangent_impulse.x * t1 + pt.data.tangent_impulse.y * t2;
+            total += map(DVec3::ZERO, vec_from_glam(imp / dt));
+        }
+    }
+    total
+}
+
+fn part_of(link: &str) -> Part {
+    let arm = if link.starts_with("left/") {
+        Arm::Left
+    } else if link.starts_with("right/") {
+        Arm::Right
+    } else {
+        return Part::Other;
+    };
+    if let Some(rest) = link.split("/bhand/").nth(1) {
+        for f in 1..=3u8 {
+            let prefix = format!("finger_{f}/");
+            if rest.starts_with(&prefix) {
+                return if rest.contains("prox") { Part::Other } else { Part::Finger(arm, f) };
+            }
+        }
+        return Part::Palm(arm);
+    }
+    Part::Other
+}
+
+/// Links in an order where each parent comes before its children.
+fn topological_links(model: &RobotModel) -> Vec<usize> {
+    let mut order = vec![model.root];
+    let mut i = 0;
+    while i < order.len() {
+        let l = order[i];
+        for j in &model.joints {
+            if j.parent == l {
+                order.push(j.child);
+            }
+        }
+        i += 1;
+    }
+    order
+}
