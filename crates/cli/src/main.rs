@@ -15,8 +15,13 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+#[allow(dead_code)]
+mod mcap_log;
 mod output;
+#[allow(dead_code)]
+mod progress;
 mod robot;
+mod sim;
 
 /// Robot programming by demonstration (teleological PbD, Sweeney 2011).
 #[derive(Debug, Parser)]
@@ -31,6 +36,9 @@ enum Command {
     /// Inspect a robot model (URDF) and evaluate its kinematics.
     #[command(subcommand)]
     Robot(robot::RobotCommand),
+    /// Run Dexter in simulation (Rapier physics, control-basis controllers).
+    #[command(subcommand)]
+    Sim(sim::SimCommand),
 }
 
 fn main() -> ExitCode {
@@ -46,6 +54,7 @@ fn main() -> ExitCode {
     let mut out = stdout.lock();
     let result = match cli.command {
         Command::Robot(cmd) => robot::main(cmd, &mut out),
+        Command::Sim(cmd) => sim::main(cmd, &mut out),
     };
     let result = result.and_then(|()| out.flush().map_err(anyhow::Error::from));
     match result {

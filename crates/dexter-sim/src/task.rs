@@ -185,6 +185,7 @@ pub fn park_robot(sim: &mut DexterSim, table_z: f64) -> Result<(), SimError> {
 fn run_until(
     sim: &mut DexterSim,
     reach: &mut ReachControl,
+    obs: &mut Observer<'_>,
     seconds: f64,
     mut until: impl FnMut(&mut DexterSim, &mut ReachControl) -> bool,
 ) -> bool {
@@ -196,6 +197,7 @@ fn run_until(
         for _ in 0..per {
             sim.step();
         }
+        (obs.callback)(sim, obs.activity);
         if until(sim, reach) {
             return true;
         }
@@ -203,14 +205,40 @@ fn run_until(
     false
 }
 
+/// Receives the simulator after every control tick with a description of the current activity
+/// (for logs, progress and visualisation).
+pub struct Observer<'a> {
+    callback: &'a mut dyn FnMut(&DexterSim, &str),
+    activity: &'static str,
+}
+
+impl std::fmt::Debug for Observer<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Observer").field("activity", &self.activity).finish()
+    }
+}
+
+impl<'a> Observer<'a> {
+    /// An observer calling `callback(sim, activity)` after every control tick.
+    pub fn new(callback: &'a mut dyn FnMut(&DexterSim, &str)) -> Self {
+        Observer { callback, activity: "" }
+    }
+}
+
 /// One pick-and-place in a fresh simulation of `scene`.
 pub fn pick_and_place(scene: &Scene, request: &PickPlaceRequest, settings: SimSettings) -> Result<PickPlaceReport, SimError> {
     let mut sim = DexterSim::new(scene, settings)?;
-    pick_and_place_in(&mut sim, scene, request)
+    let mut nothing = |_: &DexterSim, _: &str| {};
+    pick_and_place_in(&mut sim, scene, request, &mut Observer::new(&mut nothing))
 }
 
-/// One pick-and-place in an existing simulation.
-pub fn pick_and_place_in(sim: &mut DexterSim, scene: &Scene, request: &PickPlaceRequest) -> Result<PickPlaceReport, SimError> {
+/// One pick-and-place in an existing simulation, reporting every control tick to `obs`.
+pub fn pick_and_place_in(
+    sim: &mut DexterSim,
+    scene: &Scene,
+    request: &PickPlaceRequest,
+    obs: &mut Observer<'_>,
+) -> Result<PickPlaceReport, SimError> {
     let wall = Instant::now();
     let t0 = sim.time();
     let s0 = sim.steps();
@@ -259,29 +287,32 @@ pub fn pick_and_place_in(sim: &mut DexterSim, scene: &Scene, request: &PickPlace
     let mut pre = plan.grasp;
     pre.translation.vector.z += 0.10;
     phases.push(("reach pre-grasp".into(), sim.time() - t0));
+    obs.activity = "reach pre-grasp";
     hand.set(sim, plan.preshape, 0.0);
     reach.set_goal(sim, pre);
     reach.max_speed = 0.35;
-    if !run_until(sim, &mut reach, 6.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
+    if !run_until(sim, &mut reach, obs, 6.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
         let (d, _) = reach.goal_error(sim);
         return Ok(report(sim, false, false, format!("pre-grasp not reached ({:.1} cm away)", d * 100.0), phases));
     }
     // 2. Descend.
     phases.push(("reach grasp".into(), sim.time() - t0));
+    obs.activity = "reach grasp";
     reach.max_speed = 0.12;
     reach.set_goal(sim, plan.grasp);
-    if !run_until(sim, &mut reach, 4.0, |s, r| r.at_goal(s, 0.004, 0.03)) {
+    if !run_until(sim, &mut reach, obs, 4.0, |s, r| r.at_goal(s, 0.004, 0.03)) {
         let (d, _) = reach.goal_error(sim);
         return Ok(report(sim, false, false, format!("grasp pose not reached ({:.1} cm away)", d * 100.0), phases));
     }
     // 3. Grasp: close until the fingers on both sides touch and the hand is still.
     phases.push(("grasp".into(), sim.time() - t0));
+    obs.activity = "grasp";
     if std::env::var_os("PBD_DEBUG").is_some() {
         eprintln!("plan {:?} width {:.3} preshape {:.2}; tool {:?}; object {:?}", plan.grasp.translation.vector, plan.width, plan.preshape, reach.tool_pose(sim).translation.vector, sim.object_state(obj).pose.translation.vector);
     }
     hand.set(sim, FLEX_CLOSED, 0.0);
     let mut still = 0;
-    let grasped = run_until(sim, &mut reach, 3.0, |s, _| {
+    let grasped = run_until(sim, &mut reach, obs, 3.0, |s, _| {
         let (_, _, parts) = s.hand_wrench_on_object(arm, obj);
         let mut tips = [crate::snapshot::FingertipWrench { arm, finger: 0, force: [0.0; 3], torque: [0.0; 3], in_contact: false }; 6];
         s.fingertip_wrenches(&mut tips);
@@ -311,13 +342,14 @@ pub fn pick_and_place_in(sim: &mut DexterSim, scene: &Scene, request: &PickPlace
     }
     // 4. Lift 10 cm.
     phases.push(("lift".into(), sim.time() - t0));
+    obs.activity = "lift";
     let z_before = sim.object_state(obj).pose.translation.z;
     let mut lift = plan.grasp;
     lift.translation.vector.z += 0.10;
     reach.max_speed = 0.10;
     reach.set_goal(sim, lift);
-    run_until(sim, &mut reach, 3.0, |s, r| r.at_goal(s, 0.005, 0.03));
-    run_until(sim, &mut reach, 0.3, |_, _| false);
+    run_until(sim, &mut reach, obs, 3.0, |s, r| r.at_goal(s, 0.005, 0.03));
+    run_until(sim, &mut reach, obs, 0.3, |_, _| false);
     let rose = sim.object_state(obj).pose.translation.z - z_before;
     let (_, _, parts) = sim.hand_wrench_on_object(arm, obj);
     let lifted = rose > 0.08 && parts >= 2;
@@ -326,6 +358,7 @@ pub fn pick_and_place_in(sim: &mut DexterSim, scene: &Scene, request: &PickPlace
     }
     // 5. Transport: up to a safe height, over the place.
     phases.push(("transport".into(), sim.time() - t0));
+    obs.activity = "transport";
     let palm_to_object = reach.tool_pose(sim).inverse() * sim.object_state(obj).pose;
     let object_bottom_below_palm = {
         let op = sim.object_state(obj).pose;
@@ -337,19 +370,20 @@ pub fn pick_and_place_in(sim: &mut DexterSim, scene: &Scene, request: &PickPlace
     up.translation.vector.z = up.translation.vector.z.max(safe_z);
     reach.max_speed = 0.25;
     reach.set_goal(sim, up);
-    run_until(sim, &mut reach, 3.0, |s, r| r.at_goal(s, 0.01, 0.05));
+    run_until(sim, &mut reach, obs, 3.0, |s, r| r.at_goal(s, 0.01, 0.05));
     // Over the place: object centre above the place centre.
     let mut over = up;
     let obj_offset = (up.rotation * palm_to_object.translation.vector).xy();
     over.translation.vector.x = place.center[0] - obj_offset.x;
     over.translation.vector.y = place.center[1] - obj_offset.y;
     reach.set_goal(sim, over);
-    if !run_until(sim, &mut reach, 6.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
+    if !run_until(sim, &mut reach, obs, 6.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
         let (d, _) = reach.goal_error(sim);
         return Ok(report(sim, false, true, format!("place not reached ({:.1} cm away)", d * 100.0), phases));
     }
     // 6. Place: lower until the support force reference is met (the bin carries half the weight).
     phases.push(("place".into(), sim.time() - t0));
+    obs.activity = "place";
     let mass = sim.objects()[obj].mass;
     let weight = mass * sim.settings().gravity;
     let mut down = over;
@@ -357,7 +391,7 @@ pub fn pick_and_place_in(sim: &mut DexterSim, scene: &Scene, request: &PickPlace
     reach.max_speed = 0.06;
     reach.set_goal(sim, down);
     let mut supported = 0;
-    let touched = run_until(sim, &mut reach, 5.0, |s, _| {
+    let touched = run_until(sim, &mut reach, obs, 5.0, |s, _| {
         let f = s.support_force_on_object(obj);
         if f.z > 0.5 * weight {
             supported += 1;
@@ -367,22 +401,27 @@ pub fn pick_and_place_in(sim: &mut DexterSim, scene: &Scene, request: &PickPlace
         supported >= 4
     });
     if !touched {
-        return Ok(report(sim, false, true, "place: no support felt".into(), phases));
+        // The hand reached its lowest target without the support reference being met (the object
+        // rests on a wall or another object, or is still held by friction): release anyway and let
+        // the final state decide.
+        obs.activity = "place (no support felt)";
     }
     // Hold position where it is, open the hand.
     let here = reach.tool_pose(sim);
     reach.set_goal(sim, here);
     phases.push(("release".into(), sim.time() - t0));
+    obs.activity = "release";
     hand.set(sim, 0.3, 0.0);
-    run_until(sim, &mut reach, 0.8, |_, _| false);
+    run_until(sim, &mut reach, obs, 0.8, |_, _| false);
     // 7. Retreat.
     phases.push(("retreat".into(), sim.time() - t0));
+    obs.activity = "retreat";
     let mut away = here;
     away.translation.vector.z += 0.12;
     reach.max_speed = 0.2;
     reach.set_goal(sim, away);
-    run_until(sim, &mut reach, 2.0, |s, r| r.at_goal(s, 0.01, 0.05));
-    run_until(sim, &mut reach, 1.0, |s, _| s.object_state(obj).linvel.norm() < 0.005);
+    run_until(sim, &mut reach, obs, 2.0, |s, r| r.at_goal(s, 0.01, 0.05));
+    run_until(sim, &mut reach, obs, 1.0, |s, _| s.object_state(obj).linvel.norm() < 0.005);
     let state = sim.object_state(obj);
     let p = state.pose.translation.vector;
     let inside = (p.x - place.center[0]).abs() <= place.size[0] / 2.0
