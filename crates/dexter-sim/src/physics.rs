@@ -355,7 +355,7 @@ impl DexterSim {
             let body = builder
                 .pose(iso_to_glam(&world_pose[l]))
                 .gravity_scale(0.0) // ideal gravity compensation of the robot's own links
-                .can_sleep(false)
+                .can_sleep(self.settings.allow_sleep)
                 .additional_mass_properties(mprops)
                 .user_data(l as u128)
                 .build();
@@ -707,6 +707,12 @@ impl DexterSim {
     pub fn set_joint_target(&mut self, i: usize, q: f64, qd: f64) {
         let d = &self.dofs[i];
         let q = if q.is_finite() { q.clamp(d.lower, d.upper) } else { self.q_ref[i] };
+        if q != self.q_ref[i] || qd != self.qd_ref[i] {
+            // A sleeping multibody ignores motor changes until woken.
+            let body = d.body;
+            self.world.wake_up(body, true);
+        }
+        let d = &self.dofs[i];
         self.q_ref[i] = q;
         self.qd_ref[i] = if qd.is_finite() { qd.clamp(-d.velocity_limit, d.velocity_limit) } else { 0.0 };
         self.apply_motor_target(i);
@@ -797,6 +803,7 @@ impl DexterSim {
             self.qd_ref[i] = 0.0;
         }
         self.apply_motor_targets();
+        self.world.wake_up_all(true);
         self.read_encoders();
         Ok(())
     }

@@ -1,0 +1,56 @@
+//! Physics steps per second of the full Dexter scene (two arms, two hands, head, table, two bins,
+//! six objects), and a whole control period (one control-basis Reach tick + 5 physics steps).
+use criterion::{Criterion, criterion_group, criterion_main};
+use dexter_sim::Arm;
+use dexter_sim::control::ReachControl;
+use dexter_sim::physics::{DexterSim, SimSettings};
+use dexter_sim::scene::Scene;
+use dexter_sim::task::park_robot;
+use std::hint::black_box;
+
+fn scene() -> Scene {
+    let s = Scene::builtin("sorting").expect("sorting scene");
+    assert!(s.resolved.len() >= 5, "sorting scene has {} objects", s.resolved.len());
+    s
+}
+
+fn sim(settings: SimSettings) -> DexterSim {
+    let scene = scene();
+    let mut sim = DexterSim::new(&scene, settings).expect("sim");
+    park_robot(&mut sim, scene.spec.table.height).expect("park");
+    for _ in 0..300 {
+        sim.step();
+    }
+    sim
+}
+
+fn bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("dexter_sim");
+    for (name, settings) in [
+        ("step_full_scene_awake_objects", SimSettings { allow_sleep: false, ..SimSettings::default() }),
+        ("step_full_scene_default", SimSettings::default()),
+    ] {
+        let mut s = sim(settings);
+        g.bench_function(name, |b| b.iter(|| black_box(&mut s).step()));
+    }
+    let mut s = sim(SimSettings::default());
+    let mut reach = ReachControl::new(&s, Arm::Left).expect("reach");
+    let goal = reach.tool_pose(&s);
+    reach.set_goal(&s, goal);
+    g.bench_function("control_period_reach_tick_plus_5_steps", |b| {
+        b.iter(|| {
+            reach.tick(&mut s, 0.005);
+            for _ in 0..5 {
+                s.step();
+            }
+        })
+    });
+    g.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(20).measurement_time(std::time::Duration::from_secs(4));
+    targets = bench
+}
+criterion_main!(benches);
