@@ -1,0 +1,627 @@
+use super::*;
+use control_basis::math::{Iso3, Vec3};
+use dexter_sim::Arm;
+use dexter_sim::scene::{Catalog, ResolvedObject, SceneSpec};
+use dexter_sim::snapshot::{FingertipWrench, ObjectState};
+use serde_json::Value;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// A file in the temp directory, removed on drop.
+struct TempFile(PathBuf);
+
+impl TempFile {
+    fn new(tag: &str) -> Self {
+        static NEXT: AtomicUsize = AtomicUsize::new(0);
+        let n = NEXT.fetch_add(1, Ordering::Relaxed);
+        Self(std::env::temp_dir().join(format!("pbd-mcap-log-{}-{n}-{tag}.mcap", std::process::id())))
+    }
+}
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+fn iso(xyz: [f64; 3], rpy: [f64; 3]) -> Iso3 {
+    control_basis::math::iso_from_xyz_rpy(xyz, rpy)
+}
+
+/// `world` (root) → `base` → `arm`, two joints, one object.
+fn header() -> SnapshotHeader {
+    SnapshotHeader {
+        joint_names: vec!["j1".into(), "j2".into()],
+        link_names: vec!["world".into(), "base".into(), "arm".into()],
+        link_parents: vec![None, Some("world".into()), Some("base".into())],
+        object_names: vec!["jif".into()],
+    }
+}
+
+fn snapshot(time: f64, activity: &str) -> Snapshot {
+    let base = iso([0.0, 0.0, 0.5], [0.0, 0.0, 0.3]);
+    let base_from_arm = iso([0.1, 0.2, 0.3], [0.1, -0.2, 0.4 + time]);
+    let fingertips = Arm::BOTH
+        .iter()
+        .flat_map(|&arm| {
+            (1..=3).map(move |finger| FingertipWrench {
+                arm,
+                finger,
+                force: [0.1, 0.2, f64::from(finger)],
+                torque: [0.0, 0.0, 0.01],
+                in_contact: finger == 2,
+            })
+        })
+        .collect();
+    Snapshot {
+        time,
+        q: vec![0.1 * time, -0.2],
+        qd: vec![0.1, 0.0],
+        q_ref: vec![0.1 * time + 0.01, -0.2],
+        link_poses: vec![Iso3::identity(), base, base * base_from_arm],
+        objects: vec![ObjectState {
+            pose: iso([0.6, 0.1, 0.8], [0.0, 0.0, 1.0]),
+            linvel: Vec3::zeros(),
+        }],
+        fingertips,
+        activity: activity.into(),
+    }
+}
+
+fn scene() -> Scene {
+    // Built from JSON so that fields added to the specs later take their defaults here too.
+    fn spec<T: serde::de::DeserializeOwned>(v: Value) -> T {
+        serde_json::from_value(v).unwrap()
+    }
+    let catalog: Catalog = spec(serde_json::json!({
+        "version": 1,
+        "objects": [{
+            "name": "jif",
+            "shape": { "kind": "cylinder", "radius": 0.04, "height": 0.12 },
+            "mass": 0.4,
+            "colors": [{ "hsv": [0.0, 0.9, 0.8], "fraction": 0.3 }, { "hsv": [210.0, 0.8, 0.7], "fraction": 0.7 }],
+            "color_class": "blue",
+            "size_class": "medium"
+        }]
+    }));
+    let scene_spec: SceneSpec = spec(serde_json::json!({
+        "version": 1,
+        "name": "test",
+        "catalog": "builtin:household",
+        "table": { "height": 0.75, "center": [0.6, 0.0], "size": [0.8, 1.2] },
+        "places": [
+            { "name": "bin-a", "center": [0.6, 0.4], "size": [0.2, 0.2], "wall_height": 0.05 },
+            { "name": "mark", "center": [0.6, -0.4], "size": [0.1, 0.1], "hsv": [60.0, 1.0, 1.0] }
+        ]
+    }));
+    Scene {
+        spec: scene_spec,
+        catalog,
+        path: PathBuf::new(),
+        resolved: vec![ResolvedObject {
+            presentation: "jif".into(),
+            label: "jif".into(),
+            object: 0,
+            pose: iso([0.6, 0.1, 0.81], [0.0, 0.0, 0.0]),
+        }],
+    }
+}
+
+/// All messages of `bytes` (a complete file), by topic.
+fn messages_by_topic(bytes: &[u8]) -> BTreeMap<String, Vec<(u64, Value)>> {
+    let mut out: BTreeMap<String, Vec<(u64, Value)>> = BTreeMap::new();
+    for m in mcap::MessageStream::new(bytes).unwrap() {
+        let m = m.unwrap();
+        let json: Value = serde_json::from_slice(&m.data).unwrap();
+        out.entry(m.channel.topic.clone()).or_default().push((m.log_time, json));
+    }
+    out
+}
+
+fn keys(v: &Value) -> Vec<&str> {
+    let mut k: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
+    k.sort_unstable();
+    k
+}
+
+#[test]
+fn a_small_log_reads_back_with_its_channels_schemas_and_messages() {
+    let tmp = TempFile::new("small");
+    let header = header();
+    let mut log = McapLog::create(&tmp.0).unwrap();
+    log.attach("dexter.urdf", "application/xml", b"<robot name=\"dexter\"/>")
+        .unwrap();
+    log.metadata("run", BTreeMap::from([("scene".to_owned(), "test".to_owned())]))
+        .unwrap();
+    log.log_scene(&scene(), &header, 0.0).unwrap();
+    for i in 0..10 {
+        let activity = if i < 4 { "" } else { "reach left → jif" };
+        log.log_snapshot(&header, &snapshot(0.05 * f64::from(i), activity))
+            .unwrap();
+    }
+    log.log_text(0.2, LogLevel::Warning, "grasp slipped").unwrap();
+    let rgb: Vec<u8> = (0..4 * 3 * 3).map(|i| i as u8).collect();
+    log.log_image(0.25, "head_left", 4, 3, &rgb).unwrap();
+    let stats = log.finish().unwrap();
+    assert_eq!(stats.messages, 10 * 3 + 2 + 1 + 1 + 1);
+
+    let bytes = std::fs::read(&tmp.0).unwrap();
+    assert_eq!(stats.bytes, bytes.len() as u64);
+    let summary = mcap::Summary::read(&bytes)
+        .unwrap()
+        .expect("a finished file has a summary");
+    let mut found: Vec<(String, String, String, String)> = summary
+        .channels
+        .values()
+        .map(|c| {
+            let s = c.schema.as_ref().unwrap();
+            (
+                c.topic.clone(),
+                s.name.clone(),
+                s.encoding.clone(),
+                c.message_encoding.clone(),
+            )
+        })
+        .collect();
+    found.sort();
+    let expected = [
+        ("/activity", "pbd.Activity"),
+        ("/camera/head_left/image", "foxglove.RawImage"),
+        ("/fingertips", "pbd.FingertipWrenches"),
+        ("/joint_states", "pbd.JointState"),
+        ("/log", "foxglove.Log"),
+        ("/scene", "foxglove.SceneUpdate"),
+        ("/tf", "foxglove.FrameTransforms"),
+    ]
+    .map(|(t, s)| (t.to_owned(), s.to_owned(), "jsonschema".to_owned(), "json".to_owned()));
+    assert_eq!(found, expected);
+    for schema in summary.schemas.values() {
+        let v: Value = serde_json::from_slice(&schema.data).unwrap();
+        assert_eq!(v["title"], schema.name.as_str());
+    }
+
+    let by_topic = messages_by_topic(&bytes);
+    let count = |t: &str| by_topic.get(t).map_or(0, Vec::len);
+    assert_eq!(count(TOPIC_TF), 10);
+    assert_eq!(count(TOPIC_JOINT_STATES), 10);
+    assert_eq!(count(TOPIC_FINGERTIPS), 10);
+    assert_eq!(count(TOPIC_ACTIVITY), 2, "activity is written when it changes");
+    assert_eq!(count(TOPIC_SCENE), 1);
+    assert_eq!(count(TOPIC_LOG), 1);
+
+    // Joint states: log time is sim time in ns, timestamp {sec, nsec}, parallel arrays.
+    let (t, js) = &by_topic[TOPIC_JOINT_STATES][3];
+    assert_eq!(*t, 150_000_000);
+    assert_eq!(js["timestamp"], serde_json::json!({ "sec": 0, "nsec": 150_000_000 }));
+    assert_eq!(js["name"], serde_json::json!(["j1", "j2"]));
+    assert!((js["position"][0].as_f64().unwrap() - 0.015).abs() < 1e-12);
+    assert_eq!(js["velocity"].as_array().unwrap().len(), 2);
+    assert_eq!(js["position_ref"].as_array().unwrap().len(), 2);
+
+    // Transforms: the root `world` is not published; `arm` is relative to `base`.
+    let (_, tf) = &by_topic[TOPIC_TF][2];
+    let transforms = tf["transforms"].as_array().unwrap();
+    let pairs: Vec<(&str, &str)> = transforms
+        .iter()
+        .map(|t| {
+            (
+                t["parent_frame_id"].as_str().unwrap(),
+                t["child_frame_id"].as_str().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(pairs, [("world", "base"), ("base", "arm"), ("world", "object/jif")]);
+    let expected_base_from_arm = iso([0.1, 0.2, 0.3], [0.1, -0.2, 0.4 + 0.1]);
+    let tr = &transforms[1]["translation"];
+    let q = &transforms[1]["rotation"];
+    let got = Iso3::from_parts(
+        nalgebra::Translation3::new(
+            tr["x"].as_f64().unwrap(),
+            tr["y"].as_f64().unwrap(),
+            tr["z"].as_f64().unwrap(),
+        ),
+        nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+            q["w"].as_f64().unwrap(),
+            q["x"].as_f64().unwrap(),
+            q["y"].as_f64().unwrap(),
+            q["z"].as_f64().unwrap(),
+        )),
+    );
+    let err = got.inv_mul(&expected_base_from_arm);
+    // Rounded to 6 decimals.
+    assert!(err.translation.vector.norm() < 1e-6 && err.rotation.angle() < 1e-5);
+
+    // Fingertips and activity.
+    let (_, ft) = &by_topic[TOPIC_FINGERTIPS][0];
+    let tips = ft["fingertips"].as_array().unwrap();
+    assert_eq!(tips.len(), 6);
+    assert_eq!(keys(&tips[4]), ["arm", "finger", "force", "in_contact", "torque"]);
+    assert_eq!(
+        (tips[4]["arm"].as_str(), tips[4]["finger"].as_u64()),
+        (Some("right"), Some(2))
+    );
+    assert_eq!(tips[4]["force"]["z"], 2.0);
+    assert_eq!(by_topic[TOPIC_ACTIVITY][1].1["text"], "reach left → jif");
+    assert_eq!(by_topic[TOPIC_ACTIVITY][1].0, 200_000_000);
+
+    // Log and image.
+    let (_, log_msg) = &by_topic[TOPIC_LOG][0];
+    assert_eq!(keys(log_msg), ["file", "level", "line", "message", "name", "timestamp"]);
+    assert_eq!(log_msg["level"], 3);
+    let (_, image) = &by_topic["/camera/head_left/image"][0];
+    assert_eq!(
+        keys(image),
+        ["data", "encoding", "frame_id", "height", "step", "timestamp", "width"]
+    );
+    assert_eq!(
+        (image["encoding"].as_str(), image["step"].as_u64()),
+        (Some("rgb8"), Some(12))
+    );
+    let data = base64::engine::general_purpose::STANDARD
+        .decode(image["data"].as_str().unwrap())
+        .unwrap();
+    assert_eq!(data, rgb);
+
+    // Attachments and metadata.
+    let attachment = summary
+        .attachment_indexes
+        .first()
+        .map(|ix| mcap::read::attachment(&bytes, ix).unwrap());
+    let attachment = attachment.expect("one attachment");
+    assert_eq!(
+        (attachment.name.as_str(), attachment.media_type.as_str()),
+        ("dexter.urdf", "application/xml")
+    );
+    assert_eq!(&*attachment.data, b"<robot name=\"dexter\"/>");
+    assert_eq!(summary.metadata_indexes.len(), 1);
+
+    // The reader helper agrees.
+    let s = read_summary(&tmp.0).unwrap();
+    assert_eq!(s.status, FileStatus::Complete);
+    assert!(s.issues.is_empty(), "{:?}", s.issues);
+    assert_eq!(s.message_count, stats.messages);
+    assert_eq!(s.count(TOPIC_TF), 10);
+    assert_eq!(s.channel(TOPIC_TF).unwrap().schema_name, "foxglove.FrameTransforms");
+    assert_eq!(s.time_range_ns, Some((0, 450_000_000)));
+    assert_eq!(s.attachments, ["dexter.urdf"]);
+    assert_eq!(s.metadata, ["run"]);
+    assert_eq!(s.file_bytes, stats.bytes);
+}
+
+#[test]
+fn frame_transforms_json_has_the_foxglove_field_names() {
+    let header = header();
+    let tree = FrameTree::new(&header);
+    let snap = snapshot(1.5, "");
+    let msg = messages::FrameTransforms {
+        timestamp: Time::from_ns(time_ns(snap.time)),
+        tree: &tree,
+        link_poses: &snap.link_poses,
+        objects: &snap.objects,
+    };
+    let v: Value = serde_json::to_value(&msg).unwrap();
+    assert_eq!(keys(&v), ["transforms"]);
+    for t in v["transforms"].as_array().unwrap() {
+        assert_eq!(
+            keys(t),
+            [
+                "child_frame_id",
+                "parent_frame_id",
+                "rotation",
+                "timestamp",
+                "translation"
+            ]
+        );
+        assert_eq!(keys(&t["timestamp"]), ["nsec", "sec"]);
+        assert_eq!(t["timestamp"], serde_json::json!({ "sec": 1, "nsec": 500_000_000 }));
+        assert_eq!(keys(&t["translation"]), ["x", "y", "z"]);
+        assert_eq!(keys(&t["rotation"]), ["w", "x", "y", "z"]);
+    }
+    // The schema requires exactly what is written.
+    let schema = schemas::frame_transforms();
+    let item = &schema["properties"]["transforms"]["items"];
+    assert_eq!(item["title"], "foxglove.FrameTransform");
+    assert_eq!(
+        item["required"],
+        serde_json::json!([
+            "timestamp",
+            "parent_frame_id",
+            "child_frame_id",
+            "translation",
+            "rotation"
+        ])
+    );
+    assert_eq!(item["properties"]["timestamp"]["title"], "time");
+}
+
+#[test]
+fn scene_entities_have_every_required_field_and_one_primitive_per_colour_band() {
+    let header = header();
+    let update = scene::scene_update(&scene(), &header, Time::from_ns(0)).unwrap();
+    let v = serde_json::to_value(&update).unwrap();
+    assert_eq!(keys(&v), ["deletions", "entities"]);
+    assert_eq!(v["deletions"][0]["type"], 1);
+    let schema = schemas::scene_update();
+    let required: Vec<&str> = schema["properties"]["entities"]["items"]["required"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s.as_str().unwrap())
+        .collect();
+    let entities = v["entities"].as_array().unwrap();
+    let ids: Vec<&str> = entities.iter().map(|e| e["id"].as_str().unwrap()).collect();
+    assert_eq!(ids, ["table", "place/bin-a", "place/mark", "object/jif"]);
+    for e in entities {
+        let mut want = required.clone();
+        want.sort_unstable();
+        assert_eq!(keys(e), want);
+    }
+    assert_eq!(entities[0]["cubes"].as_array().unwrap().len(), 5, "top and four legs");
+    assert_eq!(
+        entities[1]["cubes"].as_array().unwrap().len(),
+        5,
+        "floor and four walls"
+    );
+    assert_eq!(entities[2]["cubes"].as_array().unwrap().len(), 1, "a flat region");
+    let jif = &entities[3];
+    assert_eq!(
+        (jif["frame_id"].as_str(), jif["frame_locked"].as_bool()),
+        (Some("object/jif"), Some(true))
+    );
+    let bands = jif["cylinders"].as_array().unwrap();
+    assert_eq!(bands.len(), 2);
+    // Bottom band: 30 % of 0.12 m, red.
+    assert!((bands[0]["size"]["z"].as_f64().unwrap() - 0.036).abs() < 1e-12);
+    assert!((bands[0]["pose"]["position"]["z"].as_f64().unwrap() - (-0.06 + 0.018)).abs() < 1e-12);
+    assert!(bands[0]["color"]["r"].as_f64().unwrap() > 0.7 && bands[0]["color"]["b"].as_f64().unwrap() < 0.1);
+    assert_eq!(bands[0]["size"]["x"], 0.08);
+
+    let mut wrong = header.clone();
+    wrong.object_names.push("extra".into());
+    assert!(scene::scene_update(&scene(), &wrong, Time::from_ns(0)).is_err());
+}
+
+#[test]
+fn inconsistent_input_is_an_error_not_a_panic() {
+    let tmp = TempFile::new("bad-input");
+    let header = header();
+    let mut log = McapLog::create(&tmp.0).unwrap();
+    let mut snap = snapshot(0.0, "");
+    snap.link_poses.pop();
+    let err = log.log_snapshot(&header, &snap).unwrap_err();
+    assert!(format!("{err:#}").contains("link poses"), "{err:#}");
+    let err = log.log_image(0.0, "cam", 4, 3, &[0; 35]).unwrap_err();
+    assert!(format!("{err:#}").contains("36 bytes"), "{err:#}");
+    let err = log
+        .log_scene(
+            &scene(),
+            &SnapshotHeader {
+                object_names: vec![],
+                ..header
+            },
+            0.0,
+        )
+        .unwrap_err();
+    assert!(format!("{err:#}").contains("objects"), "{err:#}");
+    assert_eq!(log.finish().unwrap().messages, 0);
+}
+
+/// Writes `n` snapshots of a 60-link robot; returns the messages written.
+fn write_snapshots(log: &mut McapLog, n: usize) -> u64 {
+    let (header, snaps) = big_robot(16);
+    for i in 0..n {
+        let mut snap = snaps[i % snaps.len()].clone();
+        snap.time = i as f64 / 100.0;
+        log.log_snapshot(&header, &snap).unwrap();
+    }
+    // tf, joint states and fingertips per snapshot, plus one activity.
+    3 * n as u64 + 1
+}
+
+/// A chain-and-branches robot with 60 links, 30 joints and 5 objects, and `variants` snapshots
+/// of it in different poses (so that compression sees realistic, changing numbers).
+fn big_robot(variants: usize) -> (SnapshotHeader, Vec<Snapshot>) {
+    let links = 60;
+    let link_names: Vec<String> = std::iter::once("world".to_owned())
+        .chain((1..links).map(|i| format!("link_{i:02}")))
+        .collect();
+    let link_parents: Vec<Option<String>> = (0..links)
+        .map(|i| {
+            if i == 0 {
+                None
+            } else {
+                Some(link_names[(i - 1) / 2].clone())
+            }
+        })
+        .collect();
+    let header = SnapshotHeader {
+        joint_names: (0..30).map(|i| format!("joint_{i:02}")).collect(),
+        link_names,
+        link_parents,
+        object_names: (0..5).map(|i| format!("object-{i}")).collect(),
+    };
+    let snaps = (0..variants)
+        .map(|k| {
+            let s = k as f64 * 0.037;
+            let mut snap = snapshot(0.0, "reach left → object-0");
+            snap.q = (0..30).map(|j| (s + j as f64).sin()).collect();
+            snap.qd = (0..30).map(|j| (s + j as f64).cos()).collect();
+            snap.q_ref = snap.q.iter().map(|q| q + 0.001).collect();
+            snap.link_poses = (0..links)
+                .map(|i| iso([0.01 * i as f64 + s, 0.2 * s.sin(), 0.5], [s, 0.1 * i as f64, -s]))
+                .collect();
+            snap.objects = (0..5)
+                .map(|i| ObjectState {
+                    pose: iso([0.5, 0.1 * i as f64, 0.8 + s], [0.0, 0.0, s]),
+                    linvel: Vec3::zeros(),
+                })
+                .collect();
+            snap
+        })
+        .collect();
+    (header, snaps)
+}
+
+#[test]
+fn a_file_cut_at_60_percent_recovers_the_messages_of_its_complete_chunks() {
+    let tmp = TempFile::new("full");
+    let options = McapLogOptions {
+        chunk_bytes: 32 << 10,
+        ..McapLogOptions::default()
+    };
+    let mut log = McapLog::create_with(&tmp.0, options).unwrap();
+    let written = write_snapshots(&mut log, 240);
+    let stats = log.finish().unwrap();
+    assert_eq!(stats.messages, written);
+    assert!(stats.chunks >= 10, "{} chunks", stats.chunks);
+
+    let bytes = std::fs::read(&tmp.0).unwrap();
+    let cut = TempFile::new("cut");
+    std::fs::write(&cut.0, &bytes[..bytes.len() * 6 / 10]).unwrap();
+
+    // mcap's own streaming reader yields the complete chunks' messages, then an error.
+    let cut_bytes = std::fs::read(&cut.0).unwrap();
+    let mut streamed = 0_u64;
+    let mut stream_error = None;
+    for m in mcap::MessageStream::new(&cut_bytes).unwrap() {
+        match m {
+            Ok(m) => {
+                serde_json::from_slice::<Value>(&m.data).expect("every recovered message is whole JSON");
+                streamed += 1;
+            }
+            Err(e) => {
+                stream_error = Some(e);
+                break;
+            }
+        }
+    }
+    assert!(stream_error.is_some(), "a cut file must end in an error");
+
+    let s = read_summary(&cut.0).unwrap();
+    let FileStatus::Recovered { messages, reason } = &s.status else {
+        panic!("not recovered: {s:?}")
+    };
+    assert_eq!(*messages, s.message_count);
+    assert!(!reason.is_empty());
+    // 60 % of the file is a bit more of the data section (the summary repeats the ~12 kB of
+    // schemas), less the chunk that was cut.
+    let share = *messages as f64 / written as f64;
+    assert!((0.45..0.7).contains(&share), "recovered {messages} of {written}");
+    assert!(
+        streamed >= *messages,
+        "mcap streamed {streamed}, read_summary counted {messages}"
+    );
+    // Whole snapshots are in order: no topic is far ahead of another.
+    let (tf, js) = (s.count(TOPIC_TF), s.count(TOPIC_JOINT_STATES));
+    assert!(tf.abs_diff(js) <= 1, "tf {tf}, joint states {js}");
+    let full = read_summary(&tmp.0).unwrap();
+    assert_eq!(full.status, FileStatus::Complete);
+    assert_eq!(full.message_count, written);
+}
+
+#[test]
+fn a_crashed_writer_leaves_every_flushed_chunk_on_disk() {
+    let tmp = TempFile::new("crash");
+    let options = McapLogOptions {
+        chunk_bytes: 32 << 10,
+        ..McapLogOptions::default()
+    };
+    let mut log = McapLog::create_with(&tmp.0, options).unwrap();
+    write_snapshots(&mut log, 40);
+    log.flush().unwrap();
+    let flushed = log.sequence as u64;
+    // Less than a chunk after the flush, so these stay in memory.
+    for i in 0..3 {
+        log.log_text(10.0 + f64::from(i), LogLevel::Info, "lost in the crash")
+            .unwrap();
+    }
+    // A crash: no drop, no finish, the buffered writer's contents are never written.
+    std::mem::forget(log);
+    let s = read_summary(&tmp.0).unwrap();
+    assert!(matches!(s.status, FileStatus::Recovered { .. }), "{s:?}");
+    assert_eq!(s.message_count, flushed);
+}
+
+#[test]
+fn dropping_an_unfinished_log_finishes_the_file() {
+    let tmp = TempFile::new("drop");
+    {
+        let mut log = McapLog::create(&tmp.0).unwrap();
+        log.log_text(0.5, LogLevel::Info, "hello").unwrap();
+    }
+    let s = read_summary(&tmp.0).unwrap();
+    assert_eq!(s.status, FileStatus::Complete);
+    assert_eq!(s.count(TOPIC_LOG), 1);
+}
+
+#[test]
+fn a_file_that_is_not_mcap_is_an_error() {
+    let tmp = TempFile::new("not-mcap");
+    std::fs::write(&tmp.0, b"hello, world").unwrap();
+    let err = read_summary(&tmp.0).unwrap_err();
+    assert!(format!("{err:#}").contains("not an MCAP file"), "{err:#}");
+    assert!(read_summary(tmp.0.with_extension("missing")).is_err());
+}
+
+/// CPU time of this thread (s), from Linux's schedstat: on a shared machine wall time says little.
+fn thread_cpu_secs() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    Some(stat.split_whitespace().next()?.parse::<f64>().ok()? * 1e-9)
+}
+
+/// `cargo test --release -p pbd-cli mcap_log::tests::throughput -- --ignored --nocapture`
+#[test]
+#[ignore = "a measurement, run in release"]
+fn throughput() {
+    let (header, mut snaps) = big_robot(256);
+    let tmp = TempFile::new("throughput");
+    let mut log = McapLog::create(&tmp.0).unwrap();
+    let n = 20_000;
+    let (wall, cpu) = (Instant::now(), thread_cpu_secs());
+    for i in 0..n {
+        let snap = &mut snaps[i % 256];
+        snap.time = i as f64 / 100.0;
+        log.log_snapshot(&header, snap).unwrap();
+    }
+    let stats = log.finish().unwrap();
+    let wall = wall.elapsed().as_secs_f64();
+    let cpu = thread_cpu_secs().zip(cpu).map_or(wall, |(b, a)| b - a);
+    let read_cpu = thread_cpu_secs();
+    let s = read_summary(&tmp.0).unwrap();
+    let read_cpu = thread_cpu_secs().zip(read_cpu).map_or(f64::NAN, |(b, a)| b - a);
+    println!(
+        "{n} snapshots of {} links, {} joints, {} objects: {:.1} µs CPU/snapshot ({:.0} snapshots/s, {:.0} \
+         messages/s; wall {:.1} µs), {} chunks, {:.2} MB ({} B/snapshot); read_summary {:.0} messages/s CPU",
+        header.link_names.len(),
+        header.joint_names.len(),
+        header.object_names.len(),
+        cpu / n as f64 * 1e6,
+        n as f64 / cpu,
+        stats.messages as f64 / cpu,
+        wall / n as f64 * 1e6,
+        stats.chunks,
+        stats.bytes as f64 / 1e6,
+        stats.bytes / n as u64,
+        s.message_count as f64 / read_cpu,
+    );
+    // A noisy image (±3 levels, like the simulator's pixel noise) over a smooth gradient.
+    let mut seed = 12345_u32;
+    let rgb: Vec<u8> = (0..160 * 120 * 3)
+        .map(|i| {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            ((i / 480) as u8).wrapping_add((seed >> 29) as u8)
+        })
+        .collect();
+    let tmp = TempFile::new("images");
+    let mut log = McapLog::create(&tmp.0).unwrap();
+    let cpu = thread_cpu_secs();
+    for i in 0..400 {
+        log.log_image(f64::from(i) / 40.0, "head_left", 160, 120, &rgb).unwrap();
+    }
+    let stats = log.finish().unwrap();
+    let cpu = thread_cpu_secs().zip(cpu).map_or(f64::NAN, |(b, a)| b - a);
+    println!(
+        "160×120 rgb8 images: {:.0} µs CPU each, {} B each in the file (57600 B raw)",
+        cpu / 400.0 * 1e6,
+        stats.bytes / 400
+    );
+}
