@@ -6,8 +6,10 @@
 
 use control_basis::math::{Iso3, Rot3, Vec3};
 use control_basis::{
-    Chain, ChainBinding, ChainState, ControlStack, Controller, ManipulabilityRows, Predicate, Reference, StackSettings,
+    Chain, ChainBinding, ChainState, ControlStack, Controller, IkSettings, ManipulabilityRows, Predicate, Reference,
+    StackSettings, inverse_kinematics,
 };
+use nalgebra::DVector;
 
 use crate::error::SimError;
 use crate::physics::DexterSim;
@@ -29,6 +31,12 @@ pub struct ReachControl {
     chain: Chain,
     state: ChainState,
     stack: ControlStack,
+    /// Configuration servo used for large motions (after IK): no local minima, no limit traps.
+    joint_stack: ControlStack,
+    /// `Some((q_goal, q_commanded))` while servoing in configuration space.
+    joint_goal: Option<(DVector<f64>, DVector<f64>)>,
+    /// Joint speed limit of the configuration reference (rad/s).
+    pub max_joint_speed: f64,
     binding: ChainBinding,
     q_chain: Vec<f64>,
     goal: Iso3,
@@ -48,7 +56,8 @@ impl ReachControl {
         let reach = Controller::reach_pose(&chain, tip, 6.0)?;
         let manip = Controller::manipulability(&chain, ManipulabilityRows::Full, 0.5)?;
         let settings = StackSettings { clamp_position_limits: true, ..StackSettings::default() };
-        let stack = ControlStack::new(&chain, vec![reach, manip], settings)?;
+        let stack = ControlStack::new(&chain, vec![reach, manip], settings.clone())?;
+        let joint_stack = ControlStack::new(&chain, vec![Controller::configuration(&chain, 8.0)?], settings)?;
         let binding = ChainBinding::by_name(&chain, sim.joint_names())?;
         let state = chain.new_state();
         let n = chain.dof();
@@ -57,6 +66,9 @@ impl ReachControl {
             chain,
             state,
             stack,
+            joint_stack,
+            joint_goal: None,
+            max_joint_speed: 1.0,
             binding,
             q_chain: vec![0.0; n],
             goal: Iso3::identity(),
@@ -90,12 +102,49 @@ impl ReachControl {
         *self.state.tip_pose()
     }
 
-    /// Sets the goal; the commanded reference starts from the current tool pose.
+    /// The arm's configuration (chain order) from the encoders.
+    pub fn chain_configuration(&mut self, sim: &DexterSim) -> DVector<f64> {
+        self.binding.gather(sim.joint_positions(), &mut self.q_chain);
+        DVector::from_column_slice(&self.q_chain)
+    }
+
+    /// Sets the goal; the commanded reference starts from the current tool pose and moves along a
+    /// straight line (Cartesian Reach ◁ Manipulability).
     pub fn set_goal(&mut self, sim: &DexterSim, goal: Iso3) {
         self.commanded = self.tool_pose(sim);
         self.goal = goal;
         self.active = true;
+        self.joint_goal = None;
         self.stack.reset_predicates();
+    }
+
+    /// Solves IK for `goal` from the current configuration and servoes there in configuration space
+    /// (the Reach goal, transformed into the configuration space once). For large motions: a
+    /// configuration servo has no local minima or joint-limit traps. Returns `false` (and does
+    /// nothing) if IK finds no configuration within the limits.
+    pub fn set_goal_via_ik(&mut self, sim: &DexterSim, goal: Iso3, seed: u64) -> Result<bool, SimError> {
+        let Some(q_goal) = self.solve_ik(sim, &goal, seed)? else { return Ok(false) };
+        self.goal = goal;
+        self.active = true;
+        let q_now = DVector::from_column_slice(&self.q_chain);
+        self.joint_goal = Some((q_goal, q_now));
+        self.joint_stack.reset_predicates();
+        Ok(true)
+    }
+
+    /// An IK solution for `goal` within the joint limits, nearest the current configuration among
+    /// the attempts, or `None`.
+    pub fn solve_ik(&mut self, sim: &DexterSim, goal: &Iso3, seed: u64) -> Result<Option<DVector<f64>>, SimError> {
+        self.tool_pose(sim);
+        let settings = IkSettings {
+            position_tolerance: 5e-4,
+            orientation_tolerance: 5e-3,
+            restarts: 30,
+            seed,
+            ..IkSettings::default()
+        };
+        let sol = inverse_kinematics(&self.chain, goal, &self.q_chain, &settings)?;
+        Ok(sol.converged.then_some(sol.q))
     }
 
     /// The goal.
@@ -116,6 +165,28 @@ impl ReachControl {
     /// One control tick of `dt` seconds: advance the reference, run the stack, write motor references.
     pub fn tick(&mut self, sim: &mut DexterSim, dt: f64) {
         if !self.active {
+            return;
+        }
+        if let Some((q_goal, q_cmd)) = self.joint_goal.as_mut() {
+            // Configuration reference generator: bounded joint speed, all joints arrive together.
+            let d = &*q_goal - &*q_cmd;
+            let worst = d.amax();
+            let step = self.max_joint_speed * dt;
+            if worst > step {
+                *q_cmd += d * (step / worst);
+            } else {
+                q_cmd.copy_from(q_goal);
+            }
+            let _ = self.joint_stack.set_reference(&self.chain, 0, Reference::Configuration(q_cmd.clone()));
+            self.binding.gather(sim.joint_positions(), &mut self.q_chain);
+            if self.state.set_q(&self.chain, &self.q_chain).is_err() {
+                return;
+            }
+            let du = self.joint_stack.tick(&self.chain, &mut self.state, &[], dt);
+            for i in 0..self.q_chain.len() {
+                let j = self.binding.plant_index(i);
+                sim.set_joint_target(j, self.q_chain[i] + du[i], du[i] / dt);
+            }
             return;
         }
         // Reference generator: move `commanded` towards `goal` at bounded speed.
@@ -158,8 +229,13 @@ impl ReachControl {
 
     /// Whether the reference has reached the goal and the tool is within `tol` (m, rad) of it.
     pub fn at_goal(&mut self, sim: &DexterSim, tol_pos: f64, tol_rot: f64) -> bool {
-        let reference_done = (self.commanded.translation.vector - self.goal.translation.vector).norm() < 1e-9
-            && self.commanded.rotation.angle_to(&self.goal.rotation) < 1e-9;
+        let reference_done = match &self.joint_goal {
+            Some((q_goal, q_cmd)) => (q_goal - q_cmd).amax() < 1e-12,
+            None => {
+                (self.commanded.translation.vector - self.goal.translation.vector).norm() < 1e-9
+                    && self.commanded.rotation.angle_to(&self.goal.rotation) < 1e-9
+            }
+        };
         let (d, a) = self.goal_error(sim);
         reference_done && d < tol_pos && a < tol_rot
     }

@@ -15,7 +15,7 @@ use crate::error::SimError;
 use crate::geometry;
 use crate::physics::{DexterSim, SimSettings};
 use crate::scene::{PlaceSpec, Scene, Shape};
-use crate::snapshot::Arm;
+use crate::snapshot::{Arm, FingertipWrench};
 
 /// Control rate (Hz): the control-basis stack runs every `1 / CONTROL_HZ` s of simulated time.
 pub const CONTROL_HZ: f64 = 200.0;
@@ -61,6 +61,8 @@ pub struct PickPlaceReport {
     pub real_time_factor: f64,
     /// Final object position (m, world).
     pub final_position: [f64; 3],
+    /// The object weighed through the fingertip sensors after the lift: (measured, true m·g) in N.
+    pub weighed: Option<(f64, f64)>,
 }
 
 /// A top-down grasp for an object: where the palm surface goes and how the fingers close.
@@ -148,9 +150,11 @@ pub fn reachable(sim: &DexterSim, arm: Arm, pose: &Iso3, seed: u64) -> Result<bo
     Ok(sol.converged)
 }
 
-fn home_arm_guess(arm: Arm) -> [f64; 7] {
-    let s = if arm == Arm::Left { 1.0 } else { -1.0 };
-    [0.0, s * 0.9, 0.0, 1.6, 0.0, 0.0, 0.0]
+/// A start for IK near the parked posture. The arms are mirror images under
+/// `q_right = S q_left`, `S = diag(−1, 1, −1, 1, −1, 1, −1)` (assets/README-dexter.md), so the guess,
+/// symmetric under S, serves both.
+fn home_arm_guess(_arm: Arm) -> [f64; 7] {
+    [0.0, 0.9, 0.0, 1.6, 0.0, 0.0, 0.0]
 }
 
 /// The parked pose of an arm's palm: above the near corner of the table on its own side.
@@ -163,10 +167,22 @@ pub fn park_pose(arm: Arm, table_z: f64) -> Iso3 {
 /// Puts both arms at their parked poses (IK), hands open; used at the start of a run.
 pub fn park_robot(sim: &mut DexterSim, table_z: f64) -> Result<(), SimError> {
     let mut q = sim.joint_positions().to_vec();
+    let mut left_solution: Option<nalgebra::DVector<f64>> = None;
     for arm in Arm::BOTH {
         let chain = Chain::new(sim.model(), "world", &crate::control::tool_link(arm))?;
         let settings = IkSettings { position_tolerance: 1e-4, orientation_tolerance: 1e-3, restarts: 50, seed: 1, ..IkSettings::default() };
-        let sol = inverse_kinematics(&chain, &park_pose(arm, table_z), &home_arm_guess(arm), &settings)?;
+        // The right arm starts from the mirror image of the left solution, so both park alike.
+        let guess = match (arm, left_solution.as_ref()) {
+            (Arm::Right, Some(ql)) => {
+                let s = [-1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0];
+                std::array::from_fn(|i| ql[i] * s[i])
+            }
+            _ => home_arm_guess(arm),
+        };
+        let sol = inverse_kinematics(&chain, &park_pose(arm, table_z), &guess, &settings)?;
+        if arm == Arm::Left {
+            left_solution = Some(sol.q.clone());
+        }
         if !sol.converged {
             return Err(SimError::Task(format!("cannot park the {arm} arm (IK error {:.3} m)", sol.position_error)));
         }
@@ -225,6 +241,135 @@ impl<'a> Observer<'a> {
     }
 }
 
+/// How a grasp-and-lift went (the seed's grasp criterion, §6.5: the hand rises 10 cm and the object
+/// is still held).
+#[derive(Debug, Clone, Serialize)]
+pub struct GraspOutcome {
+    /// The object rose ≥ 8 cm with the hand and ≥ 2 hand parts still touch it.
+    pub lifted: bool,
+    /// What happened.
+    pub outcome: String,
+    /// How far the object rose (m).
+    pub rose: f64,
+    /// The object weighed through the fingertip sensors while held still after the lift:
+    /// (measured N, true m·g N), if it was lifted.
+    pub weighed: Option<(f64, f64)>,
+}
+
+/// Reach the pre-grasp 10 cm above `plan.grasp` with the hand pre-shaped, descend, close until the
+/// Grasp predicate converges (opposing fingers in contact, hand still), lift 10 cm, hold still and
+/// weigh the object through the fingertip sensors. `phase(name, time)` is told when each phase begins.
+pub fn grasp_and_lift(
+    sim: &mut DexterSim,
+    reach: &mut ReachControl,
+    hand: &HandControl,
+    obj: usize,
+    plan: &GraspPlan,
+    obs: &mut Observer<'_>,
+    phase: &mut dyn FnMut(&str, f64),
+) -> GraspOutcome {
+    let arm = reach.arm();
+    let fail = |outcome: String| GraspOutcome { lifted: false, outcome, rose: 0.0, weighed: None };
+    // 1. Pre-grasp: above the object, hand pre-shaped.
+    obs.activity = "reach pre-grasp";
+    hand.set(sim, plan.preshape, 0.0);
+    // The hand is symmetric enough that F3 may be on either side: take the IK solution nearest the
+    // current configuration among both.
+    let mut best: Option<(f64, Iso3)> = None;
+    let q_now = reach.chain_configuration(sim);
+    for flip in [false, true] {
+        let mut g = plan.grasp;
+        if flip {
+            g.rotation = g.rotation * control_basis::math::Rot3::from_axis_angle(&Vec3::z_axis(), std::f64::consts::PI);
+        }
+        let mut pre = g;
+        pre.translation.vector.z += 0.10;
+        if let Ok(Some(q)) = reach.solve_ik(sim, &pre, 11 + flip as u64) {
+            let d = (q - &q_now).amax();
+            if best.as_ref().is_none_or(|b| d < b.0) {
+                best = Some((d, g));
+            }
+        }
+    }
+    let Some((_, grasp_pose)) = best else {
+        return fail("pre-grasp out of reach (no IK solution)".into());
+    };
+    let plan = GraspPlan { grasp: grasp_pose, ..*plan };
+    let mut pre = plan.grasp;
+    pre.translation.vector.z += 0.10;
+    match reach.set_goal_via_ik(sim, pre, 17) {
+        Ok(true) => {}
+        _ => return fail("pre-grasp out of reach (no IK solution)".into()),
+    }
+    if !run_until(sim, reach, obs, 8.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
+        let (d, _) = reach.goal_error(sim);
+        return fail(format!("pre-grasp not reached ({:.1} cm away)", d * 100.0));
+    }
+    // 2. Descend.
+    phase("reach grasp", sim.time());
+    obs.activity = "reach grasp";
+    reach.max_speed = 0.12;
+    reach.set_goal(sim, plan.grasp);
+    if !run_until(sim, reach, obs, 4.0, |s, r| r.at_goal(s, 0.004, 0.03)) {
+        let (d, _) = reach.goal_error(sim);
+        return fail(format!("grasp pose not reached ({:.1} cm away)", d * 100.0));
+    }
+    // 3. Grasp: close until fingers on both sides touch and the hand is still.
+    phase("grasp", sim.time());
+    obs.activity = "grasp";
+    hand.set(sim, FLEX_CLOSED, 0.0);
+    let mut still = 0;
+    let k = if arm == Arm::Left { 0 } else { 3 };
+    let mut tips = [FingertipWrench { arm, finger: 0, force: [0.0; 3], torque: [0.0; 3], in_contact: false }; 6];
+    let grasped = run_until(sim, reach, obs, 3.0, |s, _| {
+        let (_, _, parts) = s.hand_wrench_on_object(arm, obj);
+        s.fingertip_wrenches(&mut tips);
+        let opposed = tips[k + 2].in_contact && (tips[k].in_contact || tips[k + 1].in_contact);
+        if opposed && parts >= 2 && hand.max_flex_speed(s) < 0.1 {
+            still += 1;
+        } else {
+            still = 0;
+        }
+        still >= 30
+    });
+    if !grasped {
+        return fail("grasp did not converge (no opposing contacts)".into());
+    }
+    // 4. Lift 10 cm.
+    phase("lift", sim.time());
+    obs.activity = "lift";
+    let z_before = sim.object_state(obj).pose.translation.z;
+    let mut lift = plan.grasp;
+    lift.translation.vector.z += 0.10;
+    reach.max_speed = 0.10;
+    reach.set_goal(sim, lift);
+    run_until(sim, reach, obs, 3.0, |s, r| r.at_goal(s, 0.005, 0.03));
+    // Hold still and weigh: the fingers carry the object, so Σ f_z = −m·g at rest.
+    run_until(sim, reach, obs, 0.2, |_, _| false);
+    let mut sum = 0.0;
+    let mut n = 0usize;
+    run_until(sim, reach, obs, 0.3, |s, _| {
+        s.fingertip_wrenches(&mut tips);
+        sum += -(tips[k].force[2] + tips[k + 1].force[2] + tips[k + 2].force[2]);
+        n += 1;
+        false
+    });
+    let rose = sim.object_state(obj).pose.translation.z - z_before;
+    let (_, _, parts) = sim.hand_wrench_on_object(arm, obj);
+    let lifted = rose > 0.08 && parts >= 2;
+    let weight = sim.objects()[obj].mass * sim.settings().gravity;
+    GraspOutcome {
+        lifted,
+        outcome: if lifted {
+            "lifted".into()
+        } else {
+            format!("object not held after lift (rose {:.1} cm, {parts} contacts)", rose * 100.0)
+        },
+        rose,
+        weighed: lifted.then(|| (sum / n.max(1) as f64, weight)),
+    }
+}
+
 /// One pick-and-place in a fresh simulation of `scene`.
 pub fn pick_and_place(scene: &Scene, request: &PickPlaceRequest, settings: SimSettings) -> Result<PickPlaceReport, SimError> {
     let mut sim = DexterSim::new(scene, settings)?;
@@ -261,7 +406,7 @@ pub fn pick_and_place_in(
     let mut reach = ReachControl::new(sim, arm)?;
     let hand = HandControl::new(sim, arm)?;
     let mut phases: Vec<(String, f64)> = Vec::new();
-    let report = |sim: &DexterSim, success: bool, lifted: bool, outcome: String, phases: Vec<(String, f64)>| {
+    let report = |sim: &DexterSim, success: bool, lifted: bool, outcome: String, phases: Vec<(String, f64)>, weighed: Option<(f64, f64)>| {
         let p = sim.object_state(obj).pose.translation.vector;
         let wall_time = wall.elapsed().as_secs_f64();
         let sim_time = sim.time() - t0;
@@ -278,83 +423,17 @@ pub fn pick_and_place_in(
             wall_time,
             real_time_factor: if wall_time > 0.0 { sim_time / wall_time } else { 0.0 },
             final_position: [p.x, p.y, p.z],
+            weighed,
         }
     };
 
-    // 1. Pre-grasp: above the object, hand pre-shaped.
     let current = reach.tool_pose(sim);
     let plan = plan_top_grasp(&arc, &shape, &pose, table_z, &current);
-    let mut pre = plan.grasp;
-    pre.translation.vector.z += 0.10;
     phases.push(("reach pre-grasp".into(), sim.time() - t0));
-    obs.activity = "reach pre-grasp";
-    hand.set(sim, plan.preshape, 0.0);
-    reach.set_goal(sim, pre);
-    reach.max_speed = 0.35;
-    if !run_until(sim, &mut reach, obs, 6.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
-        let (d, _) = reach.goal_error(sim);
-        return Ok(report(sim, false, false, format!("pre-grasp not reached ({:.1} cm away)", d * 100.0), phases));
-    }
-    // 2. Descend.
-    phases.push(("reach grasp".into(), sim.time() - t0));
-    obs.activity = "reach grasp";
-    reach.max_speed = 0.12;
-    reach.set_goal(sim, plan.grasp);
-    if !run_until(sim, &mut reach, obs, 4.0, |s, r| r.at_goal(s, 0.004, 0.03)) {
-        let (d, _) = reach.goal_error(sim);
-        return Ok(report(sim, false, false, format!("grasp pose not reached ({:.1} cm away)", d * 100.0), phases));
-    }
-    // 3. Grasp: close until the fingers on both sides touch and the hand is still.
-    phases.push(("grasp".into(), sim.time() - t0));
-    obs.activity = "grasp";
-    if std::env::var_os("PBD_DEBUG").is_some() {
-        eprintln!("plan {:?} width {:.3} preshape {:.2}; tool {:?}; object {:?}", plan.grasp.translation.vector, plan.width, plan.preshape, reach.tool_pose(sim).translation.vector, sim.object_state(obj).pose.translation.vector);
-    }
-    hand.set(sim, FLEX_CLOSED, 0.0);
-    let mut still = 0;
-    let grasped = run_until(sim, &mut reach, obs, 3.0, |s, _| {
-        let (_, _, parts) = s.hand_wrench_on_object(arm, obj);
-        let mut tips = [crate::snapshot::FingertipWrench { arm, finger: 0, force: [0.0; 3], torque: [0.0; 3], in_contact: false }; 6];
-        s.fingertip_wrenches(&mut tips);
-        let k = if arm == Arm::Left { 0 } else { 3 };
-        let opposed = tips[k + 2].in_contact && (tips[k].in_contact || tips[k + 1].in_contact);
-        if std::env::var_os("PBD_DEBUG").is_some() && (s.steps() % 100 == 0) {
-            eprintln!(
-                "t={:.2} flex={:?} parts={parts} tips={:?} obj={:?}",
-                s.time(),
-                hand.flexion(s),
-                tips[k..k + 3].iter().map(|t| (t.in_contact, (t.force[0] * t.force[0] + t.force[1] * t.force[1] + t.force[2] * t.force[2]).sqrt())).collect::<Vec<_>>(),
-                s.object_state(obj).pose.translation
-            );
-            let tipname = format!("{}/bhand/finger_3/tip_link", arm.prefix());
-            let palmname = format!("{}/bhand/palm_surface_link", arm.prefix());
-            eprintln!("   tip3 {:?} palm {:?} pairs {}", s.link_pose_by_name(&tipname).map(|p| p.translation.vector), s.link_pose_by_name(&palmname).map(|p| p.translation.vector), s.world().narrow_phase.contact_pairs().filter(|p| p.has_any_active_contact()).count());
-        }
-        if opposed && parts >= 2 && hand.max_flex_speed(s) < 0.1 {
-            still += 1;
-        } else {
-            still = 0;
-        }
-        still >= 40
-    });
-    if !grasped {
-        return Ok(report(sim, false, false, "grasp did not converge (no opposing contacts)".into(), phases));
-    }
-    // 4. Lift 10 cm.
-    phases.push(("lift".into(), sim.time() - t0));
-    obs.activity = "lift";
-    let z_before = sim.object_state(obj).pose.translation.z;
-    let mut lift = plan.grasp;
-    lift.translation.vector.z += 0.10;
-    reach.max_speed = 0.10;
-    reach.set_goal(sim, lift);
-    run_until(sim, &mut reach, obs, 3.0, |s, r| r.at_goal(s, 0.005, 0.03));
-    run_until(sim, &mut reach, obs, 0.3, |_, _| false);
-    let rose = sim.object_state(obj).pose.translation.z - z_before;
-    let (_, _, parts) = sim.hand_wrench_on_object(arm, obj);
-    let lifted = rose > 0.08 && parts >= 2;
-    if !lifted {
-        return Ok(report(sim, false, false, format!("object not held after lift (rose {:.1} cm, {parts} contacts)", rose * 100.0), phases));
+    let g = grasp_and_lift(sim, &mut reach, &hand, obj, &plan, obs, &mut |name, t| phases.push((name.into(), t - t0)));
+    let weighed = g.weighed;
+    if !g.lifted {
+        return Ok(report(sim, false, false, g.outcome, phases, weighed));
     }
     // 5. Transport: up to a safe height, over the place.
     phases.push(("transport".into(), sim.time() - t0));
@@ -376,10 +455,12 @@ pub fn pick_and_place_in(
     let obj_offset = (up.rotation * palm_to_object.translation.vector).xy();
     over.translation.vector.x = place.center[0] - obj_offset.x;
     over.translation.vector.y = place.center[1] - obj_offset.y;
-    reach.set_goal(sim, over);
-    if !run_until(sim, &mut reach, obs, 6.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
+    if !reach.set_goal_via_ik(sim, over, 23)? {
+        reach.set_goal(sim, over);
+    }
+    if !run_until(sim, &mut reach, obs, 8.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
         let (d, _) = reach.goal_error(sim);
-        return Ok(report(sim, false, true, format!("place not reached ({:.1} cm away)", d * 100.0), phases));
+        return Ok(report(sim, false, true, format!("place not reached ({:.1} cm away)", d * 100.0), phases, weighed));
     }
     // 6. Place: lower until the support force reference is met (the bin carries half the weight).
     phases.push(("place".into(), sim.time() - t0));
@@ -436,7 +517,7 @@ pub fn pick_and_place_in(
     } else {
         "object still moving".to_string()
     };
-    Ok(report(sim, success, true, outcome, phases))
+    Ok(report(sim, success, true, outcome, phases, weighed))
 }
 
 /// Chooses an arm that reaches the object's grasp and the place, preferring the one whose shoulder
