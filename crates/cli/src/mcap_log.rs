@@ -672,9 +672,14 @@ pub fn read_summary(path: impl AsRef<Path>) -> Result<Summary> {
         return Err(anyhow::anyhow!("{e}")).with_context(|| format!("{} is not an MCAP file", path.display()));
     }
     if let Some(e) = stop {
+        let reason = match e {
+            // Also reported at a record boundary: the reader wants a footer.
+            mcap::McapError::UnexpectedEof => "the file ends before its footer (the writer did not finish)".to_owned(),
+            e => e.to_string(),
+        };
         summary.status = FileStatus::Recovered {
             messages: summary.message_count,
-            reason: e.to_string(),
+            reason,
         };
     }
     if let Some(stats) = stats {

@@ -537,7 +537,10 @@ fn a_crashed_writer_leaves_every_flushed_chunk_on_disk() {
     // A crash: no drop, no finish, the buffered writer's contents are never written.
     std::mem::forget(log);
     let s = read_summary(&tmp.0).unwrap();
-    assert!(matches!(s.status, FileStatus::Recovered { .. }), "{s:?}");
+    let FileStatus::Recovered { reason, .. } = &s.status else {
+        panic!("not recovered: {s:?}")
+    };
+    assert!(reason.contains("before its footer"), "{reason}");
     assert_eq!(s.message_count, flushed);
 }
 
