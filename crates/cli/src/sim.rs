@@ -7,7 +7,6 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::Context as _;
 use clap::{Args, Subcommand, ValueEnum};
 use dexter_sim::Arm;
 use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
@@ -72,7 +71,7 @@ pub fn main(cmd: SimCommand, out: &mut dyn Write) -> anyhow::Result<()> {
 
 fn pick_place(args: PickPlaceArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     // Config: every user mistake is reported here.
-    let scene = Scene::open(&args.scene).with_context(|| format!("scene `{}`", args.scene))?;
+    let scene = Scene::open(&args.scene)?;
     let object = match &args.object {
         Some(o) => o.clone(),
         None => scene

@@ -553,7 +553,7 @@ impl DexterSim {
         for place in &spec.places {
             let (cx, cy) = (place.center[0], place.center[1]);
             let (sx, sy) = (place.size[0], place.size[1]);
-            let wall = 0.01;
+            let wall = place.wall_thickness;
             let mut parts = vec![(DVec3::new(cx, cy, t.height + 0.001), DVec3::new(sx / 2.0, sy / 2.0, 0.001))];
             if place.wall_height > 0.0 {
                 let h = place.wall_height;
