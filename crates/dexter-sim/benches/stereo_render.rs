@@ -13,7 +13,11 @@ use std::hint::black_box;
 fn bench(c: &mut Criterion) {
     let (scene, _) = typical_scene(1, 12, true);
     for (w, h) in [(160, 120), (320, 240)] {
-        let spec = CameraSpec { width: w, height: h, ..CameraSpec::default() };
+        let spec = CameraSpec {
+            width: w,
+            height: h,
+            ..CameraSpec::default()
+        };
         let cams = head_cameras(&spec, Vec3::from(TABLE_FIXATION)).unwrap();
         let mut sv = StereoVision::new(&spec, &LightSpec::default(), 1).unwrap();
         let mut blobs = Vec::new();
@@ -26,7 +30,8 @@ fn bench(c: &mut Criterion) {
         });
         c.bench_function(&format!("perceive_{w}x{h}"), |b| {
             b.iter(|| {
-                sv.perceive_into(black_box(&cams), black_box(&scene), &mut blobs).unwrap();
+                sv.perceive_into(black_box(&cams), black_box(&scene), &mut blobs)
+                    .unwrap();
                 black_box(blobs.len());
             })
         });

@@ -1,0 +1,361 @@
+//! Background subtraction, connected components and per-segment features (§5.1.2.1, §5.1.2.2, §6.2.1).
+
+use crate::error::SimError;
+use crate::vision::color::{ColorHistogram, rgb_to_hsv, rgb8_bin};
+use crate::vision::render::{Image, ItemLabel};
+
+/// Settings of [`Segmenter`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SegmentConfig {
+    /// A pixel is foreground when the Euclidean distance between its RGB colour and the
+    /// background's (channels in [0, 1]) exceeds this.
+    pub diff_threshold: f64,
+    /// Connected components with fewer pixels are dropped (noise, slivers).
+    pub min_pixels: usize,
+}
+
+impl SegmentConfig {
+    /// Settings for images with Gaussian pixel noise of standard deviation `sigma` (per channel,
+    /// [0, 1]) in both the image and the background: the difference of two noisy pixels has
+    /// per-channel deviation σ√2, its squared norm over σ²·2 is χ²(3); a threshold of 5σ√2
+    /// (χ²₃ > 25, p ≈ 1.7·10⁻⁵ per pixel, ≈ 0.3 false pixels per 160×120 frame, isolated and removed
+    /// by `min_pixels`) with a floor of 0.04 for shading quantisation. `min_pixels` = 12.
+    pub fn for_noise(sigma: f64) -> Self {
+        let sigma = if sigma.is_finite() { sigma.max(0.0) } else { 0.0 };
+        Self {
+            diff_threshold: (5.0 * std::f64::consts::SQRT_2 * sigma).max(0.04),
+            min_pixels: 12,
+        }
+    }
+}
+
+impl Default for SegmentConfig {
+    fn default() -> Self {
+        Self::for_noise(0.01)
+    }
+}
+
+/// Features of one segment in one image.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SegmentFeatures {
+    /// Size of the segment in pixels (§5.1.2.2; the seed models it in deci-pixels, see
+    /// [`SegmentFeatures::deci_pixels`]).
+    pub pixel_count: usize,
+    /// First moments over pixel count: centroid `(u, v)` in pixel coordinates (§6.2.1).
+    pub centroid: [f64; 2],
+    /// Second central moments over pixel count, `[[μ20, μ11], [μ11, μ02]] / μ00` (px²): the 2×2
+    /// covariance of pixel positions, the appearance feature b_m of §6.2.1 (6.6).
+    pub covariance: [[f64; 2]; 2],
+    /// The 64-colour HSV histogram (§5.1.2.1); [`ColorHistogram::kept_bins`] applies the
+    /// 20th-percentile rule, [`ColorHistogram::normalized`] gives the raw normalised histogram.
+    pub histogram: ColorHistogram,
+    /// Mean RGB colour in [0, 1].
+    pub mean_rgb: [f64; 3],
+    /// HSV of the mean RGB colour.
+    pub mean_hsv: [f64; 3],
+}
+
+impl SegmentFeatures {
+    /// The size feature of §5.1.2.2: pixels / 10.
+    pub fn deci_pixels(&self) -> f64 {
+        self.pixel_count as f64 / 10.0
+    }
+}
+
+/// One connected foreground component of an image.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Segment {
+    /// Its features.
+    pub features: SegmentFeatures,
+    /// Inclusive bounding box `[u_min, v_min, u_max, v_max]` (px).
+    pub bbox: [u32; 4],
+    /// Whether it touches the image border (the object may be cut off, biasing size and centroid).
+    pub touches_border: bool,
+}
+
+const PENDING: u32 = u32::MAX;
+
+/// Background subtraction and 8-connected component labelling with reused buffers.
+///
+/// **Robot self-filter.** A real robot masks its own body out of the foreground by rendering its
+/// self-model at the measured joint angles. Here the renderer's per-pixel label buffer plays that
+/// role: pixels labelled [`ItemLabel::Robot`] are never foreground. The label buffer is used for
+/// nothing else (object pixels are found purely by colour difference from the background).
+#[derive(Debug, Clone)]
+pub struct Segmenter {
+    config: SegmentConfig,
+    background: Image,
+    has_background: bool,
+    foreground: Vec<bool>,
+    component: Vec<u32>,
+    stack: Vec<u32>,
+    pixels: Vec<u32>,
+    rejected: Vec<u32>,
+    segments: Vec<Segment>,
+}
+
+fn invalid(field: &str, message: String) -> SimError {
+    SimError::Invalid {
+        path: "<vision>".into(),
+        field: field.into(),
+        message,
+    }
+}
+
+impl Segmenter {
+    /// A segmenter without a background yet.
+    pub fn new(config: SegmentConfig) -> Self {
+        Self {
+            config,
+            background: Image::default(),
+            has_background: false,
+            foreground: Vec::new(),
+            component: Vec::new(),
+            stack: Vec::new(),
+            pixels: Vec::new(),
+            rejected: Vec::new(),
+            segments: Vec::new(),
+        }
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &SegmentConfig {
+        &self.config
+    }
+
+    /// Changes the settings.
+    pub fn set_config(&mut self, config: SegmentConfig) {
+        self.config = config;
+    }
+
+    /// Stores (copies) the image of the empty scene, as rendered by
+    /// [`crate::vision::Renderer::render_background`].
+    pub fn set_background(&mut self, background: &Image) {
+        self.background.copy_from(background);
+        self.has_background = true;
+    }
+
+    /// The stored background, if any.
+    pub fn background(&self) -> Option<&Image> {
+        self.has_background.then_some(&self.background)
+    }
+
+    /// The segments of the last call to [`Segmenter::segment`].
+    pub fn segments(&self) -> &[Segment] {
+        &self.segments
+    }
+
+    /// The foreground mask of the last frame (row-major), before component filtering.
+    pub fn foreground(&self) -> &[bool] {
+        &self.foreground
+    }
+
+    /// Per pixel (row-major) of the last frame: `k + 1` if it belongs to segment `k`, 0 otherwise.
+    pub fn component_map(&self) -> &[u32] {
+        &self.component
+    }
+
+    /// Segments `image` against the background. `labels` is the renderer's label buffer for the
+    /// robot self-filter (empty = no self-filter). Errors if there is no background or sizes differ.
+    pub fn segment(&mut self, image: &Image, labels: &[Option<ItemLabel>]) -> Result<&[Segment], SimError> {
+        if !self.has_background {
+            return Err(invalid("background", "no background image has been set".into()));
+        }
+        let (w, h) = (image.width as usize, image.height as usize);
+        let n = w * h;
+        if image.width != self.background.width || image.height != self.background.height || image.rgb.len() != 3 * n {
+            return Err(invalid(
+                "image",
+                format!(
+                    "image is {}×{} but the background is {}×{}",
+                    image.width, image.height, self.background.width, self.background.height
+                ),
+            ));
+        }
+        if !labels.is_empty() && labels.len() != n {
+            return Err(invalid("labels", format!("{} labels for {n} pixels", labels.len())));
+        }
+        self.threshold(image, labels);
+        self.label_components(image, w, h);
+        Ok(&self.segments)
+    }
+
+    fn threshold(&mut self, image: &Image, labels: &[Option<ItemLabel>]) {
+        let n = image.pixel_count();
+        let t = (self.config.diff_threshold * 255.0).max(0.0);
+        let t2 = if t.is_finite() { t * t } else { f64::INFINITY };
+        self.foreground.clear();
+        self.foreground.extend(
+            image
+                .rgb
+                .chunks_exact(3)
+                .zip(self.background.rgb.chunks_exact(3))
+                .map(|(a, b)| {
+                    let d2: i32 = (0..3).map(|c| (a[c] as i32 - b[c] as i32).pow(2)).sum();
+                    d2 as f64 > t2
+                }),
+        );
+        if !labels.is_empty() {
+            for (f, l) in self.foreground.iter_mut().zip(labels) {
+                if *l == Some(ItemLabel::Robot) {
+                    *f = false;
+                }
+            }
+        }
+        debug_assert_eq!(self.foreground.len(), n);
+    }
+
+    fn label_components(&mut self, image: &Image, w: usize, h: usize) {
+        let n = w * h;
+        self.component.clear();
+        self.component.resize(n, 0);
+        self.segments.clear();
+        self.rejected.clear();
+        for start in 0..n {
+            if !self.foreground[start] || self.component[start] != 0 {
+                continue;
+            }
+            self.pixels.clear();
+            self.stack.clear();
+            self.stack.push(start as u32);
+            self.component[start] = PENDING;
+            while let Some(p) = self.stack.pop() {
+                self.pixels.push(p);
+                let (u, v) = (p as usize % w, p as usize / w);
+                for dv in -1i64..=1 {
+                    for du in -1i64..=1 {
+                        let (nu, nv) = (u as i64 + du, v as i64 + dv);
+                        if (du == 0 && dv == 0) || nu < 0 || nv < 0 || nu >= w as i64 || nv >= h as i64 {
+                            continue;
+                        }
+                        let q = nv as usize * w + nu as usize;
+                        if self.foreground[q] && self.component[q] == 0 {
+                            self.component[q] = PENDING;
+                            self.stack.push(q as u32);
+                        }
+                    }
+                }
+            }
+            if self.pixels.len() < self.config.min_pixels.max(1) {
+                // Stay PENDING (not 0) so the raster scan does not restart from them; cleared below.
+                self.rejected.extend_from_slice(&self.pixels);
+                continue;
+            }
+            let id = self.segments.len() as u32 + 1;
+            for &p in &self.pixels {
+                self.component[p as usize] = id;
+            }
+            self.segments.push(features_of(&self.pixels, image, w, h));
+        }
+        for &p in &self.rejected {
+            self.component[p as usize] = 0;
+        }
+    }
+}
+
+/// Features of the pixels `pixels` (linear indices) of `image`.
+fn features_of(pixels: &[u32], image: &Image, w: usize, h: usize) -> Segment {
+    let count = pixels.len();
+    let nf = count as f64;
+    let (mut su, mut sv) = (0.0, 0.0);
+    let mut rgb = [0.0f64; 3];
+    let mut hist = ColorHistogram::default();
+    let mut bbox = [u32::MAX, u32::MAX, 0, 0];
+    for &p in pixels {
+        let (u, v) = (p as usize % w, p as usize / w);
+        su += u as f64;
+        sv += v as f64;
+        let c = image.px(p as usize);
+        for k in 0..3 {
+            rgb[k] += c[k] as f64;
+        }
+        hist.counts[rgb8_bin(c)] += 1;
+        bbox = [
+            bbox[0].min(u as u32),
+            bbox[1].min(v as u32),
+            bbox[2].max(u as u32),
+            bbox[3].max(v as u32),
+        ];
+    }
+    let (mu, mv) = (su / nf, sv / nf);
+    let (mut cuu, mut cuv, mut cvv) = (0.0, 0.0, 0.0);
+    for &p in pixels {
+        let (du, dv) = ((p as usize % w) as f64 - mu, (p as usize / w) as f64 - mv);
+        cuu += du * du;
+        cuv += du * dv;
+        cvv += dv * dv;
+    }
+    let mean_rgb = rgb.map(|x| x / (255.0 * nf));
+    let touches_border = bbox[0] == 0 || bbox[1] == 0 || bbox[2] as usize + 1 >= w || bbox[3] as usize + 1 >= h;
+    Segment {
+        features: SegmentFeatures {
+            pixel_count: count,
+            centroid: [mu, mv],
+            covariance: [[cuu / nf, cuv / nf], [cuv / nf, cvv / nf]],
+            histogram: hist,
+            mean_rgb,
+            mean_hsv: rgb_to_hsv(mean_rgb),
+        },
+        bbox,
+        touches_border,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn img(w: u32, h: u32, f: impl Fn(u32, u32) -> [u8; 3]) -> Image {
+        let mut im = Image::new(w, h);
+        for v in 0..h {
+            for u in 0..w {
+                let i = 3 * (v * w + u) as usize;
+                im.rgb[i..i + 3].copy_from_slice(&f(u, v));
+            }
+        }
+        im
+    }
+
+    #[test]
+    fn two_blobs_moments_and_diagonal_connectivity() {
+        let bg = img(20, 10, |_, _| [100, 100, 100]);
+        // a 4×3 red rectangle at u 2..6, v 1..4, and a diagonal line of 3 blue pixels (8-connected).
+        let im = img(20, 10, |u, v| {
+            if (2..6).contains(&u) && (1..4).contains(&v) {
+                [200, 0, 0]
+            } else if (10..13).contains(&u) && v == u - 5 {
+                [0, 0, 200]
+            } else {
+                [100, 100, 100]
+            }
+        });
+        let mut s = Segmenter::new(SegmentConfig {
+            diff_threshold: 0.1,
+            min_pixels: 3,
+        });
+        assert!(s.segment(&im, &[]).is_err());
+        s.set_background(&bg);
+        let segs = s.segment(&im, &[]).unwrap();
+        assert_eq!(segs.len(), 2);
+        let r = &segs[0].features;
+        assert_eq!(r.pixel_count, 12);
+        assert_eq!(r.centroid, [3.5, 2.0]);
+        assert!((r.covariance[0][0] - 1.25).abs() < 1e-12 && (r.covariance[1][1] - 2.0 / 3.0).abs() < 1e-12);
+        assert_eq!(r.covariance[0][1], 0.0);
+        assert_eq!(
+            r.histogram.kept_bins().collect::<Vec<_>>(),
+            vec![crate::vision::color::rgb8_bin([200, 0, 0])]
+        );
+        assert_eq!(segs[1].features.pixel_count, 3);
+        assert!(segs[1].features.covariance[0][1] > 0.0);
+        assert_eq!(s.component_map()[22], 1);
+        // robot pixels are never foreground
+        let labels: Vec<Option<ItemLabel>> = (0..200)
+            .map(|i| if i % 20 < 8 { Some(ItemLabel::Robot) } else { None })
+            .collect();
+        let segs = s.segment(&im, &labels).unwrap();
+        assert_eq!(segs.len(), 1);
+        assert!(s.segment(&im, &labels[..5]).is_err());
+        assert!(s.segment(&Image::new(3, 3), &[]).is_err());
+    }
+}

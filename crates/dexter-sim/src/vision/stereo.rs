@@ -1,0 +1,494 @@
+//! Stereo matching of segments and triangulation of their centroids (§6.2.1), and the whole
+//! render → segment → match pipeline for a stereo pair.
+
+use crate::error::SimError;
+use crate::scene::{CameraSpec, LightSpec};
+use crate::vision::camera::Camera;
+use crate::vision::noise::SplitMix64;
+use crate::vision::render::{Image, RenderScene, Renderer};
+use crate::vision::segment::{Segment, SegmentConfig, Segmenter};
+use control_basis::math::Vec3;
+
+/// A calibrated stereo pair.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StereoCameras {
+    /// Left camera.
+    pub left: Camera,
+    /// Right camera.
+    pub right: Camera,
+}
+
+impl StereoCameras {
+    /// Distance between the camera centres (m).
+    pub fn baseline(&self) -> f64 {
+        (self.left.position() - self.right.position()).norm()
+    }
+
+    /// Both cameras looking at `fixation` from `left_eye` and `right_eye` (verged, no roll).
+    pub fn verged(spec: &CameraSpec, left_eye: Vec3, right_eye: Vec3, fixation: Vec3) -> Result<Self, SimError> {
+        Ok(Self {
+            left: Camera::look_at(spec, left_eye, fixation)?,
+            right: Camera::look_at(spec, right_eye, fixation)?,
+        })
+    }
+}
+
+/// Left or right camera of a pair.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Side {
+    /// The left camera.
+    Left,
+    /// The right camera.
+    Right,
+}
+
+/// In which cameras a stereo blob was seen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Visibility {
+    /// Matched in both images and triangulated.
+    Both,
+    /// Seen only by the left camera (hidden from, or outside the view of, the right one).
+    LeftOnly,
+    /// Seen only by the right camera.
+    RightOnly,
+}
+
+/// The closest approach of two rays.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Triangulation {
+    /// Midpoint of the shortest segment between the rays (world, m).
+    pub point: Vec3,
+    /// Length of that segment (m): 0 for rays that intersect.
+    pub gap: f64,
+    /// Distance along the first ray (m).
+    pub range_a: f64,
+    /// Distance along the second ray (m).
+    pub range_b: f64,
+}
+
+/// The midpoint triangulation of rays `oa + s·da` and `ob + t·db` (unit directions): `None` if they
+/// are (nearly) parallel or the closest points are not in front of both origins.
+pub fn triangulate_rays(oa: &Vec3, da: &Vec3, ob: &Vec3, db: &Vec3) -> Option<Triangulation> {
+    let w = oa - ob;
+    let b = da.dot(db);
+    let (d, e) = (da.dot(&w), db.dot(&w));
+    let denom = 1.0 - b * b;
+    if denom.is_nan() || denom <= 1e-12 {
+        return None;
+    }
+    let s = (b * e - d) / denom;
+    let t = (e - b * d) / denom;
+    if !(s > 0.0 && t > 0.0 && s.is_finite() && t.is_finite()) {
+        return None;
+    }
+    let (pa, pb) = (oa + da * s, ob + db * t);
+    Some(Triangulation {
+        point: 0.5 * (pa + pb),
+        gap: (pa - pb).norm(),
+        range_a: s,
+        range_b: t,
+    })
+}
+
+/// Triangulates pixel `uv_left` of the left camera with `uv_right` of the right camera.
+pub fn triangulate(cams: &StereoCameras, uv_left: [f64; 2], uv_right: [f64; 2]) -> Option<Triangulation> {
+    let (oa, da) = cams.left.ray(uv_left[0], uv_left[1]);
+    let (ob, db) = cams.right.ray(uv_right[0], uv_right[1]);
+    triangulate_rays(&oa, &da, &ob, &db)
+}
+
+/// How the triangulated centroid is corrected for seeing only the near side of an object.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DepthCorrection {
+    /// Use the triangulated point as it is.
+    None,
+    /// Move the triangulated point away from the cameras (along the line from the middle of the
+    /// baseline) by `factor` × the object's apparent radius `√(A/π) · range / f`, averaged over the
+    /// two images (A = segment area in pixels).
+    PushBack {
+        /// Multiple of the apparent radius.
+        factor: f64,
+    },
+}
+
+/// Settings of stereo matching.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StereoConfig {
+    /// Pairs whose colour-histogram intersection is below this are not matched.
+    pub min_histogram_intersection: f64,
+    /// Pairs whose sizes differ by more than this ratio (smaller / larger) are not matched; sizes
+    /// are compared as solid angles (pixels / (fx·fy)), so the two cameras may differ in resolution.
+    pub min_size_ratio: f64,
+    /// Largest gap between the two centroid rays, in pixels at the triangulated range, plus
+    /// [`StereoConfig::gap_radius_share`] of the segment's apparent radius.
+    pub max_ray_gap_px: f64,
+    /// Share of the apparent radius (px) added to the gap tolerance (partial occlusion moves centroids).
+    pub gap_radius_share: f64,
+    /// Triangulated points nearer than this to a camera (m) are rejected.
+    pub min_range: f64,
+    /// Triangulated points farther than this from a camera (m) are rejected.
+    pub max_range: f64,
+    /// Correction of the triangulated centroid.
+    pub depth_correction: DepthCorrection,
+}
+
+impl Default for StereoConfig {
+    fn default() -> Self {
+        Self {
+            min_histogram_intersection: 0.4,
+            min_size_ratio: 0.4,
+            max_ray_gap_px: 3.0,
+            gap_radius_share: 0.25,
+            min_range: 0.05,
+            max_range: 5.0,
+            depth_correction: DepthCorrection::None,
+        }
+    }
+}
+
+/// An object seen by one or both cameras.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StereoBlob {
+    /// Its segment in the left image.
+    pub left: Option<Segment>,
+    /// Its segment in the right image.
+    pub right: Option<Segment>,
+    /// Triangulated (and corrected) 3-D centroid, world (m); only when seen by both.
+    pub centroid: Option<Vec3>,
+    /// Triangulated point before [`DepthCorrection`].
+    pub raw_centroid: Option<Vec3>,
+    /// Gap between the two centroid rays (m), a matching-quality measure.
+    pub ray_gap: Option<f64>,
+    /// Which cameras saw it.
+    pub visibility: Visibility,
+}
+
+impl StereoBlob {
+    /// The appearance feature of §6.2.1: the average of the left and right second-moment matrices
+    /// (or the one available).
+    pub fn mean_covariance(&self) -> [[f64; 2]; 2] {
+        let f = |s: &Option<Segment>| s.map(|s| s.features.covariance);
+        match (f(&self.left), f(&self.right)) {
+            (Some(a), Some(b)) => [
+                [0.5 * (a[0][0] + b[0][0]), 0.5 * (a[0][1] + b[0][1])],
+                [0.5 * (a[1][0] + b[1][0]), 0.5 * (a[1][1] + b[1][1])],
+            ],
+            (Some(a), None) | (None, Some(a)) => a,
+            (None, None) => [[0.0; 2]; 2],
+        }
+    }
+
+    /// Whether a segment touches its image border: the object may be cut off, so its size, moments
+    /// and triangulated centroid are unreliable.
+    pub fn truncated(&self) -> bool {
+        self.left.is_some_and(|s| s.touches_border) || self.right.is_some_and(|s| s.touches_border)
+    }
+
+    /// The stereo size observation `(s_L, s_R)` of §5.1.2.2 in pixels.
+    pub fn pixel_counts(&self) -> (Option<usize>, Option<usize>) {
+        (
+            self.left.map(|s| s.features.pixel_count),
+            self.right.map(|s| s.features.pixel_count),
+        )
+    }
+}
+
+/// Matches segments of a stereo pair. Holds its scratch buffers.
+#[derive(Debug, Clone, Default)]
+pub struct StereoMatcher {
+    candidates: Vec<(f64, u32, u32, Triangulation)>,
+    match_of_left: Vec<Option<(u32, Triangulation)>>,
+    used_right: Vec<bool>,
+}
+
+impl StereoMatcher {
+    /// A matcher.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Matches `left` with `right` segments and appends one [`StereoBlob`] per object to `out`
+    /// (cleared first): matched pairs in left-segment order, then unmatched left, then unmatched
+    /// right segments.
+    ///
+    /// A pair is a candidate when its colour histograms intersect by at least
+    /// `min_histogram_intersection`, its sizes agree within `min_size_ratio` (not checked when a
+    /// segment touches the image border), the two
+    /// centroid rays meet in front of both cameras within `[min_range, max_range]`, and pass within
+    /// the gap tolerance of each other (the epipolar constraint). Candidates are accepted greedily
+    /// by the cost `(1 − intersection) + (1 − size ratio) + gap / tolerance`.
+    pub fn match_segments(
+        &mut self,
+        cams: &StereoCameras,
+        left: &[Segment],
+        right: &[Segment],
+        config: &StereoConfig,
+        out: &mut Vec<StereoBlob>,
+    ) {
+        out.clear();
+        self.candidates.clear();
+        let f = 0.25 * (cams.left.fx + cams.left.fy + cams.right.fx + cams.right.fy);
+        for (i, l) in left.iter().enumerate() {
+            for (j, r) in right.iter().enumerate() {
+                let (fl, fr) = (&l.features, &r.features);
+                let inter = fl.histogram.intersection(&fr.histogram);
+                if inter < config.min_histogram_intersection {
+                    continue;
+                }
+                // Sizes as solid angles (px / f²), so cameras of different resolutions compare.
+                let (a, b) = (fl.pixel_count as f64, fr.pixel_count as f64);
+                let (sa, sb) = (a / (cams.left.fx * cams.left.fy), b / (cams.right.fx * cams.right.fy));
+                let truncated = l.touches_border || r.touches_border;
+                // A segment cut by the image border has lost an unknown part: sizes do not compare.
+                let ratio = if truncated { 1.0 } else { sa.min(sb) / sa.max(sb) };
+                if ratio < config.min_size_ratio {
+                    continue;
+                }
+                let Some(tri) = triangulate(cams, fl.centroid, fr.centroid) else {
+                    continue;
+                };
+                let range = tri.range_a.max(tri.range_b);
+                if tri.range_a.min(tri.range_b) < config.min_range || range > config.max_range {
+                    continue;
+                }
+                let radius_px = (sa.min(sb) * f * f / std::f64::consts::PI).sqrt();
+                let tol_px = config.max_ray_gap_px + config.gap_radius_share * radius_px;
+                let gap_px = tri.gap * f / range;
+                if gap_px > tol_px {
+                    continue;
+                }
+                let cost = (1.0 - inter) + (1.0 - ratio) + gap_px / tol_px;
+                self.candidates.push((cost, i as u32, j as u32, tri));
+            }
+        }
+        self.candidates
+            .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        self.match_of_left.clear();
+        self.match_of_left.resize(left.len(), None);
+        self.used_right.clear();
+        self.used_right.resize(right.len(), false);
+        for &(_, i, j, tri) in &self.candidates {
+            if self.match_of_left[i as usize].is_some() || self.used_right[j as usize] {
+                continue;
+            }
+            self.match_of_left[i as usize] = Some((j, tri));
+            self.used_right[j as usize] = true;
+        }
+        for (l, m) in left.iter().zip(&self.match_of_left) {
+            if let Some((j, tri)) = *m {
+                let r = right[j as usize];
+                out.push(StereoBlob {
+                    left: Some(*l),
+                    right: Some(r),
+                    centroid: Some(correct(cams, &tri, l, &r, config.depth_correction)),
+                    raw_centroid: Some(tri.point),
+                    ray_gap: Some(tri.gap),
+                    visibility: Visibility::Both,
+                });
+            }
+        }
+        for (l, _) in left.iter().zip(&self.match_of_left).filter(|(_, m)| m.is_none()) {
+            out.push(StereoBlob {
+                left: Some(*l),
+                right: None,
+                centroid: None,
+                raw_centroid: None,
+                ray_gap: None,
+                visibility: Visibility::LeftOnly,
+            });
+        }
+        for (r, _) in right.iter().zip(&self.used_right).filter(|(_, used)| !**used) {
+            out.push(StereoBlob {
+                left: None,
+                right: Some(*r),
+                centroid: None,
+                raw_centroid: None,
+                ray_gap: None,
+                visibility: Visibility::RightOnly,
+            });
+        }
+    }
+}
+
+fn correct(cams: &StereoCameras, tri: &Triangulation, l: &Segment, r: &Segment, c: DepthCorrection) -> Vec3 {
+    match c {
+        DepthCorrection::None => tri.point,
+        DepthCorrection::PushBack { factor } => {
+            let mid = 0.5 * (cams.left.position() + cams.right.position());
+            let view = tri.point - mid;
+            let dist = view.norm();
+            if dist.is_nan() || dist <= 1e-9 {
+                return tri.point;
+            }
+            let rad = |s: &Segment, range: f64, cam: &Camera| {
+                (s.features.pixel_count as f64 / std::f64::consts::PI).sqrt() * cam.metres_per_pixel(range)
+            };
+            let radius = 0.5 * (rad(l, tri.range_a, &cams.left) + rad(r, tri.range_b, &cams.right));
+            tri.point + view / dist * (factor * radius)
+        }
+    }
+}
+
+/// The whole stereo pipeline with all buffers reused: two renderers, two segmenters (each with the
+/// background of its camera) and a matcher.
+///
+/// The background of each camera is the empty scene (only [`crate::vision::ItemLabel::Static`]
+/// items) seen from that camera's current pose. [`StereoVision::perceive`] re-renders it whenever
+/// the cameras differ from the ones it was captured with (the head moved), as a robot would
+/// re-capture its background per head pose.
+#[derive(Debug, Clone)]
+pub struct StereoVision {
+    renderers: [Renderer; 2],
+    segmenters: [Segmenter; 2],
+    matcher: StereoMatcher,
+    config: StereoConfig,
+    background_cams: Option<StereoCameras>,
+}
+
+fn side_index(side: Side) -> usize {
+    match side {
+        Side::Left => 0,
+        Side::Right => 1,
+    }
+}
+
+impl StereoVision {
+    /// Default segmentation (for the camera's pixel noise) and matching settings; the two cameras'
+    /// noise streams are derived from `seed`.
+    pub fn new(spec: &CameraSpec, light: &LightSpec, seed: u64) -> Result<Self, SimError> {
+        Self::with_config(
+            spec,
+            light,
+            seed,
+            SegmentConfig::for_noise(spec.pixel_noise),
+            StereoConfig::default(),
+        )
+    }
+
+    /// Explicit settings.
+    pub fn with_config(
+        spec: &CameraSpec,
+        light: &LightSpec,
+        seed: u64,
+        segment: SegmentConfig,
+        stereo: StereoConfig,
+    ) -> Result<Self, SimError> {
+        crate::vision::camera::validate_spec(spec)?;
+        let mut mix = SplitMix64::new(seed);
+        let (sl, sr) = (mix.next_u64(), mix.next_u64());
+        Ok(Self {
+            renderers: [
+                Renderer::new(spec.pixel_noise, light, sl)?,
+                Renderer::new(spec.pixel_noise, light, sr)?,
+            ],
+            segmenters: [Segmenter::new(segment), Segmenter::new(segment)],
+            matcher: StereoMatcher::new(),
+            config: stereo,
+            background_cams: None,
+        })
+    }
+
+    /// Restarts both noise streams from `seed` (as [`StereoVision::new`] does).
+    pub fn reseed(&mut self, seed: u64) {
+        let mut mix = SplitMix64::new(seed);
+        self.renderers[0].reseed(mix.next_u64());
+        self.renderers[1].reseed(mix.next_u64());
+    }
+
+    /// The matching settings.
+    pub fn config(&self) -> &StereoConfig {
+        &self.config
+    }
+
+    /// Changes the matching settings.
+    pub fn set_config(&mut self, config: StereoConfig) {
+        self.config = config;
+    }
+
+    /// The renderer of one camera (its last image, labels and depth).
+    pub fn renderer(&self, side: Side) -> &Renderer {
+        &self.renderers[side_index(side)]
+    }
+
+    /// The renderer of one camera, mutable.
+    pub fn renderer_mut(&mut self, side: Side) -> &mut Renderer {
+        &mut self.renderers[side_index(side)]
+    }
+
+    /// The segmenter of one camera (its background, last mask, component map and segments).
+    pub fn segmenter(&self, side: Side) -> &Segmenter {
+        &self.segmenters[side_index(side)]
+    }
+
+    /// The segmenter of one camera, mutable.
+    pub fn segmenter_mut(&mut self, side: Side) -> &mut Segmenter {
+        &mut self.segmenters[side_index(side)]
+    }
+
+    /// Renders the empty scene (static items only) from both cameras and stores it as background.
+    ///
+    /// Call it again whenever the static scene changes; [`StereoVision::perceive`] only notices
+    /// camera motion.
+    pub fn capture_background(&mut self, cams: &StereoCameras, scene: &RenderScene) -> Result<(), SimError> {
+        // Until both succeed the backgrounds are inconsistent: force a re-capture on failure.
+        self.background_cams = None;
+        for (k, cam) in [&cams.left, &cams.right].into_iter().enumerate() {
+            let bg = self.renderers[k].render_background(cam, scene)?;
+            self.segmenters[k].set_background(bg);
+        }
+        self.background_cams = Some(cams.clone());
+        Ok(())
+    }
+
+    /// Renders both images of the scene.
+    pub fn render_stereo(&mut self, cams: &StereoCameras, scene: &RenderScene) -> Result<(&Image, &Image), SimError> {
+        self.renderers[0].render(&cams.left, scene)?;
+        self.renderers[1].render(&cams.right, scene)?;
+        Ok((self.renderers[0].image(), self.renderers[1].image()))
+    }
+
+    /// Renders, segments and matches; writes the blobs into `out` (cleared first). Captures the
+    /// background first if it was never captured or the cameras moved.
+    pub fn perceive_into(
+        &mut self,
+        cams: &StereoCameras,
+        scene: &RenderScene,
+        out: &mut Vec<StereoBlob>,
+    ) -> Result<(), SimError> {
+        if self.background_cams.as_ref() != Some(cams) {
+            self.capture_background(cams, scene)?;
+        }
+        self.render_stereo(cams, scene)?;
+        for k in 0..2 {
+            let r = &self.renderers[k];
+            self.segmenters[k].segment(r.image(), r.labels())?;
+        }
+        let [sl, sr] = &self.segmenters;
+        self.matcher
+            .match_segments(cams, sl.segments(), sr.segments(), &self.config, out);
+        Ok(())
+    }
+
+    /// [`StereoVision::perceive_into`] into a new vector.
+    pub fn perceive(&mut self, cams: &StereoCameras, scene: &RenderScene) -> Result<Vec<StereoBlob>, SimError> {
+        let mut out = Vec::new();
+        self.perceive_into(cams, scene, &mut out)?;
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rays_meet_at_point() {
+        let p = Vec3::new(0.6, 0.02, 0.8);
+        let (oa, ob) = (Vec3::new(0.05, 0.06, 1.5), Vec3::new(0.05, -0.06, 1.5));
+        let t = triangulate_rays(&oa, &(p - oa).normalize(), &ob, &(p - ob).normalize()).unwrap();
+        assert!((t.point - p).norm() < 1e-12 && t.gap < 1e-12);
+        assert!(triangulate_rays(&oa, &-(p - oa).normalize(), &ob, &-(p - ob).normalize()).is_none());
+        let d = Vec3::x();
+        assert!(triangulate_rays(&oa, &d, &ob, &d).is_none());
+    }
+}
