@@ -297,11 +297,20 @@ pub fn grasp_and_lift(
     let plan = GraspPlan { grasp: grasp_pose, ..*plan };
     let mut pre = plan.grasp;
     pre.translation.vector.z += 0.10;
-    match reach.set_goal_via_ik(sim, pre, 17) {
+    // Large motion in configuration space to a hover pose high above the pre-grasp (a joint-space
+    // path may dip; high above, it cannot sweep through the objects), then straight down.
+    let mut hover = pre;
+    hover.translation.vector.z = hover.translation.vector.z.max(reach.tool_pose(sim).translation.z).max(pre.translation.z + 0.08);
+    match reach.set_goal_via_ik(sim, hover, 17) {
         Ok(true) => {}
-        _ => return fail("pre-grasp out of reach (no IK solution)".into()),
+        _ => reach.set_goal(sim, hover),
     }
-    if !run_until(sim, reach, obs, 8.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
+    if !run_until(sim, reach, obs, 8.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
+        let (d, _) = reach.goal_error(sim);
+        return fail(format!("hover above the object not reached ({:.1} cm away)", d * 100.0));
+    }
+    reach.set_goal(sim, pre);
+    if !run_until(sim, reach, obs, 4.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
         let (d, _) = reach.goal_error(sim);
         return fail(format!("pre-grasp not reached ({:.1} cm away)", d * 100.0));
     }
@@ -502,7 +511,7 @@ pub fn pick_and_place_in(
     reach.max_speed = 0.2;
     reach.set_goal(sim, away);
     run_until(sim, &mut reach, obs, 2.0, |s, r| r.at_goal(s, 0.01, 0.05));
-    run_until(sim, &mut reach, obs, 1.0, |s, _| s.object_state(obj).linvel.norm() < 0.005);
+    run_until(sim, &mut reach, obs, 2.5, |s, _| s.object_state(obj).linvel.norm() < 0.005);
     let state = sim.object_state(obj);
     let p = state.pose.translation.vector;
     let inside = (p.x - place.center[0]).abs() <= place.size[0] / 2.0
