@@ -9,6 +9,39 @@ use dexter_sim::vision::fixtures::*;
 use dexter_sim::vision::noise::SplitMix64;
 use dexter_sim::vision::*;
 
+/// Counts heap allocations per thread, to check that the pipeline reuses its buffers.
+struct CountingAlloc;
+
+thread_local! {
+    static ALLOCATIONS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+// SAFETY: forwards to the system allocator; only counts.
+#[allow(unsafe_code)]
+unsafe impl std::alloc::GlobalAlloc for CountingAlloc {
+    unsafe fn alloc(&self, layout: std::alloc::Layout) -> *mut u8 {
+        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+        // SAFETY: same contract as the caller's.
+        unsafe { std::alloc::System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: std::alloc::Layout) {
+        // SAFETY: same contract as the caller's.
+        unsafe { std::alloc::System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: std::alloc::Layout, new_size: usize) -> *mut u8 {
+        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+        // SAFETY: same contract as the caller's.
+        unsafe { std::alloc::System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: CountingAlloc = CountingAlloc;
+
+fn allocations() -> usize {
+    ALLOCATIONS.with(|c| c.get())
+}
+
 fn default_cams(spec: &CameraSpec) -> StereoCameras {
     head_cameras(spec, Vec3::from(TABLE_FIXATION)).unwrap()
 }
@@ -678,6 +711,36 @@ fn bad_input_is_an_error_not_a_panic() {
     assert!(seg.segment(&Image::new(4, 4), &[]).unwrap().is_empty());
 }
 
+/// After the first frame, rendering and perceiving allocate nothing (poses change in place).
+#[test]
+fn frames_do_not_allocate() {
+    let spec = CameraSpec::default();
+    let cams = default_cams(&spec);
+    let (mut scene, truth) = typical_scene(5, 12, true);
+    let mut sv = StereoVision::new(&spec, &LightSpec::default(), 1).unwrap();
+    let mut blobs = Vec::new();
+    sv.perceive_into(&cams, &scene, &mut blobs).unwrap();
+    // Two passes over the same motion: the first may grow buffers (more segments, fuller tiles),
+    // the second must not allocate at all.
+    let mut per_pass = Vec::with_capacity(2);
+    for _pass in 0..2 {
+        let before = allocations();
+        for (step, &(idx, p)) in truth.iter().enumerate().take(4) {
+            // Move objects, as the simulator does each frame.
+            scene.items[idx].set_object_pose(&Iso3::translation(p.x + 0.01 * step as f64, p.y, p.z));
+            sv.perceive_into(&cams, &scene, &mut blobs).unwrap();
+            sv.render_stereo(&cams, &scene).unwrap();
+        }
+        for &(idx, p) in truth.iter().take(4) {
+            scene.items[idx].set_object_pose(&Iso3::translation(p.x, p.y, p.z));
+        }
+        per_pass.push(allocations() - before);
+    }
+    eprintln!("allocations per pass of 4 frames after the first frame: {per_pass:?}");
+    assert_eq!(per_pass[1], 0);
+    assert!(!blobs.is_empty());
+}
+
 /// The debug dump is a valid binary PPM.
 #[test]
 fn ppm_dump() {
@@ -698,4 +761,40 @@ fn ppm_dump() {
     assert!(buf.starts_with(b"P6\n8 6\n255\n"));
     assert_eq!(buf.len(), 11 + 8 * 6 * 3);
     let _ = bounding_radius(&Shape::Sphere { radius: 1.0 });
+}
+
+/// The built-in sorting scene, rendered from its scene file: every object is seen by both cameras
+/// and triangulated near its resting pose.
+#[test]
+fn builtin_sorting_scene() {
+    let scene = dexter_sim::scene::Scene::builtin("sorting").unwrap();
+    let render = RenderScene::from_scene(&scene);
+    let spec = scene.spec.camera.clone();
+    let cams = default_cams(&spec);
+    let mut sv = StereoVision::new(&spec, &scene.spec.light, scene.spec.seed).unwrap();
+    let blobs = sv.perceive(&cams, &render).unwrap();
+    let mut errors = Vec::new();
+    for (k, r) in scene.resolved.iter().enumerate() {
+        let truth = r.pose.translation.vector;
+        let visible = (
+            count_label(&sv, Side::Left, ItemLabel::Object(k)),
+            count_label(&sv, Side::Right, ItemLabel::Object(k)),
+        );
+        let e = blobs
+            .iter()
+            .filter_map(|b| b.centroid)
+            .map(|c| (c - truth).norm())
+            .fold(f64::INFINITY, f64::min);
+        eprintln!(
+            "{:>16} visible px {visible:?}: nearest centroid {:.1} mm",
+            r.presentation,
+            1e3 * e
+        );
+        errors.push(e);
+    }
+    assert_eq!(
+        blobs.iter().filter(|b| b.visibility == Visibility::Both).count(),
+        scene.resolved.len()
+    );
+    assert!(errors.iter().all(|&e| e < 0.02), "{errors:?}");
 }

@@ -155,12 +155,11 @@ pub struct RenderScene {
     pub items: Vec<RenderItem>,
 }
 
-/// Thickness of the table slab built by [`RenderScene::from_scene`] (m).
-pub const TABLE_THICKNESS: f64 = 0.05;
-/// Wall thickness of bins built by [`RenderScene::from_scene`] (m).
-pub const BIN_WALL_THICKNESS: f64 = 0.01;
-/// Floor thickness of bins and marked regions built by [`RenderScene::from_scene`] (m).
-pub const BIN_FLOOR_THICKNESS: f64 = 0.004;
+/// Thickness of the table slab built by [`RenderScene::from_scene`] (m), as in the physics scene.
+pub const TABLE_THICKNESS: f64 = 0.04;
+/// Floor thickness of bins and marked regions built by [`RenderScene::from_scene`] (m), as in the
+/// physics scene.
+pub const BIN_FLOOR_THICKNESS: f64 = 0.002;
 
 impl RenderScene {
     /// An empty scene.
@@ -179,10 +178,12 @@ impl RenderScene {
         self.items.iter().position(|i| i.label == label)
     }
 
-    /// The static scene and the objects of a resolved [`Scene`]: the table (a slab of
-    /// [`TABLE_THICKNESS`] below its top), each place (a floor, plus four walls if it has any), all
-    /// [`ItemLabel::Static`]; then each placed object `k` as [`ItemLabel::Object`]`(k)` at its resting
-    /// pose. Robot links are the caller's to add ([`ItemLabel::Robot`]).
+    /// The static scene and the objects of a resolved [`Scene`], with the geometry the physics
+    /// scene uses: the table (a slab of [`TABLE_THICKNESS`] below its top), each place (a floor
+    /// plate of its inner size, plus four walls of `wall_thickness` outside it if it has walls), all
+    /// [`ItemLabel::Static`]; then each placed object `k` as [`ItemLabel::Object`]`(k)` at its
+    /// resting pose (the simulator moves them with [`RenderItem::set_object_pose`]). Robot links are
+    /// the caller's to add ([`ItemLabel::Robot`]).
     pub fn from_scene(scene: &Scene) -> Self {
         let mut out = Self::new();
         let t = &scene.spec.table;
@@ -195,9 +196,8 @@ impl RenderScene {
             ItemLabel::Static,
         ));
         for p in &scene.spec.places {
-            let w = if p.wall_height > 0.0 { BIN_WALL_THICKNESS } else { 0.0 };
-            let (sx, sy) = (p.size[0] + 2.0 * w, p.size[1] + 2.0 * w);
             let [cx, cy] = p.center;
+            let [sx, sy] = p.size;
             out.push(RenderItem::uniform_box(
                 [sx, sy, BIN_FLOOR_THICKNESS],
                 at(cx, cy, top + 0.5 * BIN_FLOOR_THICKNESS),
@@ -205,12 +205,14 @@ impl RenderScene {
                 ItemLabel::Static,
             ));
             if p.wall_height > 0.0 {
-                let zc = top + 0.5 * p.wall_height;
+                // Walls of `wall_thickness` outside the inner size; the x walls cover the corners.
+                let (w, h) = (p.wall_thickness, p.wall_height);
+                let zc = top + 0.5 * h;
                 let walls = [
-                    ([sx, w, p.wall_height], [cx, cy + 0.5 * (sy - w)]),
-                    ([sx, w, p.wall_height], [cx, cy - 0.5 * (sy - w)]),
-                    ([w, p.size[1], p.wall_height], [cx + 0.5 * (sx - w), cy]),
-                    ([w, p.size[1], p.wall_height], [cx - 0.5 * (sx - w), cy]),
+                    ([w, sy + 2.0 * w, h], [cx + 0.5 * (sx + w), cy]),
+                    ([w, sy + 2.0 * w, h], [cx - 0.5 * (sx + w), cy]),
+                    ([sx, w, h], [cx, cy + 0.5 * (sy + w)]),
+                    ([sx, w, h], [cx, cy - 0.5 * (sy + w)]),
                 ];
                 for (size, [x, y]) in walls {
                     out.push(RenderItem::uniform_box(size, at(x, y, zc), p.hsv, ItemLabel::Static));

@@ -211,6 +211,12 @@ impl Segmenter {
         self.component.resize(n, 0);
         self.segments.clear();
         self.rejected.clear();
+        // Each pixel enters the stack, a component and the rejected list at most once: reserve the
+        // worst case so that noise never makes a later frame allocate.
+        for buf in [&mut self.stack, &mut self.pixels, &mut self.rejected] {
+            buf.clear();
+            buf.reserve(n);
+        }
         for start in 0..n {
             if !self.foreground[start] || self.component[start] != 0 {
                 continue;
