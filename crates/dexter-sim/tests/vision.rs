@@ -4,9 +4,9 @@
 
 use control_basis::math::{Iso3, Vec3};
 use dexter_sim::geometry::bounding_radius;
+use dexter_sim::rng::SplitMix64;
 use dexter_sim::scene::{CameraSpec, LightSpec, Shape};
 use dexter_sim::vision::fixtures::*;
-use dexter_sim::vision::noise::SplitMix64;
 use dexter_sim::vision::*;
 
 /// Counts heap allocations per thread, to check that the pipeline reuses its buffers.
@@ -89,9 +89,9 @@ fn single_object_trials(spec: &CameraSpec, config: StereoConfig, n: usize) -> Ve
     for k in 0..n {
         let mut rng = SplitMix64::new(1000 + k as u64);
         let (shape, colors) = random_object(&mut rng);
-        let x = 0.4 + 0.4 * rng.next_open01();
-        let y = -0.25 + 0.5 * rng.next_open01();
-        let pose = resting_pose(&shape, x, y, rng.next_open01() * std::f64::consts::PI);
+        let x = 0.4 + 0.4 * rng.next_f64();
+        let y = -0.25 + 0.5 * rng.next_f64();
+        let pose = resting_pose(&shape, x, y, rng.next_f64() * std::f64::consts::PI);
         scene.items.truncate(base.items.len());
         scene.push(RenderItem::from_catalog(&shape, pose, &colors, ItemLabel::Object(0)));
         let blobs = sv.perceive(&cams, &scene).unwrap();
@@ -177,25 +177,34 @@ fn report(label: &str, errs: &[(&'static str, f64)]) -> ErrorStats {
     s
 }
 
-/// Triangulated centroids against the true centroids of 48 objects (16 each of boxes, cylinders and
-/// spheres, 4–14 cm) at x 0.4–0.8 m.
+/// Triangulated centroids against the true centroids of 96 random objects (boxes, cylinders and
+/// spheres of 4–14 cm with 1–3 colour bands, random yaw) alone on the table at x 0.4–0.8 m,
+/// y −0.25–0.25 m.
 ///
-/// Measured (default 160×120, hfov 60°): mean 4.6 mm, p90 9.9 mm, max 26.5 mm, 44/48 within 1 cm.
-/// The worst cases are large flat boxes seen at an angle: their two silhouettes differ (each camera
-/// sees different faces, magnified by perspective), so the two centroid rays are not rays through
-/// one 3-D point; this is geometric, not resolution: 640×480 still gives a 23 mm maximum
-/// (mean 3.0 mm, 47/48 within 1 cm). 320×240 gives mean 3.0 mm, 47/48. Spheres: 3.9 mm mean at
-/// 160×120, 0.7 mm at 640×480.
+/// Measured, no correction:
 ///
-/// Pushing the point back along the viewing direction (`DepthCorrection::PushBack`) makes it worse
-/// (mean 16 mm at factor 0.3): triangulating silhouette centroids (the seed's "first moment of
-/// foreground segments", §6.2.1) does not see the near surface — for a centrally symmetric body the
-/// silhouette centroid is the projection of its centre up to perspective — so the default is no
-/// correction.
+/// | cameras | mean | p90 | max | within 1 cm |
+/// |---|---|---|---|---|
+/// | 160×120, hfov 60° (default) | 4.5 mm | 8.4 mm | 13.1 mm | 90/96 |
+/// | 320×240, hfov 60° | 2.8 mm | 6.5 mm | 11.2 mm | 95/96 |
+/// | 640×480, hfov 60° | 2.6 mm | 6.1 mm | 11.8 mm | 94/96 |
+///
+/// Spheres: 3.8 mm mean at 160×120, 1.5 mm at 320×240, 0.8 mm at 640×480. For boxes and
+/// cylinders resolution stops helping beyond 320×240: the remaining error is geometric. The two cameras see different faces of a box or cylinder and
+/// perspective magnifies the nearer ones, so the two silhouette-centroid rays do not pass through one
+/// 3-D point. Large flat boxes seen obliquely are the worst case (another draw of objects gave a
+/// 13 × 7 × 12 cm box 23 mm off even at 640×480).
+///
+/// Pushing the point back along the viewing direction (`DepthCorrection::PushBack`) makes it worse:
+/// mean 15.6 mm at 0.3 × the apparent radius. The seed triangulates the first moments of the
+/// foreground segments (§6.2.1), and those are silhouette centroids, not visible-surface points.
+/// The silhouette of a centrally symmetric body is centred on the projection of its centre (exactly
+/// in orthographic projection, to second order in perspective), so there is no near-surface bias to
+/// correct. The default is therefore no correction.
 #[test]
 fn triangulated_centroid_accuracy() {
     let spec = CameraSpec::default();
-    let trials = single_object_trials(&spec, StereoConfig::default(), 48);
+    let trials = single_object_trials(&spec, StereoConfig::default(), 96);
     let s = report("160×120 hfov 60°, no correction", &centroid_errors(&trials));
     assert!(s.mean < 0.006, "mean {}", s.mean);
     assert!(s.within_1cm * 10 >= s.n * 9, "{} of {} within 1 cm", s.within_1cm, s.n);
@@ -207,7 +216,7 @@ fn triangulated_centroid_accuracy() {
     };
     let p = report(
         "160×120 hfov 60°, push back 0.3 r",
-        &centroid_errors(&single_object_trials(&spec, push, 48)),
+        &centroid_errors(&single_object_trials(&spec, push, 96)),
     );
     assert!(p.mean > s.mean, "push-back should not help silhouette triangulation");
 
@@ -218,7 +227,7 @@ fn triangulated_centroid_accuracy() {
     };
     let h = report(
         "320×240 hfov 60°, no correction",
-        &centroid_errors(&single_object_trials(&hi, StereoConfig::default(), 48)),
+        &centroid_errors(&single_object_trials(&hi, StereoConfig::default(), 96)),
     );
     assert!(
         h.mean < 0.004 && h.within_1cm * 20 >= h.n * 19,
@@ -226,18 +235,29 @@ fn triangulated_centroid_accuracy() {
         h.mean,
         h.within_1cm
     );
+
+    let vga = CameraSpec {
+        width: 640,
+        height: 480,
+        ..CameraSpec::default()
+    };
+    let v = report(
+        "640×480 hfov 60°, no correction",
+        &centroid_errors(&single_object_trials(&vga, StereoConfig::default(), 96)),
+    );
+    assert!(v.mean < 0.004, "mean {}", v.mean);
 }
 
 /// Left and right segments of one object agree in size and colour.
 ///
-/// Measured over the 48 single-object trials at 160×120: pixel-count ratio smaller/larger ≥ 0.83
-/// (median 0.96: half the objects within 4 %, all within 17 %), histogram intersection ≥ 0.86
-/// (median 0.95). Deviations come from
-/// perspective (each camera sees other faces, §5.1.2.2 "deviations from diagonal … are caused by
-/// perspective distortion") and from shading that moves pixels across V-bin boundaries.
+/// Measured over the 96 single-object trials at 160×120: pixel-count ratio smaller/larger ≥ 0.875
+/// (all within 12.5 %; median 0.95), histogram intersection ≥ 0.81 (median 0.95). Deviations come
+/// from perspective: each camera sees other faces (§5.1.2.2: "Deviations from diagonal in this plot
+/// are caused by perspective distortion of the object in the stereo image"). Shading also moves
+/// pixels across V-bin boundaries.
 #[test]
 fn left_and_right_features_agree() {
-    let trials = single_object_trials(&CameraSpec::default(), StereoConfig::default(), 48);
+    let trials = single_object_trials(&CameraSpec::default(), StereoConfig::default(), 96);
     let mut ratios = Vec::new();
     let mut inters = Vec::new();
     for t in &trials {
@@ -274,7 +294,7 @@ fn left_and_right_features_agree() {
         rmin >= 0.8 && rmed >= 0.93,
         "pixel counts differ by more than 20 %: {rmin}"
     );
-    assert!(imin >= 0.75 && imed >= 0.85, "histogram intersection {imin} / {imed}");
+    assert!(imin >= 0.78 && imed >= 0.9, "histogram intersection {imin} / {imed}");
 }
 
 /// The moments of a sphere's segment: centroid where the centre projects, isotropic covariance
@@ -554,33 +574,64 @@ fn robot_is_never_foreground_and_matches_are_correct() {
             .count();
         assert!(robot_fg > robot / 2, "{robot_fg} of {robot}");
     }
-    let mut errors = Vec::new();
-    let (mut li, mut ri) = (0usize, 0usize);
+    // Which objects the arms hide (partly): compare with the same scene without the robot.
+    let (no_robot, _) = typical_scene(1, 12, false);
+    let mut clear = vec![true; truth.len()];
+    for (side, cam) in [(Side::Left, &cams.left), (Side::Right, &cams.right)] {
+        let mut r = Renderer::new(0.0, &LightSpec::default(), 0).unwrap();
+        r.render(cam, &no_robot).unwrap();
+        for (k, c) in clear.iter_mut().enumerate() {
+            let unoccluded = r.labels().iter().filter(|l| **l == Some(ItemLabel::Object(k))).count();
+            *c &= unoccluded == count_label(&sv, side, ItemLabel::Object(k));
+        }
+    }
     let segs_l = sv.segmenter(Side::Left).segments().to_vec();
     let segs_r = sv.segmenter(Side::Right).segments().to_vec();
+    // Labels of the pixels of segment `i` of `side`.
+    let labels_of = |side: Side, i: usize| -> Vec<Option<ItemLabel>> {
+        let comp = sv.segmenter(side).component_map();
+        let mut v: Vec<Option<ItemLabel>> = sv
+            .renderer(side)
+            .labels()
+            .iter()
+            .zip(comp)
+            .filter(|(_, c)| **c as usize == i + 1)
+            .map(|(l, _)| *l)
+            .collect();
+        v.sort_by_key(|l| format!("{l:?}"));
+        v.dedup();
+        v
+    };
+    let (mut clear_errors, mut hidden_errors, mut merged_errors) = (Vec::new(), Vec::new(), Vec::new());
     for b in &blobs {
         if let (Some(l), Some(r)) = (b.left, b.right) {
-            li = segs_l.iter().position(|s| *s == l).unwrap();
-            ri = segs_r.iter().position(|s| *s == r).unwrap();
+            let li = segs_l.iter().position(|s| *s == l).unwrap();
+            let ri = segs_r.iter().position(|s| *s == r).unwrap();
             let (tl, tr) = (truth_of(&sv, Side::Left, li), truth_of(&sv, Side::Right, ri));
             assert_eq!(tl, tr, "blob matched segments of different objects");
             if let Some(ItemLabel::Object(k)) = tl {
-                let e = (b.centroid.unwrap() - truth[k].1).norm();
-                errors.push(e);
+                let e = (1e3 * (b.centroid.unwrap() - truth[k].1).norm()).round();
+                // Objects whose silhouettes touch merge into one segment (background subtraction
+                // cannot split them); their centroid lies between the objects.
+                let pure = labels_of(Side::Left, li).len() == 1 && labels_of(Side::Right, ri).len() == 1;
+                match (pure, clear[k]) {
+                    (false, _) => merged_errors.push(e),
+                    (true, true) => clear_errors.push(e),
+                    (true, false) => hidden_errors.push(e),
+                }
             }
         }
     }
-    let _ = (li, ri);
     let both = blobs.iter().filter(|b| b.visibility == Visibility::Both).count();
-    errors.sort_by(f64::total_cmp);
     eprintln!(
-        "12 objects + 41 robot shapes: {} blobs, {both} both; centroid errors (mm) {:?}",
+        "12 objects + 41 robot shapes: {} blobs, {both} both; centroid errors (mm): clear {clear_errors:?}, partly hidden by the arms {hidden_errors:?}, merged with a neighbour {merged_errors:?}",
         blobs.len(),
-        errors.iter().map(|e| (e * 1000.0).round()).collect::<Vec<_>>()
     );
     assert!(both >= 9);
-    // Most objects are clear of the arms and triangulate well; those cut by the hands do not.
-    assert!(errors.iter().filter(|&&e| e < 0.01).count() >= 7);
+    // Objects clear of the arms and of each other triangulate as well as alone; those cut by the
+    // hands or merged with a neighbour do not.
+    assert!(clear_errors.len() >= 6);
+    assert!(clear_errors.iter().all(|&e| e < 15.0), "{clear_errors:?}");
 }
 
 /// Same seed → bit-identical images; another seed → other noise, same scene.

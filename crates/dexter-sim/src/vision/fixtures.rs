@@ -2,9 +2,9 @@
 //! cameras, a table with two bins, catalog-like objects and a stand-in for the robot's link shapes.
 
 use crate::error::SimError;
+use crate::rng::SplitMix64;
 use crate::scene::{CameraSpec, ColorPatch, Shape};
 use crate::vision::camera::Camera;
-use crate::vision::noise::SplitMix64;
 use crate::vision::render::{ItemLabel, RenderItem, RenderScene};
 use crate::vision::stereo::StereoCameras;
 use control_basis::math::{Iso3, Rot3, Vec3};
@@ -182,7 +182,7 @@ pub fn add_robot(scene: &mut RenderScene, reach: f64) {
 /// A random catalog-like object: a box, cylinder or sphere of 4–14 cm with 1–3 colour bands of
 /// well-separated saturated hues.
 pub fn random_object(rng: &mut SplitMix64) -> (Shape, Vec<ColorPatch>) {
-    let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.next_open01();
+    let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.next_f64();
     let shape = match (u(0.0, 3.0)) as u32 {
         0 => Shape::Box {
             size: [u(0.04, 0.14), u(0.04, 0.14), u(0.04, 0.14)],
@@ -238,9 +238,9 @@ pub fn typical_scene(seed: u64, n_objects: usize, robot: bool) -> (RenderScene, 
         };
         let cy = -0.3 + 0.6 * i as f64 / (cols - 1) as f64;
         let (shape, colors) = random_object(&mut rng);
-        let jx = 0.02 * (rng.next_open01() - 0.5);
-        let jy = 0.02 * (rng.next_open01() - 0.5);
-        let yaw = rng.next_open01() * std::f64::consts::PI;
+        let jx = 0.02 * (rng.next_f64() - 0.5);
+        let jy = 0.02 * (rng.next_f64() - 0.5);
+        let yaw = rng.next_f64() * std::f64::consts::PI;
         let pose = resting_pose(&shape, cx + jx, cy + jy, yaw);
         let idx = scene.push(RenderItem::from_catalog(&shape, pose, &colors, ItemLabel::Object(k)));
         truth.push((idx, pose.translation.vector));

@@ -1,37 +1,11 @@
-//! A tiny seeded Gaussian source for pixel noise: SplitMix64 + an inverse-CDF quantile table.
+//! A fast seeded Gaussian source for pixel noise: the crate's [`SplitMix64`] + an inverse-CDF
+//! quantile table.
 //!
 //! No dependency, fully deterministic: the same seed gives the same sequence. The table is built
 //! once with `ln` and `sqrt` of f64 (the platform libm), so images are bit-identical run to run on
 //! one machine.
 
-/// SplitMix64 (Steele, Lea, Flood 2014), the seeding generator of xoshiro; passes BigCrush.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct SplitMix64 {
-    state: u64,
-}
-
-impl SplitMix64 {
-    /// A generator whose whole future is fixed by `seed`.
-    pub fn new(seed: u64) -> Self {
-        Self { state: seed }
-    }
-
-    /// Next 64 random bits.
-    #[inline]
-    pub fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in the open interval (0, 1) (53 random bits, never 0 so `ln` is finite).
-    #[inline]
-    pub fn next_open01(&mut self) -> f64 {
-        ((self.next_u64() >> 11) as f64 + 0.5) * (1.0 / (1u64 << 53) as f64)
-    }
-}
+use crate::rng::SplitMix64;
 
 /// Bits of randomness per normal deviate: the table has `2^QUANTILE_BITS` entries.
 const QUANTILE_BITS: u32 = 12;
@@ -105,7 +79,7 @@ fn quantile_table() -> &'static [f32; QUANTILES] {
 /// 4096 equiprobable normal quantiles (five deviates per 64-bit draw). Tails are cut at ±3.5σ,
 /// which is immaterial for noise that is then quantised to 8 bits; it is ~25× cheaper than
 /// Box–Muller, whose `ln`/`sqrt` per pair took a third of the render time.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct Gaussian {
     rng: SplitMix64,
     bits: u64,

@@ -4,7 +4,6 @@
 use crate::error::SimError;
 use crate::scene::{CameraSpec, LightSpec};
 use crate::vision::camera::Camera;
-use crate::vision::noise::SplitMix64;
 use crate::vision::render::{Image, RenderScene, Renderer};
 use crate::vision::segment::{Segment, SegmentConfig, Segmenter};
 use control_basis::math::Vec3;
@@ -98,6 +97,14 @@ pub fn triangulate(cams: &StereoCameras, uv_left: [f64; 2], uv_right: [f64; 2]) 
 }
 
 /// How the triangulated centroid is corrected for seeing only the near side of an object.
+///
+/// The default is [`DepthCorrection::None`]. The centroids triangulated here are those of the
+/// silhouettes (first moments of the foreground segments, §6.2.1), not of visible-surface points.
+/// A centrally symmetric body's silhouette is centred on the projection of its centre (exactly in
+/// orthographic projection, to second order in perspective), so there is no near-side bias.
+/// Measured over 96 objects of 4–14 cm at x 0.4–0.8 m (160×120): no correction gives a mean error of
+/// 4.5 mm and a mean bias under 1 mm; `PushBack { factor: 0.3 }` gives 15.6 mm. `PushBack` is there
+/// for features that do see only the near surface (e.g. a depth-weighted centroid).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum DepthCorrection {
     /// Use the triangulated point as it is.
@@ -345,6 +352,12 @@ pub struct StereoVision {
     background_cams: Option<StereoCameras>,
 }
 
+/// Noise seeds of the left and right cameras: streams 0 and 1 of `seed` ([`crate::rng::SplitMix64::stream`]).
+fn camera_seeds(seed: u64) -> (u64, u64) {
+    let s = |k| crate::rng::SplitMix64::stream(seed, k).next_u64();
+    (s(0), s(1))
+}
+
 fn side_index(side: Side) -> usize {
     match side {
         Side::Left => 0,
@@ -374,8 +387,7 @@ impl StereoVision {
         stereo: StereoConfig,
     ) -> Result<Self, SimError> {
         crate::vision::camera::validate_spec(spec)?;
-        let mut mix = SplitMix64::new(seed);
-        let (sl, sr) = (mix.next_u64(), mix.next_u64());
+        let (sl, sr) = camera_seeds(seed);
         Ok(Self {
             renderers: [
                 Renderer::new(spec.pixel_noise, light, sl)?,
@@ -390,9 +402,9 @@ impl StereoVision {
 
     /// Restarts both noise streams from `seed` (as [`StereoVision::new`] does).
     pub fn reseed(&mut self, seed: u64) {
-        let mut mix = SplitMix64::new(seed);
-        self.renderers[0].reseed(mix.next_u64());
-        self.renderers[1].reseed(mix.next_u64());
+        let (sl, sr) = camera_seeds(seed);
+        self.renderers[0].reseed(sl);
+        self.renderers[1].reseed(sr);
     }
 
     /// The matching settings.
