@@ -15,7 +15,7 @@ fn main() {
         match pick_and_place(&scene, &req, SimSettings::default()) {
             Ok(r) => {
                 if r.success { ok += 1; }
-                println!("{name:16} {:5} {:6} lifted={} w={:?} t={:.2}s wall={:.2}s rtf={:.2} {} {:?}", r.success, r.arm.to_string(), r.lifted, r.weighed.map(|(a,b)| (a-b)/b), r.sim_time, r.wall_time, r.real_time_factor, r.outcome, r.final_position);
+                println!("{name:16} {:5} {:6} lifted={} w={:?} vis={:?} t={:.2}s wall={:.2}s rtf={:.2} {} {:?}", r.success, r.arm.to_string(), r.lifted, r.weighed.map(|(a,b)| (a-b)/b), r.vision_error, r.sim_time, r.wall_time, r.real_time_factor, r.outcome, r.final_position);
             }
             Err(e) => println!("{name:16} error {e}"),
         }

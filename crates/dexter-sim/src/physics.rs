@@ -39,6 +39,9 @@ use crate::snapshot::{Arm, FingertipWrench, ObjectState, Snapshot, SnapshotHeade
 /// Dexter's URDF, embedded.
 pub const DEXTER_URDF: &str = include_str!("../../../assets/dexter.urdf");
 
+/// Angular damping of objects (1/s), a stand-in for rolling resistance.
+pub const OBJECT_ANGULAR_DAMPING: f64 = 1.0;
+
 /// Collision groups.
 mod groups {
     use rapier3d_f64::prelude::Group;
@@ -115,7 +118,12 @@ pub fn default_gains(joint: &str, effort: f64) -> MotorGains {
         }
     }
     if joint.contains("med_joint") {
-        // Unsaturated low-kp PD: closes gently and does not squeeze the object out (probe).
+        // Low-kp PD: closes gently and does not squeeze the object out (probe). Finger 3 opposes
+        // fingers 1 and 2 together, so it gets twice their stiffness and effort: the squeeze is
+        // balanced and the object is not pushed towards F1/F2 while the hand closes.
+        if joint.contains("finger_3") {
+            return MotorGains { kp: 3.0, kd: 0.1, max_effort: effort.min(3.0) };
+        }
         return MotorGains { kp: 1.5, kd: 0.05, max_effort: effort.min(1.5) };
     }
     if joint.contains("prox_joint") {
@@ -592,6 +600,9 @@ impl DexterSim {
             let body = self.world.insert_body(
                 RigidBodyBuilder::dynamic()
                     .pose(iso_to_glam(&pose))
+                    // Rapier has no rolling resistance: a little angular damping stands in for it,
+                    // so that balls and lying cans come to rest in a bin as they do on real surfaces.
+                    .angular_damping(OBJECT_ANGULAR_DAMPING)
                     .can_sleep(self.settings.allow_sleep)
                     .user_data((1u128 << 64) | k as u128)
                     .build(),
@@ -974,6 +985,13 @@ impl DexterSim {
         }
     }
 
+    /// The colliders of the robot's links (for rendering and self-filtering).
+    pub fn robot_colliders(&self) -> impl Iterator<Item = ColliderHandle> + '_ {
+        let mut v: Vec<ColliderHandle> = self.collider_part.keys().copied().collect();
+        v.sort_by_key(|h| h.into_raw_parts());
+        v.into_iter()
+    }
+
     /// The Rapier world (read-only), for rendering and queries.
     pub fn world(&self) -> &PhysicsWorld {
         &self.world
@@ -1042,4 +1060,46 @@ fn topological_links(model: &RobotModel) -> Vec<usize> {
         i += 1;
     }
     order
+}
+
+impl control_basis::Plant for DexterSim {
+    fn joint_names(&self) -> &[String] {
+        &self.header.joint_names
+    }
+
+    fn read_joint_positions(&self, q: &mut [f64]) {
+        let n = q.len().min(self.q.len());
+        q[..n].copy_from_slice(&self.q[..n]);
+    }
+
+    fn command(&mut self, references: &[f64]) -> Result<(), control_basis::CbError> {
+        if references.len() != self.dofs.len() {
+            return Err(control_basis::CbError::DimensionMismatch {
+                what: "motor references".into(),
+                expected: self.dofs.len(),
+                got: references.len(),
+            });
+        }
+        control_basis::error::check_finite("motor references", references)?;
+        for (i, &r) in references.iter().enumerate() {
+            self.set_joint_target(i, r, 0.0);
+        }
+        Ok(())
+    }
+
+    /// Advances by `dt_secs`, rounded to whole physics steps (at least one).
+    fn step(&mut self, dt_secs: f64) -> Result<(), control_basis::CbError> {
+        if !(dt_secs.is_finite() && dt_secs >= 0.0) {
+            return Err(control_basis::CbError::NotFinite { what: "plant step (s)".into(), index: 0, value: dt_secs });
+        }
+        let n = ((dt_secs / self.settings.dt).round() as usize).max(1);
+        for _ in 0..n {
+            DexterSim::step(self);
+        }
+        Ok(())
+    }
+
+    fn time_secs(&self) -> f64 {
+        self.time
+    }
 }

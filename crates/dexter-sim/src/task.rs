@@ -13,6 +13,7 @@ use serde::Serialize;
 use crate::control::{FLEX_CLOSED, HandControl, ReachControl, top_down_orientation};
 use crate::error::SimError;
 use crate::geometry;
+use crate::perception::{Eyes, Pair, SearchTrack};
 use crate::physics::{DexterSim, SimSettings};
 use crate::scene::{PlaceSpec, Scene, Shape};
 use crate::snapshot::{Arm, FingertipWrench};
@@ -63,6 +64,9 @@ pub struct PickPlaceReport {
     pub final_position: [f64; 3],
     /// The object weighed through the fingertip sensors after the lift: (measured, true m·g) in N.
     pub weighed: Option<(f64, f64)>,
+    /// Horizontal distance between the stereo-triangulated centroid used for the grasp and the true
+    /// centroid (m).
+    pub vision_error: Option<f64>,
 }
 
 /// A top-down grasp for an object: where the palm surface goes and how the fingers close.
@@ -301,13 +305,18 @@ pub fn grasp_and_lift(
     // path may dip; high above, it cannot sweep through the objects), then straight down.
     let mut hover = pre;
     hover.translation.vector.z = hover.translation.vector.z.max(reach.tool_pose(sim).translation.z).max(pre.translation.z + 0.08);
-    match reach.set_goal_via_ik(sim, hover, 17) {
-        Ok(true) => {}
-        _ => reach.set_goal(sim, hover),
-    }
-    if !run_until(sim, reach, obs, 8.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
-        let (d, _) = reach.goal_error(sim);
-        return fail(format!("hover above the object not reached ({:.1} cm away)", d * 100.0));
+    // First a straight line (Cartesian Reach ◁ Manipulability) at hover height; if it stalls (a
+    // local minimum or a joint limit), the configuration servo to an IK solution takes over.
+    reach.set_goal(sim, hover);
+    if !run_until(sim, reach, obs, 5.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
+        match reach.set_goal_via_ik(sim, hover, 17) {
+            Ok(true) => {}
+            _ => return fail("hover above the object out of reach (no IK solution)".into()),
+        }
+        if !run_until(sim, reach, obs, 8.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
+            let (d, _) = reach.goal_error(sim);
+            return fail(format!("hover above the object not reached ({:.1} cm away)", d * 100.0));
+        }
     }
     reach.set_goal(sim, pre);
     if !run_until(sim, reach, obs, 4.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
@@ -325,6 +334,16 @@ pub fn grasp_and_lift(
     }
     // 3. Grasp: close until fingers on both sides touch and the hand is still.
     phase("grasp", sim.time());
+    if std::env::var_os("PBD_DEBUG").is_some() {
+        eprintln!(
+            "grasp plan {:?} width {:.3} preshape {:.2}; tool {:?}; object {:?}",
+            plan.grasp.translation.vector.as_slice(),
+            plan.width,
+            plan.preshape,
+            reach.tool_pose(sim).translation.vector.as_slice(),
+            sim.object_state(obj).pose.translation.vector.as_slice()
+        );
+    }
     obs.activity = "grasp";
     hand.set(sim, FLEX_CLOSED, 0.0);
     let mut still = 0;
@@ -382,8 +401,18 @@ pub fn grasp_and_lift(
 /// One pick-and-place in a fresh simulation of `scene`.
 pub fn pick_and_place(scene: &Scene, request: &PickPlaceRequest, settings: SimSettings) -> Result<PickPlaceReport, SimError> {
     let mut sim = DexterSim::new(scene, settings)?;
-    let mut nothing = |_: &DexterSim, _: &str| {};
-    pick_and_place_in(&mut sim, scene, request, &mut Observer::new(&mut nothing))
+    let debug = std::env::var_os("PBD_DEBUG").is_some();
+    let mut last = String::new();
+    let mut trace = |s: &DexterSim, activity: &str| {
+        if debug && activity != last {
+            last = activity.to_string();
+            let poses: Vec<String> = (0..s.objects().len())
+                .map(|i| format!("{:.3?}", s.object_state(i).pose.translation.vector.as_slice()))
+                .collect();
+            eprintln!("t={:.2} {activity}: objects {}", s.time(), poses.join(" "));
+        }
+    };
+    pick_and_place_in(&mut sim, scene, request, &mut Observer::new(&mut trace))
 }
 
 /// One pick-and-place in an existing simulation, reporting every control tick to `obs`.
@@ -405,7 +434,41 @@ pub fn pick_and_place_in(
         sim.step();
     }
     let shape = scene.catalog.objects[sim.objects()[obj].catalog_index].shape.clone();
-    let pose = sim.object_state(obj).pose;
+    // Search-Track with the head: find the object where the scene presented it, foveate it and
+    // triangulate its centroid. The grasp is planned at the *seen* position; the object's shape
+    // and resting orientation come from its catalog model.
+    obs.activity = "search-track";
+    let truth = sim.object_state(obj).pose;
+    let nominal = scene.resolved[sim.objects()[obj].scene_index].pose.translation.vector;
+    let seen = match locate_object(sim, scene, &nominal, obs)? {
+        Ok(c) => c,
+        Err(why) => {
+            let p = truth.translation.vector;
+            return Ok(PickPlaceReport {
+                object: request.object.clone(),
+                place: request.place.clone(),
+                arm: request.arm.unwrap_or(Arm::Left),
+                success: false,
+                outcome: why,
+                lifted: false,
+                phases: vec![("search-track".into(), 0.0)],
+                sim_time: sim.time() - t0,
+                steps: sim.steps() - s0,
+                wall_time: wall.elapsed().as_secs_f64(),
+                real_time_factor: 0.0,
+                final_position: [p.x, p.y, p.z],
+                weighed: None,
+                vision_error: None,
+            });
+        }
+    };
+    let vision_error = (seen.xy() - truth.translation.vector.xy()).norm();
+    if std::env::var_os("PBD_DEBUG").is_some() {
+        eprintln!("seen {:?} truth {:?}", seen.as_slice(), truth.translation.vector.as_slice());
+    }
+    let mut pose = truth;
+    pose.translation.vector.x = seen.x;
+    pose.translation.vector.y = seen.y;
     let arc_left = finger_arc(sim, Arm::Left)?;
     let arm = match request.arm {
         Some(a) => a,
@@ -433,6 +496,7 @@ pub fn pick_and_place_in(
             real_time_factor: if wall_time > 0.0 { sim_time / wall_time } else { 0.0 },
             final_position: [p.x, p.y, p.z],
             weighed,
+            vision_error: Some(vision_error),
         }
     };
 
@@ -527,6 +591,65 @@ pub fn pick_and_place_in(
         "object still moving".to_string()
     };
     Ok(report(sim, success, true, outcome, phases, weighed))
+}
+
+/// Search-Track (§3.2.2.1): points the head at `nominal`, then foveates the blob nearest to the
+/// running estimate at the camera rate until the tracking predicate converges, and returns the mean
+/// triangulated centroid of the last frames. `Ok(Err(why))` if the object is not seen.
+pub fn locate_object(
+    sim: &mut DexterSim,
+    scene: &Scene,
+    nominal: &Vec3,
+    obs: &mut Observer<'_>,
+) -> Result<Result<Vec3, String>, SimError> {
+    let mut eyes = Eyes::new(sim, scene, sim.settings().seed ^ 0xE7E5)?;
+    let mut track = SearchTrack::new(sim)?;
+    track.look_at(sim, nominal)?;
+    let steps_per_frame = ((1.0 / scene.spec.camera.rate_hz) / sim.settings().dt).round().max(1.0) as usize;
+    // Let the head get there (saccade).
+    for _ in 0..(0.4 / sim.settings().dt) as usize {
+        sim.step();
+    }
+    (obs.callback)(sim, obs.activity);
+    let mut estimate = *nominal;
+    let mut recent: Vec<Vec3> = Vec::new();
+    let frame_dt = steps_per_frame as f64 * sim.settings().dt;
+    for _frame in 0..30 {
+        let cams = eyes.cameras(sim, Pair::Head)?;
+        let blobs = eyes.perceive(sim, Pair::Head)?;
+        let nearest = blobs
+            .iter()
+            .filter_map(|b| b.centroid.map(|c| (b, (c - estimate).xy().norm())))
+            .filter(|(_, d)| *d < 0.12)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(b, _)| b.clone());
+        let Some(blob) = nearest else {
+            recent.clear();
+            for _ in 0..steps_per_frame {
+                sim.step();
+            }
+            continue;
+        };
+        let o = track.track(sim, &cams, &blob, frame_dt);
+        if let Some(c) = o.centroid {
+            estimate = c;
+            if o.error < 4e-4 {
+                recent.push(c);
+            }
+        }
+        if recent.len() >= 3 {
+            let mean = recent.iter().fold(Vec3::zeros(), |a, c| a + c) / recent.len() as f64;
+            return Ok(Ok(mean));
+        }
+        for _ in 0..steps_per_frame {
+            sim.step();
+        }
+        (obs.callback)(sim, obs.activity);
+    }
+    Ok(Err(format!(
+        "search-track: no stereo blob foveated near ({:.2}, {:.2}, {:.2}) within 3 s",
+        nominal.x, nominal.y, nominal.z
+    )))
 }
 
 /// Chooses an arm that reaches the object's grasp and the place, preferring the one whose shoulder
