@@ -210,6 +210,10 @@ fn triangulated_centroid_accuracy() {
     assert!(s.within_1cm * 10 >= s.n * 9, "{} of {} within 1 cm", s.within_1cm, s.n);
     assert!(s.max < 0.03, "max {}", s.max);
 
+    // The comparisons below take a minute unoptimised; the acceptance tests run in release.
+    if cfg!(debug_assertions) {
+        return;
+    }
     let push = StereoConfig {
         depth_correction: DepthCorrection::PushBack { factor: 0.3 },
         ..StereoConfig::default()
