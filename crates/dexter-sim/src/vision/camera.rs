@@ -5,8 +5,7 @@ use crate::scene::CameraSpec;
 use control_basis::math::{Iso3, Rot3, Vec3};
 use nalgebra::{Matrix3, Point3, Translation3};
 
-/// Largest accepted image side (px).
-pub const MAX_IMAGE_SIDE: u32 = 8192;
+pub use crate::scene::MAX_IMAGE_SIDE;
 
 /// A pinhole camera without distortion.
 ///
