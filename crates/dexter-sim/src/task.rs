@@ -326,7 +326,7 @@ pub fn grasp_and_lift(
     // 2. Descend.
     phase("reach grasp", sim.time());
     obs.activity = "reach grasp";
-    reach.max_speed = 0.12;
+    reach.max_speed = 0.15;
     reach.set_goal(sim, plan.grasp);
     if !run_until(sim, reach, obs, 4.0, |s, r| r.at_goal(s, 0.004, 0.03)) {
         let (d, _) = reach.goal_error(sim);
@@ -520,7 +520,7 @@ pub fn pick_and_place_in(
     let safe_z = table_z + place.wall_height + object_bottom_below_palm + 0.08;
     let mut up = reach.tool_pose(sim);
     up.translation.vector.z = up.translation.vector.z.max(safe_z);
-    reach.max_speed = 0.25;
+    reach.max_speed = 0.4;
     reach.set_goal(sim, up);
     run_until(sim, &mut reach, obs, 3.0, |s, r| r.at_goal(s, 0.01, 0.05));
     // Over the place: object centre above the place centre.
@@ -542,7 +542,7 @@ pub fn pick_and_place_in(
     let weight = mass * sim.settings().gravity;
     let mut down = over;
     down.translation.vector.z = table_z + 0.002 + object_bottom_below_palm - 0.02;
-    reach.max_speed = 0.06;
+    reach.max_speed = 0.09;
     reach.set_goal(sim, down);
     let mut supported = 0;
     let touched = run_until(sim, &mut reach, obs, 5.0, |s, _| {
@@ -566,13 +566,13 @@ pub fn pick_and_place_in(
     phases.push(("release".into(), sim.time() - t0));
     obs.activity = "release";
     hand.set(sim, 0.3, 0.0);
-    run_until(sim, &mut reach, obs, 0.8, |_, _| false);
+    run_until(sim, &mut reach, obs, 0.5, |_, _| false);
     // 7. Retreat.
     phases.push(("retreat".into(), sim.time() - t0));
     obs.activity = "retreat";
     let mut away = here;
     away.translation.vector.z += 0.12;
-    reach.max_speed = 0.2;
+    reach.max_speed = 0.3;
     reach.set_goal(sim, away);
     run_until(sim, &mut reach, obs, 2.0, |s, r| r.at_goal(s, 0.01, 0.05));
     run_until(sim, &mut reach, obs, 2.5, |s, _| s.object_state(obj).linvel.norm() < 0.005);

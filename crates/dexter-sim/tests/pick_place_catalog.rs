@@ -67,14 +67,21 @@ fn every_catalog_object_into_every_reachable_bin() {
     let mut sim_time = 0.0;
     let mut worst_weight: f64 = 0.0;
     let mut weight_failures = Vec::new();
+    let mut vision: Vec<f64> = Vec::new();
     for (o, p, s, r) in &results {
         match r {
             Ok(r) => {
                 sim_time += r.sim_time;
                 ok += r.success as usize;
                 lifted += r.lifted as usize;
+                if let Some(v) = r.vision_error {
+                    vision.push(v);
+                }
                 if let Some((m, t)) = r.weighed {
                     let e = ((m - t) / t).abs();
+                    if e > 0.02 {
+                        println!("weighing {o} seed {s}: {m:.3} N vs m·g {t:.3} N ({:+.2} %)", 100.0 * (m - t) / t);
+                    }
                     worst_weight = worst_weight.max(e);
                     if e > 0.05 {
                         weight_failures.push(format!("{o} seed {s}: {m:.3} N vs {t:.3} N"));
@@ -88,6 +95,16 @@ fn every_catalog_object_into_every_reachable_bin() {
         }
     }
     let n = results.len();
+    vision.sort_by(f64::total_cmp);
+    if let Some(max) = vision.last() {
+        let within = vision.iter().filter(|&&v| v <= 0.01).count();
+        println!(
+            "stereo centroid used for the grasp, horizontal error: median {:.1} mm, max {:.1} mm, {within}/{} within 1 cm",
+            1000.0 * vision[vision.len() / 2],
+            1000.0 * max,
+            vision.len()
+        );
+    }
     let wall = start.elapsed().as_secs_f64();
     println!(
         "pick-and-place: {ok}/{n} succeeded ({:.1} %); grasp-and-lift held {lifted}/{n} ({:.1} %); \
