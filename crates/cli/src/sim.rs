@@ -4,6 +4,7 @@
 //! Grasp, Place) on a scene (built-in name or TOML file) and reports success, simulated and wall time
 //! and the real-time factor; `--mcap` records the run for Foxglove.
 
+use std::cell::RefCell;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -11,6 +12,7 @@ use clap::{Args, Subcommand, ValueEnum};
 use dexter_sim::Arm;
 use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
 use dexter_sim::scene::Scene;
+use dexter_sim::vision::Image;
 use dexter_sim::task::{Observer, PickPlaceReport, PickPlaceRequest, pick_and_place_in};
 
 use crate::mcap_log::{LogLevel, McapLog};
@@ -107,7 +109,7 @@ fn pick_place(args: PickPlaceArgs, out: &mut dyn Write) -> anyhow::Result<()> {
             ArmChoice::Auto => None,
         },
     };
-    let mut log = match &args.mcap {
+    let log = match &args.mcap {
         Some(path) => {
             let mut log = McapLog::create(path)?;
             log.attach("dexter.urdf", "application/xml", DEXTER_URDF.as_bytes())?;
@@ -129,35 +131,51 @@ fn pick_place(args: PickPlaceArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     let progress = crate::progress::spinner(args.json, "pick-place");
     let mut next_log = 0.0;
     let mut last_activity = String::new();
-    let mut log_error: Option<anyhow::Error> = None;
+    // Both observers write to the one log; errors are kept and reported once the run is over.
+    let log = RefCell::new(log);
+    let log_error: RefCell<Option<anyhow::Error>> = RefCell::new(None);
+    let keep = |r: anyhow::Result<()>| {
+        if let Err(e) = r {
+            log_error.borrow_mut().get_or_insert(e);
+        }
+    };
     let log_period = 1.0 / args.log_hz;
     let header = sim.header().clone();
     let mut callback = |s: &DexterSim, activity: &str| {
+        let mut log = log.borrow_mut();
         if activity != last_activity {
             last_activity = activity.to_string();
             progress.set_message(format!("{activity} (t = {:.1} s)", s.time()));
-            if let Some(log) = log.as_mut()
-                && let Err(e) = log.log_text(s.time(), LogLevel::Info, activity)
-            {
-                log_error.get_or_insert(e);
+            if let Some(log) = log.as_mut() {
+                keep(log.log_text(s.time(), LogLevel::Info, activity));
             }
         }
         progress.tick();
         if s.time() + 1e-9 >= next_log {
             next_log += log_period;
-            if let Some(log) = log.as_mut()
-                && let Err(e) = log.log_snapshot(&header, &s.snapshot(activity))
-            {
-                log_error.get_or_insert(e);
+            if let Some(log) = log.as_mut() {
+                keep(log.log_snapshot(&header, &s.snapshot(activity)));
             }
         }
     };
-    let report = pick_and_place_in(&mut sim, &scene, &request, &mut Observer::new(&mut callback))?;
+    let mut on_images = |s: &DexterSim, left: &Image, right: &Image| {
+        if let Some(log) = log.borrow_mut().as_mut() {
+            for (name, img) in [("head_left", left), ("head_right", right)] {
+                keep(log.log_image(s.time(), name, img.width, img.height, &img.rgb));
+            }
+        }
+    };
+    let report = pick_and_place_in(
+        &mut sim,
+        &scene,
+        &request,
+        &mut Observer::new(&mut callback).with_images(&mut on_images),
+    )?;
     progress.finish_and_clear();
-    if let Some(e) = log_error {
+    if let Some(e) = log_error.into_inner() {
         return Err(e.context("writing the MCAP log"));
     }
-    if let Some(mut log) = log {
+    if let Some(mut log) = log.into_inner() {
         log.log_text(sim.time(), if report.success { LogLevel::Info } else { LogLevel::Warning }, &report.outcome)?;
         log.finish()?;
     }

@@ -59,7 +59,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             // Keep the arm moving: alternate between two goals 10 cm apart.
             let mut goal = start;
-            goal.translation.vector.y += if k % 2 == 0 { 0.1 } else { 0.0 };
+            goal.translation.vector.y += if k.is_multiple_of(2) { 0.1 } else { 0.0 };
             k += 1;
             reach.set_goal(&s, goal);
             black_box(eyes.perceive(&s, Pair::Head).expect("perceive").len());

@@ -56,7 +56,7 @@ impl ReachControl {
         let reach = Controller::reach_pose(&chain, tip, 6.0)?;
         let manip = Controller::manipulability(&chain, ManipulabilityRows::Full, 0.5)?;
         let settings = StackSettings { clamp_position_limits: true, ..StackSettings::default() };
-        let stack = ControlStack::new(&chain, vec![reach, manip], settings.clone())?;
+        let stack = ControlStack::new(&chain, vec![reach, manip], settings)?;
         let joint_stack = ControlStack::new(&chain, vec![Controller::configuration(&chain, 8.0)?], settings)?;
         let binding = ChainBinding::by_name(&chain, sim.joint_names())?;
         let state = chain.new_state();

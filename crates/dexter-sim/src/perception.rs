@@ -125,6 +125,11 @@ impl Eyes {
         Ok(&self.blobs)
     }
 
+    /// The blobs of the last [`Eyes::perceive`].
+    pub fn blobs(&self) -> &[StereoBlob] {
+        &self.blobs
+    }
+
     /// The last images of `pair` (left, right).
     pub fn images(&self, pair: Pair) -> (&crate::vision::Image, &crate::vision::Image) {
         let v = match pair {

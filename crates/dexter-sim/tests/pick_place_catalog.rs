@@ -36,7 +36,8 @@ fn every_catalog_object_into_every_reachable_bin() {
         }
     }
     let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<(String, String, u64, Result<PickPlaceReport, String>)>> = Mutex::new(Vec::new());
+    type Outcome = (String, String, u64, Result<PickPlaceReport, String>);
+    let results: Mutex<Vec<Outcome>> = Mutex::new(Vec::new());
     let start = std::time::Instant::now();
     std::thread::scope(|scope| {
         for _ in 0..2 {

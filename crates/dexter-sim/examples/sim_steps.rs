@@ -1,0 +1,95 @@
+//! Physics steps per second of the full Dexter scene ("sorting": two arms, two hands, head, table,
+//! bins, six objects), for timing whole runs and comparing settings.
+//!
+//! ```text
+//! cargo run --release -p dexter-sim --example sim_steps -- [STEPS]
+//! ```
+//!
+//! `STEPS` (default 10000) physics steps are taken after set-up (scene, parked robot). Options, as
+//! environment variables:
+//! - `SIM_ITERS=n`: `SimSettings::solver_iterations` (default: the crate's default);
+//! - `SIM_SLEEP=0|1`: `SimSettings::allow_sleep` (default: the crate's default);
+//! - `SIM_MOVE=1`: the left arm keeps moving (Reach tick every 5 steps, goals 10 cm apart alternating
+//!   every 0.5 s), so the figure is not only about resting bodies;
+//! - `SIM_SETTLE=n`: steps taken before timing starts (default 0).
+//!
+//! Prints set-up time, stepping time, steps/s and the number of awake bodies at the end.
+use dexter_sim::Arm;
+use dexter_sim::control::ReachControl;
+use dexter_sim::physics::{DexterSim, SimSettings};
+use dexter_sim::scene::Scene;
+use dexter_sim::task::park_robot;
+use std::time::Instant;
+
+fn env<T: std::str::FromStr>(name: &str) -> Option<T> {
+    std::env::var(name).ok().and_then(|v| v.trim().parse().ok())
+}
+
+fn main() {
+    let steps: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(10_000);
+    let mut settings = SimSettings::default();
+    if let Some(n) = env::<usize>("SIM_ITERS") {
+        settings.solver_iterations = n;
+    }
+    if let Some(s) = env::<u8>("SIM_SLEEP") {
+        settings.allow_sleep = s != 0;
+    }
+    let moving = env::<u8>("SIM_MOVE").unwrap_or(0) != 0;
+    let settle: u64 = env("SIM_SETTLE").unwrap_or(0);
+
+    let t0 = Instant::now();
+    let scene = Scene::builtin("sorting").expect("sorting scene");
+    let mut sim = DexterSim::new(&scene, settings.clone()).expect("sim");
+    park_robot(&mut sim, scene.spec.table.height).expect("park");
+    for _ in 0..settle {
+        sim.step();
+    }
+    let mut reach = if moving {
+        Some(ReachControl::new(&sim, Arm::Left).expect("reach"))
+    } else {
+        None
+    };
+    let start = reach.as_mut().map(|r| r.tool_pose(&sim));
+    let setup = t0.elapsed().as_secs_f64();
+
+    // Control period 5 steps; goal switch every 0.5 s of simulated time.
+    let per = 5u64;
+    let switch = ((0.5 / settings.dt).round() as u64).max(per);
+    let mut tick_time = 0.0;
+    let t1 = Instant::now();
+    for k in 0..steps {
+        if let (Some(r), Some(start)) = (reach.as_mut(), start) {
+            if k % switch == 0 {
+                let mut goal = start;
+                goal.translation.vector.y += if (k / switch) % 2 == 0 { 0.1 } else { 0.0 };
+                r.set_goal(&sim, goal);
+            }
+            if k % per == 0 {
+                let tt = Instant::now();
+                r.tick(&mut sim, per as f64 * settings.dt);
+                tick_time += tt.elapsed().as_secs_f64();
+            }
+        }
+        sim.step();
+    }
+    let run = t1.elapsed().as_secs_f64();
+    let awake = sim.world().islands.num_active_bodies();
+    let (bodies, colliders) = sim.counts();
+    println!(
+        "sim_steps: iters {} sleep {} moving {} settle {} | setup {:.3} s | {} steps in {:.3} s = {:.0} steps/s \
+         ({:.1} us/step, reach ticks {:.3} s) | awake bodies {}/{} colliders {}",
+        settings.solver_iterations,
+        settings.allow_sleep,
+        moving,
+        settle,
+        setup,
+        steps,
+        run,
+        steps as f64 / run.max(1e-12),
+        run / (steps.max(1) as f64) * 1e6,
+        tick_time,
+        awake,
+        bodies,
+        colliders
+    );
+}
