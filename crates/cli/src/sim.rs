@@ -12,8 +12,8 @@ use clap::{Args, Subcommand, ValueEnum};
 use dexter_sim::Arm;
 use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
 use dexter_sim::scene::Scene;
-use dexter_sim::vision::Image;
 use dexter_sim::task::{Observer, PickPlaceReport, PickPlaceRequest, pick_and_place_in};
+use dexter_sim::vision::Image;
 
 use crate::mcap_log::{LogLevel, McapLog};
 
@@ -97,7 +97,10 @@ fn pick_place(args: PickPlaceArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         anyhow::bail!("--log-hz must be a positive number (got {})", args.log_hz);
     }
     let seed = args.seed.unwrap_or(scene.spec.seed);
-    let settings = SimSettings { seed, ..SimSettings::default() };
+    let settings = SimSettings {
+        seed,
+        ..SimSettings::default()
+    };
     let mut sim = DexterSim::new(&scene, settings)?;
     sim.object(&object)?;
     let request = PickPlaceRequest {
@@ -176,13 +179,26 @@ fn pick_place(args: PickPlaceArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         return Err(e.context("writing the MCAP log"));
     }
     if let Some(mut log) = log.into_inner() {
-        log.log_text(sim.time(), if report.success { LogLevel::Info } else { LogLevel::Warning }, &report.outcome)?;
+        log.log_text(
+            sim.time(),
+            if report.success {
+                LogLevel::Info
+            } else {
+                LogLevel::Warning
+            },
+            &report.outcome,
+        )?;
         log.finish()?;
     }
     print_report(&report, args.json, args.mcap.as_deref(), out)
 }
 
-fn print_report(r: &PickPlaceReport, json: bool, mcap: Option<&std::path::Path>, out: &mut dyn Write) -> anyhow::Result<()> {
+fn print_report(
+    r: &PickPlaceReport,
+    json: bool,
+    mcap: Option<&std::path::Path>,
+    out: &mut dyn Write,
+) -> anyhow::Result<()> {
     if json {
         let mut v = serde_json::to_value(r)?;
         if let Some(p) = mcap {
@@ -191,7 +207,14 @@ fn print_report(r: &PickPlaceReport, json: bool, mcap: Option<&std::path::Path>,
         writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
         return Ok(());
     }
-    writeln!(out, "pick-place `{}` → `{}` with the {} arm: {}", r.object, r.place, r.arm, if r.success { "SUCCESS" } else { "FAILED" })?;
+    writeln!(
+        out,
+        "pick-place `{}` → `{}` with the {} arm: {}",
+        r.object,
+        r.place,
+        r.arm,
+        if r.success { "SUCCESS" } else { "FAILED" }
+    )?;
     writeln!(out, "  outcome      {}", r.outcome)?;
     writeln!(out, "  lifted       {}", r.lifted)?;
     writeln!(
@@ -200,7 +223,11 @@ fn print_report(r: &PickPlaceReport, json: bool, mcap: Option<&std::path::Path>,
         r.final_position[0], r.final_position[1], r.final_position[2]
     )?;
     writeln!(out, "  sim time     {:.2} s in {} steps", r.sim_time, r.steps)?;
-    writeln!(out, "  wall time    {:.2} s (real-time factor {:.2})", r.wall_time, r.real_time_factor)?;
+    writeln!(
+        out,
+        "  wall time    {:.2} s (real-time factor {:.2})",
+        r.wall_time, r.real_time_factor
+    )?;
     let phases: Vec<String> = r.phases.iter().map(|(n, t)| format!("{n} @{t:.2}s")).collect();
     writeln!(out, "  phases       {}", phases.join(", "))?;
     if let Some(p) = mcap {

@@ -12,7 +12,10 @@ fn repo() -> PathBuf {
 }
 
 fn pbd(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pbd")).args(args).output().expect("the pbd binary runs")
+    Command::new(env!("CARGO_BIN_EXE_pbd"))
+        .args(args)
+        .output()
+        .expect("the pbd binary runs")
 }
 
 fn stderr(o: &Output) -> String {
@@ -55,14 +58,30 @@ fn default_pick_place_succeeds_and_is_deterministic_per_seed() {
     let a = ok_json(&["sim", "pick-place", "--json", "--seed", "5"]);
     assert_eq!(a["success"], true, "{a:#}");
     assert_eq!(a["lifted"], true);
-    for key in ["sim_time", "steps", "wall_time", "real_time_factor", "phases", "final_position", "arm", "outcome"] {
+    for key in [
+        "sim_time",
+        "steps",
+        "wall_time",
+        "real_time_factor",
+        "phases",
+        "final_position",
+        "arm",
+        "outcome",
+    ] {
         assert!(a.get(key).is_some(), "report lacks `{key}`: {a:#}");
     }
     let b = ok_json(&["sim", "pick-place", "--json", "--seed", "5"]);
-    assert_eq!(deterministic_part(a.clone()), deterministic_part(b), "same seed must give a bit-identical run");
+    assert_eq!(
+        deterministic_part(a.clone()),
+        deterministic_part(b),
+        "same seed must give a bit-identical run"
+    );
     let c = ok_json(&["sim", "pick-place", "--json", "--seed", "6"]);
     assert_eq!(c["success"], true, "a different seed changes noise, not success: {c:#}");
-    assert_ne!(a["final_position"], c["final_position"], "a different seed must change the noise");
+    assert_ne!(
+        a["final_position"], c["final_position"],
+        "a different seed must change the noise"
+    );
 }
 
 #[test]
@@ -75,12 +94,28 @@ fn mcap_recording_is_complete() {
     std::fs::create_dir_all(&dir).expect("temp dir");
     let path = dir.join("run.mcap");
     let p = path.to_str().expect("utf-8 path");
-    let r = ok_json(&["sim", "pick-place", "--json", "--object", "jif", "--place", "bin-right", "--arm", "right", "--mcap", p]);
+    let r = ok_json(&[
+        "sim",
+        "pick-place",
+        "--json",
+        "--object",
+        "jif",
+        "--place",
+        "bin-right",
+        "--arm",
+        "right",
+        "--mcap",
+        p,
+    ]);
     assert_eq!(r["arm"], "right");
     let bytes = std::fs::read(&path).expect("mcap written");
     assert!(bytes.len() > 10_000, "{} bytes", bytes.len());
     assert_eq!(&bytes[..8], b"\x89MCAP0\r\n", "MCAP magic at the start");
-    assert_eq!(&bytes[bytes.len() - 8..], b"\x89MCAP0\r\n", "MCAP magic at the end: the file was finished");
+    assert_eq!(
+        &bytes[bytes.len() - 8..],
+        b"\x89MCAP0\r\n",
+        "MCAP magic at the end: the file was finished"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -88,14 +123,35 @@ fn mcap_recording_is_complete() {
 fn bad_input_is_reported_not_panicked() {
     let data = repo().join("crates/dexter-sim/tests/data");
     let f = |n: &str| data.join(n).to_string_lossy().into_owned();
-    fails_with(&["sim", "pick-place", "--object", "nope"], &["unknown object `nope`", "jif"]);
+    fails_with(
+        &["sim", "pick-place", "--object", "nope"],
+        &["unknown object `nope`", "jif"],
+    );
     fails_with(&["sim", "pick-place", "--place", "nowhere"], &["nowhere", "bin-left"]);
     fails_with(&["sim", "pick-place", "--scene", "no-such-scene"], &["no-such-scene"]);
-    fails_with(&["sim", "pick-place", "--scene", "/no/such/file.toml"], &["/no/such/file.toml"]);
-    fails_with(&["sim", "pick-place", "--scene", &f("bad-scene-catalog.toml")], &["bad-negative-size.toml", "radius"]);
-    fails_with(&["sim", "pick-place", "--scene", &f("bad-overlap.toml")], &["bad-overlap.toml", "overlap"]);
-    fails_with(&["sim", "pick-place", "--scene", &f("bad-under-table.toml")], &["bad-under-table.toml", "table"]);
-    fails_with(&["sim", "pick-place", "--scene", &f("bad-syntax.toml")], &["bad-syntax.toml"]);
-    fails_with(&["sim", "pick-place", "--scene", &f("bad-version.toml")], &["bad-version.toml", "version"]);
+    fails_with(
+        &["sim", "pick-place", "--scene", "/no/such/file.toml"],
+        &["/no/such/file.toml"],
+    );
+    fails_with(
+        &["sim", "pick-place", "--scene", &f("bad-scene-catalog.toml")],
+        &["bad-negative-size.toml", "radius"],
+    );
+    fails_with(
+        &["sim", "pick-place", "--scene", &f("bad-overlap.toml")],
+        &["bad-overlap.toml", "overlap"],
+    );
+    fails_with(
+        &["sim", "pick-place", "--scene", &f("bad-under-table.toml")],
+        &["bad-under-table.toml", "table"],
+    );
+    fails_with(
+        &["sim", "pick-place", "--scene", &f("bad-syntax.toml")],
+        &["bad-syntax.toml"],
+    );
+    fails_with(
+        &["sim", "pick-place", "--scene", &f("bad-version.toml")],
+        &["bad-version.toml", "version"],
+    );
     fails_with(&["sim", "pick-place", "--log-hz", "NaN"], &["--log-hz"]);
 }

@@ -46,6 +46,7 @@
 pub mod chain;
 pub mod controller;
 pub mod error;
+pub mod grasp;
 pub mod ik;
 pub mod linalg;
 pub mod math;

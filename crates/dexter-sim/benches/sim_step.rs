@@ -28,7 +28,13 @@ fn sim(settings: SimSettings) -> DexterSim {
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("dexter_sim");
     for (name, settings) in [
-        ("step_full_scene_awake_objects", SimSettings { allow_sleep: false, ..SimSettings::default() }),
+        (
+            "step_full_scene_awake_objects",
+            SimSettings {
+                allow_sleep: false,
+                ..SimSettings::default()
+            },
+        ),
         ("step_full_scene_default", SimSettings::default()),
     ] {
         let mut s = sim(settings);

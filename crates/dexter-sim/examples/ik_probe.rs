@@ -1,5 +1,5 @@
-use control_basis::{Chain, IkSettings, inverse_kinematics};
 use control_basis::math::{Iso3, Vec3};
+use control_basis::{Chain, IkSettings, inverse_kinematics};
 use dexter_sim::Arm;
 use dexter_sim::control::top_down_orientation;
 use dexter_sim::physics::{DexterSim, SimSettings};
@@ -15,12 +15,29 @@ fn main() {
         let mut q = vec![0.0; 7];
         b.gather(sim.joint_positions(), &mut q);
         println!("{arm} park q = {:.2?}", q);
-        for (axis, label) in [(Vec3::x(), "x"), (-Vec3::x(), "-x"), (Vec3::y(), "y"), (-Vec3::y(), "-y")] {
+        for (axis, label) in [
+            (Vec3::x(), "x"),
+            (-Vec3::x(), "-x"),
+            (Vec3::y(), "y"),
+            (-Vec3::y(), "-y"),
+        ] {
             let rot = top_down_orientation(&axis, &park_pose(arm, 0.75).rotation);
             let target = Iso3::from_parts(nalgebra::Translation3::new(0.55, 0.0, 0.95), rot);
-            let s = IkSettings { position_tolerance: 5e-4, orientation_tolerance: 5e-3, restarts: 30, seed: 3, ..IkSettings::default() };
+            let s = IkSettings {
+                position_tolerance: 5e-4,
+                orientation_tolerance: 5e-3,
+                restarts: 30,
+                seed: 3,
+                ..IkSettings::default()
+            };
             let sol = inverse_kinematics(&chain, &target, &q, &s).unwrap();
-            println!("  axis {label}: conv {} attempts {} err {:.3} q {:.2?}", sol.converged, sol.attempts, sol.position_error, sol.q.as_slice());
+            println!(
+                "  axis {label}: conv {} attempts {} err {:.3} q {:.2?}",
+                sol.converged,
+                sol.attempts,
+                sol.position_error,
+                sol.q.as_slice()
+            );
         }
     }
 }

@@ -55,7 +55,10 @@ impl ReachControl {
         let tip = chain.links().len() - 1;
         let reach = Controller::reach_pose(&chain, tip, 6.0)?;
         let manip = Controller::manipulability(&chain, ManipulabilityRows::Full, 0.5)?;
-        let settings = StackSettings { clamp_position_limits: true, ..StackSettings::default() };
+        let settings = StackSettings {
+            clamp_position_limits: true,
+            ..StackSettings::default()
+        };
         let stack = ControlStack::new(&chain, vec![reach, manip], settings)?;
         let joint_stack = ControlStack::new(&chain, vec![Controller::configuration(&chain, 8.0)?], settings)?;
         let binding = ChainBinding::by_name(&chain, sim.joint_names())?;
@@ -123,7 +126,9 @@ impl ReachControl {
     /// configuration servo has no local minima or joint-limit traps. Returns `false` (and does
     /// nothing) if IK finds no configuration within the limits.
     pub fn set_goal_via_ik(&mut self, sim: &DexterSim, goal: Iso3, seed: u64) -> Result<bool, SimError> {
-        let Some(q_goal) = self.solve_ik(sim, &goal, seed)? else { return Ok(false) };
+        let Some(q_goal) = self.solve_ik(sim, &goal, seed)? else {
+            return Ok(false);
+        };
         self.goal = goal;
         self.active = true;
         let q_now = DVector::from_column_slice(&self.q_chain);
@@ -177,7 +182,9 @@ impl ReachControl {
             } else {
                 q_cmd.copy_from(q_goal);
             }
-            let _ = self.joint_stack.set_reference(&self.chain, 0, Reference::Configuration(q_cmd.clone()));
+            let _ = self
+                .joint_stack
+                .set_reference(&self.chain, 0, Reference::Configuration(q_cmd.clone()));
             self.binding.gather(sim.joint_positions(), &mut self.q_chain);
             if self.state.set_q(&self.chain, &self.q_chain).is_err() {
                 return;
@@ -206,7 +213,9 @@ impl ReachControl {
         } else {
             self.goal.rotation
         };
-        let _ = self.stack.set_reference(&self.chain, 0, Reference::Pose(self.commanded));
+        let _ = self
+            .stack
+            .set_reference(&self.chain, 0, Reference::Pose(self.commanded));
         let _ = self.stack.set_reference(&self.chain, 1, Reference::Undefined);
         self.binding.gather(sim.joint_positions(), &mut self.q_chain);
         if self.state.set_q(&self.chain, &self.q_chain).is_err() {

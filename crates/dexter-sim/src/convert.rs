@@ -41,7 +41,10 @@ pub fn iso_to_glam(p: &Iso3) -> DPose3 {
 /// glam pose → nalgebra isometry.
 #[inline]
 pub fn iso_from_glam(p: &DPose3) -> Iso3 {
-    Iso3::from_parts(Translation3::from(vec_from_glam(p.translation)), rot_from_glam(p.rotation))
+    Iso3::from_parts(
+        Translation3::from(vec_from_glam(p.translation)),
+        rot_from_glam(p.rotation),
+    )
 }
 
 #[cfg(test)]

@@ -16,7 +16,10 @@ pub fn to_parry(shape: &Shape) -> (SharedShape, Iso3) {
         Rot3::from_axis_angle(&Vec3::x_axis(), std::f64::consts::FRAC_PI_2),
     );
     match *shape {
-        Shape::Box { size } => (SharedShape::cuboid(size[0] / 2.0, size[1] / 2.0, size[2] / 2.0), Iso3::identity()),
+        Shape::Box { size } => (
+            SharedShape::cuboid(size[0] / 2.0, size[1] / 2.0, size[2] / 2.0),
+            Iso3::identity(),
+        ),
         Shape::Sphere { radius } => (SharedShape::ball(radius), Iso3::identity()),
         Shape::Cylinder { radius, height } => (SharedShape::cylinder(height / 2.0, radius), axis_to_z),
         Shape::Capsule { radius, height } => (SharedShape::capsule_y(height / 2.0, radius), axis_to_z),
@@ -62,7 +65,10 @@ mod tests {
 
     #[test]
     fn cylinder_axis_is_object_z() {
-        let s = Shape::Cylinder { radius: 0.03, height: 0.2 };
+        let s = Shape::Cylinder {
+            radius: 0.03,
+            height: 0.2,
+        };
         let (shape, object_from_shape) = to_parry(&s);
         let aabb = shape.compute_aabb(&crate::convert::iso_to_glam(&object_from_shape));
         assert!((aabb.maxs.z - 0.1).abs() < 1e-12 && (aabb.maxs.x - 0.03).abs() < 1e-12);

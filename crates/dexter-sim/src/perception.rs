@@ -28,7 +28,10 @@ impl Pair {
     fn frames(self) -> (&'static str, &'static str) {
         match self {
             Pair::Head => ("head/left_camera_optical_frame", "head/right_camera_optical_frame"),
-            Pair::Chassis => ("chassis/left_camera_optical_frame", "chassis/right_camera_optical_frame"),
+            Pair::Chassis => (
+                "chassis/left_camera_optical_frame",
+                "chassis/right_camera_optical_frame",
+            ),
         }
     }
 }
@@ -62,7 +65,12 @@ impl Eyes {
         for (i, o) in sim.objects().iter().enumerate() {
             let spec = &scene.catalog.objects[o.catalog_index];
             let pose = sim.object_state(i).pose;
-            object_items.push(rs.push(RenderItem::from_catalog(&spec.shape, pose, &spec.colors, ItemLabel::Object(i))));
+            object_items.push(rs.push(RenderItem::from_catalog(
+                &spec.shape,
+                pose,
+                &spec.colors,
+                ItemLabel::Object(i),
+            )));
         }
         let mut robot_items = Vec::new();
         let world = sim.world();
@@ -136,7 +144,10 @@ impl Eyes {
             Pair::Head => &self.head,
             Pair::Chassis => &self.chassis,
         };
-        (v.renderer(crate::vision::Side::Left).image(), v.renderer(crate::vision::Side::Right).image())
+        (
+            v.renderer(crate::vision::Side::Left).image(),
+            v.renderer(crate::vision::Side::Right).image(),
+        )
     }
 
     /// The render scene.
@@ -173,9 +184,15 @@ impl SearchTrack {
         Ok(SearchTrack {
             pan: sim.dof("head/pan_joint")?,
             tilt: sim.dof("head/tilt_joint")?,
-            verge: [sim.dof("head/left_vergence_joint")?, sim.dof("head/right_vergence_joint")?],
+            verge: [
+                sim.dof("head/left_vergence_joint")?,
+                sim.dof("head/right_vergence_joint")?,
+            ],
             gain: 4.0,
-            tracker: PredicateTracker::new(PredicateSettings { epsilon: 1e-4, ..PredicateSettings::default() })?,
+            tracker: PredicateTracker::new(PredicateSettings {
+                epsilon: 1e-4,
+                ..PredicateSettings::default()
+            })?,
         })
     }
 
@@ -200,7 +217,10 @@ impl SearchTrack {
     pub fn track(&mut self, sim: &mut DexterSim, cams: &StereoCameras, blob: &StereoBlob, dt: f64) -> TrackObservation {
         let q = sim.joint_positions().to_vec();
         let mut errs = [None, None];
-        for (k, (seg, cam)) in [(&blob.left, &cams.left), (&blob.right, &cams.right)].into_iter().enumerate() {
+        for (k, (seg, cam)) in [(&blob.left, &cams.left), (&blob.right, &cams.right)]
+            .into_iter()
+            .enumerate()
+        {
             if let Some(s) = seg {
                 let c = s.features.centroid;
                 errs[k] = Some(((c[0] - cam.cx) / cam.fx, (c[1] - cam.cy) / cam.fy));
@@ -225,7 +245,13 @@ impl SearchTrack {
             }
             eu * eu + ev * ev
         };
-        let predicate = self.tracker.update(if error.is_finite() { Some(error) } else { None }, dt);
-        TrackObservation { centroid: blob.centroid, error, predicate }
+        let predicate = self
+            .tracker
+            .update(if error.is_finite() { Some(error) } else { None }, dt);
+        TrackObservation {
+            centroid: blob.centroid,
+            error,
+            predicate,
+        }
     }
 }

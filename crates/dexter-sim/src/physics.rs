@@ -114,7 +114,11 @@ pub fn default_gains(joint: &str, effort: f64) -> MotorGains {
     ];
     for (suffix, kp) in arm {
         if joint.ends_with(suffix) && !joint.contains("bhand") {
-            return MotorGains { kp, kd: 0.05 * kp, max_effort: effort };
+            return MotorGains {
+                kp,
+                kd: 0.05 * kp,
+                max_effort: effort,
+            };
         }
     }
     if joint.contains("med_joint") {
@@ -122,17 +126,37 @@ pub fn default_gains(joint: &str, effort: f64) -> MotorGains {
         // fingers 1 and 2 together, so it gets twice their stiffness and effort: the squeeze is
         // balanced and the object is not pushed towards F1/F2 while the hand closes.
         if joint.contains("finger_3") {
-            return MotorGains { kp: 3.0, kd: 0.1, max_effort: effort.min(3.0) };
+            return MotorGains {
+                kp: 3.0,
+                kd: 0.1,
+                max_effort: effort.min(3.0),
+            };
         }
-        return MotorGains { kp: 1.5, kd: 0.05, max_effort: effort.min(1.5) };
+        return MotorGains {
+            kp: 1.5,
+            kd: 0.05,
+            max_effort: effort.min(1.5),
+        };
     }
     if joint.contains("prox_joint") {
-        return MotorGains { kp: 4.0, kd: 0.1, max_effort: effort };
+        return MotorGains {
+            kp: 4.0,
+            kd: 0.1,
+            max_effort: effort,
+        };
     }
     if joint.starts_with("head/") {
-        return MotorGains { kp: 20.0, kd: 1.0, max_effort: effort };
+        return MotorGains {
+            kp: 20.0,
+            kd: 1.0,
+            max_effort: effort,
+        };
     }
-    MotorGains { kp: 10.0, kd: 0.5, max_effort: effort }
+    MotorGains {
+        kp: 10.0,
+        kd: 0.5,
+        max_effort: effort,
+    }
 }
 
 /// One independent DOF (motor unit).
@@ -223,7 +247,8 @@ fn builtin_path() -> std::path::PathBuf {
 
 /// A rotation mapping x onto `axis`.
 fn rotation_x_to(axis: &Vec3) -> Rot3 {
-    Rot3::rotation_between(&Vec3::x(), axis).unwrap_or_else(|| Rot3::from_axis_angle(&Vec3::z_axis(), std::f64::consts::PI))
+    Rot3::rotation_between(&Vec3::x(), axis)
+        .unwrap_or_else(|| Rot3::from_axis_angle(&Vec3::z_axis(), std::f64::consts::PI))
 }
 
 fn urdf_iso(pose: &urdf_rs::Pose) -> Iso3 {
@@ -239,7 +264,11 @@ impl DexterSim {
 
     /// Builds the robot `model` (a Dexter-like URDF: arm prefixes `left/`, `right/`) and `scene`.
     pub fn with_model(model: RobotModel, scene: &Scene, settings: SimSettings) -> Result<Self, SimError> {
-        for (field, v) in [("dt", settings.dt), ("contact_hz", settings.contact_hz), ("gravity", settings.gravity)] {
+        for (field, v) in [
+            ("dt", settings.dt),
+            ("contact_hz", settings.contact_hz),
+            ("gravity", settings.gravity),
+        ] {
             if !v.is_finite() || v < 0.0 || (field != "gravity" && v == 0.0) {
                 return Err(SimError::Invalid {
                     path: "<settings>".into(),
@@ -327,11 +356,15 @@ impl DexterSim {
             if body_root[l] != l {
                 continue;
             }
-            let moving = model.links[l].parent_joint.is_some_and(|j| model.joints[j].kind.is_moving());
+            let moving = model.links[l]
+                .parent_joint
+                .is_some_and(|j| model.joints[j].kind.is_moving());
             // Mass properties of every link of the group, in the root frame.
             let mut mprops = MassProperties::default();
             for m in (0..n).filter(|&m| body_root[m] == l) {
-                let Some(ul) = urdf_links.get(model.links[m].name.as_str()) else { continue };
+                let Some(ul) = urdf_links.get(model.links[m].name.as_str()) else {
+                    continue;
+                };
                 let inertial = &ul.inertial;
                 if inertial.mass.value <= 0.0 {
                     continue;
@@ -359,7 +392,11 @@ impl DexterSim {
                     ]),
                 );
             }
-            let builder = if moving { RigidBodyBuilder::dynamic() } else { RigidBodyBuilder::fixed() };
+            let builder = if moving {
+                RigidBodyBuilder::dynamic()
+            } else {
+                RigidBodyBuilder::fixed()
+            };
             let body = builder
                 .pose(iso_to_glam(&world_pose[l]))
                 .gravity_scale(0.0) // ideal gravity compensation of the robot's own links
@@ -372,13 +409,19 @@ impl DexterSim {
         }
         // 2. Colliders.
         for (l, link) in model.links.iter().enumerate() {
-            let Some(ul) = urdf_links.get(link.name.as_str()) else { continue };
+            let Some(ul) = urdf_links.get(link.name.as_str()) else {
+                continue;
+            };
             let root = body_root[l];
             let body = handles[&root];
             let part = part_of(&link.name);
             let (membership, filter) = match part {
                 Part::Palm(_) | Part::Finger(..) => (groups::HAND, groups::OBJECT | groups::STATIC),
-                Part::Other if !model.links[root].parent_joint.is_some_and(|j| model.joints[j].kind.is_moving()) => {
+                Part::Other
+                    if !model.links[root]
+                        .parent_joint
+                        .is_some_and(|j| model.joints[j].kind.is_moving()) =>
+                {
                     (groups::STATIC, groups::OBJECT | groups::HAND)
                 }
                 Part::Other => (groups::ARM, groups::OBJECT),
@@ -391,19 +434,38 @@ impl DexterSim {
                         // Finger phalanges as capsules along their long axis (box fingers penetrate
                         // up to 11 mm in the probe; capsules ≤ 3 mm).
                         let s = [size[0], size[1], size[2]];
-                        let (ax, len) = s.iter().copied().enumerate().fold((0, 0.0), |a, (i, v)| if v > a.1 { (i, v) } else { a });
-                        let r = s.iter().enumerate().filter(|&(i, _)| i != ax).map(|(_, &v)| v).fold(f64::INFINITY, f64::min) / 2.0;
+                        let (ax, len) = s
+                            .iter()
+                            .copied()
+                            .enumerate()
+                            .fold((0, 0.0), |a, (i, v)| if v > a.1 { (i, v) } else { a });
+                        let r = s
+                            .iter()
+                            .enumerate()
+                            .filter(|&(i, _)| i != ax)
+                            .map(|(_, &v)| v)
+                            .fold(f64::INFINITY, f64::min)
+                            / 2.0;
                         let half = (len / 2.0 - r).max(1e-4);
                         let mut a = DVec3::ZERO;
                         a[ax] = half;
                         (SharedShape::capsule(-a, a, r), Iso3::identity())
                     }
-                    urdf_rs::Geometry::Box { size } => (SharedShape::cuboid(size[0] / 2.0, size[1] / 2.0, size[2] / 2.0), Iso3::identity()),
+                    urdf_rs::Geometry::Box { size } => (
+                        SharedShape::cuboid(size[0] / 2.0, size[1] / 2.0, size[2] / 2.0),
+                        Iso3::identity(),
+                    ),
                     urdf_rs::Geometry::Cylinder { radius, length } => {
-                        geometry::to_parry(&crate::scene::Shape::Cylinder { radius: *radius, height: *length })
+                        geometry::to_parry(&crate::scene::Shape::Cylinder {
+                            radius: *radius,
+                            height: *length,
+                        })
                     }
                     urdf_rs::Geometry::Capsule { radius, length } => {
-                        geometry::to_parry(&crate::scene::Shape::Capsule { radius: *radius, height: *length })
+                        geometry::to_parry(&crate::scene::Shape::Capsule {
+                            radius: *radius,
+                            height: *length,
+                        })
                     }
                     urdf_rs::Geometry::Sphere { radius } => (SharedShape::ball(*radius), Iso3::identity()),
                     urdf_rs::Geometry::Mesh { filename, .. } => {
@@ -451,7 +513,8 @@ impl DexterSim {
                 .local_frame2(iso_to_glam(&frame2))
                 .contacts_enabled(false);
             let lim = joint.limits;
-            if joint.kind == control_basis::model::JointKind::Revolute && lim.lower.is_finite() && lim.upper.is_finite() {
+            if joint.kind == control_basis::model::JointKind::Revolute && lim.lower.is_finite() && lim.upper.is_finite()
+            {
                 builder = builder.limits(JointAxis::AngX, [lim.lower, lim.upper]);
             }
             if joint.mimic.is_none() {
@@ -471,7 +534,11 @@ impl DexterSim {
             } else {
                 masters.push((child_body, j));
             }
-            if self.world.insert_multibody_joint(parent_body, child_body, builder.build()).is_none() {
+            if self
+                .world
+                .insert_multibody_joint(parent_body, child_body, builder.build())
+                .is_none()
+            {
                 return Err(SimError::Invalid {
                     path: builtin_path(),
                     field: format!("joint `{}`", joint.name),
@@ -487,19 +554,27 @@ impl DexterSim {
                 name: master_name.clone(),
                 candidates: vec![],
             })?;
-            self.mimics.push(MimicDof { body, master: m, multiplier, offset });
+            self.mimics.push(MimicDof {
+                body,
+                master: m,
+                multiplier,
+                offset,
+            });
         }
         // Couplings and per-DOF damping.
         for mimic in &self.mimics {
             let master_body = self.dofs[mimic.master].body;
             let mb_joints = &mut self.world.multibody_joints;
-            let (Some(&l1), Some(&l2)) =
-                (mb_joints.rigid_body_link(master_body), mb_joints.rigid_body_link(mimic.body))
-            else {
+            let (Some(&l1), Some(&l2)) = (
+                mb_joints.rigid_body_link(master_body),
+                mb_joints.rigid_body_link(mimic.body),
+            ) else {
                 continue;
             };
             if l1.multibody != l2.multibody {
-                return Err(SimError::Task("mimic joint and master are on different multibodies".into()));
+                return Err(SimError::Task(
+                    "mimic joint and master are on different multibodies".into(),
+                ));
             }
             if let Some(mb) = mb_joints.get_multibody_mut(l1.multibody) {
                 mb.add_dof_coupling(MultibodyDofCoupling {
@@ -554,7 +629,11 @@ impl DexterSim {
             .translation(DVec3::new(t.center[0], t.center[1], t.height - table_thickness / 2.0))
             .friction(t.friction)
             .contact_skin(self.settings.contact_skin)
-            .collision_groups(InteractionGroups::new(groups::STATIC, groups::OBJECT | groups::HAND, InteractionTestMode::And))
+            .collision_groups(InteractionGroups::new(
+                groups::STATIC,
+                groups::OBJECT | groups::HAND,
+                InteractionTestMode::And,
+            ))
             .build();
         self.world.insert_collider(top, Some(table));
         // Bins: a floor plate (2 mm, on the table) and four walls.
@@ -562,21 +641,40 @@ impl DexterSim {
             let (cx, cy) = (place.center[0], place.center[1]);
             let (sx, sy) = (place.size[0], place.size[1]);
             let wall = place.wall_thickness;
-            let mut parts = vec![(DVec3::new(cx, cy, t.height + 0.001), DVec3::new(sx / 2.0, sy / 2.0, 0.001))];
+            let mut parts = vec![(
+                DVec3::new(cx, cy, t.height + 0.001),
+                DVec3::new(sx / 2.0, sy / 2.0, 0.001),
+            )];
             if place.wall_height > 0.0 {
                 let h = place.wall_height;
                 let z = t.height + h / 2.0;
-                parts.push((DVec3::new(cx + (sx + wall) / 2.0, cy, z), DVec3::new(wall / 2.0, sy / 2.0 + wall, h / 2.0)));
-                parts.push((DVec3::new(cx - (sx + wall) / 2.0, cy, z), DVec3::new(wall / 2.0, sy / 2.0 + wall, h / 2.0)));
-                parts.push((DVec3::new(cx, cy + (sy + wall) / 2.0, z), DVec3::new(sx / 2.0, wall / 2.0, h / 2.0)));
-                parts.push((DVec3::new(cx, cy - (sy + wall) / 2.0, z), DVec3::new(sx / 2.0, wall / 2.0, h / 2.0)));
+                parts.push((
+                    DVec3::new(cx + (sx + wall) / 2.0, cy, z),
+                    DVec3::new(wall / 2.0, sy / 2.0 + wall, h / 2.0),
+                ));
+                parts.push((
+                    DVec3::new(cx - (sx + wall) / 2.0, cy, z),
+                    DVec3::new(wall / 2.0, sy / 2.0 + wall, h / 2.0),
+                ));
+                parts.push((
+                    DVec3::new(cx, cy + (sy + wall) / 2.0, z),
+                    DVec3::new(sx / 2.0, wall / 2.0, h / 2.0),
+                ));
+                parts.push((
+                    DVec3::new(cx, cy - (sy + wall) / 2.0, z),
+                    DVec3::new(sx / 2.0, wall / 2.0, h / 2.0),
+                ));
             }
             for (c, half) in parts {
                 let col = ColliderBuilder::cuboid(half.x, half.y, half.z)
                     .translation(c)
                     .friction(t.friction)
                     .contact_skin(self.settings.contact_skin)
-                    .collision_groups(InteractionGroups::new(groups::STATIC, groups::OBJECT | groups::HAND, InteractionTestMode::And))
+                    .collision_groups(InteractionGroups::new(
+                        groups::STATIC,
+                        groups::OBJECT | groups::HAND,
+                        InteractionTestMode::And,
+                    ))
                     .build();
                 self.world.insert_collider(col, Some(table));
             }
@@ -587,7 +685,11 @@ impl DexterSim {
             let spec: &ObjectSpec = &scene.catalog.objects[placed.object];
             let count = seen.entry(placed.presentation.as_str()).or_insert(0);
             *count += 1;
-            let name = if *count == 1 { placed.presentation.clone() } else { format!("{}#{}", placed.presentation, count) };
+            let name = if *count == 1 {
+                placed.presentation.clone()
+            } else {
+                format!("{}#{}", placed.presentation, count)
+            };
             let (jp, jy) = self.settings.placement_jitter;
             let dx = jp * (2.0 * self.rng.next_f64() - 1.0);
             let dy = jp * (2.0 * self.rng.next_f64() - 1.0);
@@ -612,7 +714,11 @@ impl DexterSim {
                 .density(spec.mass / volume)
                 .friction(spec.friction)
                 .contact_skin(self.settings.contact_skin)
-                .collision_groups(InteractionGroups::new(groups::OBJECT, Group::ALL, InteractionTestMode::And))
+                .collision_groups(InteractionGroups::new(
+                    groups::OBJECT,
+                    Group::ALL,
+                    InteractionTestMode::And,
+                ))
                 .build();
             let ch = self.world.insert_collider(collider, Some(body));
             self.object_by_collider.insert(ch, self.objects.len());
@@ -682,11 +788,14 @@ impl DexterSim {
 
     /// Index of an object by name.
     pub fn object(&self, name: &str) -> Result<usize, SimError> {
-        self.objects.iter().position(|o| o.name == name).ok_or_else(|| SimError::Unknown {
-            kind: "object",
-            name: name.into(),
-            candidates: self.objects.iter().map(|o| o.name.clone()).collect(),
-        })
+        self.objects
+            .iter()
+            .position(|o| o.name == name)
+            .ok_or_else(|| SimError::Unknown {
+                kind: "object",
+                name: name.into(),
+                candidates: self.objects.iter().map(|o| o.name.clone()).collect(),
+            })
     }
 
     /// Simulated time (s).
@@ -717,7 +826,11 @@ impl DexterSim {
     /// Sets the motor reference of DOF `i` (clamped to its limits) with velocity feed-forward `qd`.
     pub fn set_joint_target(&mut self, i: usize, q: f64, qd: f64) {
         let d = &self.dofs[i];
-        let q = if q.is_finite() { q.clamp(d.lower, d.upper) } else { self.q_ref[i] };
+        let q = if q.is_finite() {
+            q.clamp(d.lower, d.upper)
+        } else {
+            self.q_ref[i]
+        };
         if q != self.q_ref[i] || qd != self.qd_ref[i] {
             // A sleeping multibody ignores motor changes until woken.
             let body = d.body;
@@ -725,7 +838,11 @@ impl DexterSim {
         }
         let d = &self.dofs[i];
         self.q_ref[i] = q;
-        self.qd_ref[i] = if qd.is_finite() { qd.clamp(-d.velocity_limit, d.velocity_limit) } else { 0.0 };
+        self.qd_ref[i] = if qd.is_finite() {
+            qd.clamp(-d.velocity_limit, d.velocity_limit)
+        } else {
+            0.0
+        };
         self.apply_motor_target(i);
     }
 
@@ -775,14 +892,21 @@ impl DexterSim {
     /// references there. Mimic joints follow. Use before the run starts.
     pub fn set_configuration(&mut self, q: &[f64]) -> Result<(), SimError> {
         if q.len() != self.dofs.len() {
-            return Err(SimError::Task(format!("configuration has {} values, the robot {} DOFs", q.len(), self.dofs.len())));
+            return Err(SimError::Task(format!(
+                "configuration has {} values, the robot {} DOFs",
+                q.len(),
+                self.dofs.len()
+            )));
         }
         let mut targets: Vec<(RigidBodyHandle, f64)> = Vec::new();
         for (i, d) in self.dofs.iter().enumerate() {
             targets.push((d.body, q[i].clamp(d.lower, d.upper)));
         }
         for m in &self.mimics {
-            targets.push((m.body, m.multiplier * q[m.master].clamp(self.dofs[m.master].lower, self.dofs[m.master].upper) + m.offset));
+            targets.push((
+                m.body,
+                m.multiplier * q[m.master].clamp(self.dofs[m.master].lower, self.dofs[m.master].upper) + m.offset,
+            ));
         }
         let mbj = &mut self.world.multibody_joints;
         let mut touched = Vec::new();
@@ -844,7 +968,10 @@ impl DexterSim {
     /// State of object `i`.
     pub fn object_state(&self, i: usize) -> ObjectState {
         let b = &self.world.bodies[self.objects[i].body];
-        ObjectState { pose: iso_from_glam(b.position()), linvel: vec_from_glam(b.linvel()) }
+        ObjectState {
+            pose: iso_from_glam(b.position()),
+            linvel: vec_from_glam(b.linvel()),
+        }
     }
 
     /// Angular velocity of object `i` (rad/s).
@@ -867,11 +994,20 @@ impl DexterSim {
     pub fn fingertip_wrenches(&self, out: &mut [FingertipWrench; 6]) {
         for (k, w) in out.iter_mut().enumerate() {
             let arm = if k < 3 { Arm::Left } else { Arm::Right };
-            *w = FingertipWrench { arm, finger: (k % 3) as u8 + 1, force: [0.0; 3], torque: [0.0; 3], in_contact: false };
+            *w = FingertipWrench {
+                arm,
+                finger: (k % 3) as u8 + 1,
+                force: [0.0; 3],
+                torque: [0.0; 3],
+                in_contact: false,
+            };
         }
         let tip_origin = |arm: Arm, finger: u8| -> Vec3 {
             let name = format!("{}/bhand/finger_{}/tip_link", arm.prefix(), finger);
-            self.model.link(&name).map(|l| self.link_pose(l).translation.vector).unwrap_or_default()
+            self.model
+                .link(&name)
+                .map(|l| self.link_pose(l).translation.vector)
+                .unwrap_or_default()
         };
         let mut origins = [Vec3::zeros(); 6];
         for (k, o) in origins.iter_mut().enumerate() {
@@ -916,13 +1052,54 @@ impl DexterSim {
         (f, t, parts.iter().filter(|&&p| p).count())
     }
 
+    /// The contacts of `arm`'s hand on object `i` as frictional point contacts (world frame, normals
+    /// pointing into the object, the combined friction coefficient), for the force-closure check.
+    pub fn hand_contacts_on_object(&self, arm: Arm, i: usize) -> Vec<control_basis::grasp::ContactPoint> {
+        let obj = self.objects[i].collider;
+        let mut out = Vec::new();
+        for pair in self.world.narrow_phase.contact_pairs_with(obj) {
+            let (other, object_is_2) = if pair.collider1 == obj {
+                (pair.collider2, false)
+            } else {
+                (pair.collider1, true)
+            };
+            match self.collider_part.get(&other) {
+                Some(Part::Palm(a)) | Some(Part::Finger(a, _)) if *a == arm => {}
+                _ => continue,
+            }
+            for m in pair.solver_manifolds() {
+                // The manifold normal points from collider 1 to collider 2.
+                let n = vec_from_glam(m.data.normal);
+                let inward = if object_is_2 { n } else { -n };
+                for c in m.data.solver_contacts.iter() {
+                    let (w1, w2) = m.data.solver_contact_world_points(c, &self.world.bodies);
+                    out.push(control_basis::grasp::ContactPoint {
+                        position: vec_from_glam((w1 + w2) * 0.5),
+                        normal: inward,
+                        friction: m.data.friction,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// World position of object `i`'s centre of mass.
+    pub fn object_center_of_mass(&self, i: usize) -> Vec3 {
+        vec_from_glam(self.world.bodies[self.objects[i].body].center_of_mass())
+    }
+
     /// Total contact force on object `i` from everything except `arm`'s hand (the table, a bin,
     /// other objects): the support the Place controller waits for.
     pub fn support_force_on_object(&self, i: usize) -> Vec3 {
         let obj = self.objects[i].collider;
         let mut f = Vec3::zeros();
         for pair in self.world.narrow_phase.contact_pairs_with(obj) {
-            let other = if pair.collider1 == obj { pair.collider2 } else { pair.collider1 };
+            let other = if pair.collider1 == obj {
+                pair.collider2
+            } else {
+                pair.collider1
+            };
             if self.collider_part.contains_key(&other) {
                 continue;
             }
@@ -1038,7 +1215,11 @@ fn part_of(link: &str) -> Part {
         for f in 1..=3u8 {
             let prefix = format!("finger_{f}/");
             if rest.starts_with(&prefix) {
-                return if rest.contains("prox") { Part::Other } else { Part::Finger(arm, f) };
+                return if rest.contains("prox") {
+                    Part::Other
+                } else {
+                    Part::Finger(arm, f)
+                };
             }
         }
         return Part::Palm(arm);
@@ -1090,7 +1271,11 @@ impl control_basis::Plant for DexterSim {
     /// Advances by `dt_secs`, rounded to whole physics steps (at least one).
     fn step(&mut self, dt_secs: f64) -> Result<(), control_basis::CbError> {
         if !(dt_secs.is_finite() && dt_secs >= 0.0) {
-            return Err(control_basis::CbError::NotFinite { what: "plant step (s)".into(), index: 0, value: dt_secs });
+            return Err(control_basis::CbError::NotFinite {
+                what: "plant step (s)".into(),
+                index: 0,
+                value: dt_secs,
+            });
         }
         let n = ((dt_secs / self.settings.dt).round() as usize).max(1);
         for _ in 0..n {

@@ -11,7 +11,10 @@ pub struct SplitMix64 {
 impl SplitMix64 {
     /// A generator from `seed`.
     pub fn new(seed: u64) -> Self {
-        Self { state: seed ^ 0x9E37_79B9_7F4A_7C15, spare_normal: None }
+        Self {
+            state: seed ^ 0x9E37_79B9_7F4A_7C15,
+            spare_normal: None,
+        }
     }
 
     /// A generator for an independent stream `stream` of `seed` (e.g. one per camera).

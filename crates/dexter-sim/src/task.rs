@@ -67,6 +67,8 @@ pub struct PickPlaceReport {
     /// Horizontal distance between the stereo-triangulated centroid used for the grasp and the true
     /// centroid (m).
     pub vision_error: Option<f64>,
+    /// Force closure of the grasp: (closure, margin, grasp-map rank).
+    pub force_closure: Option<(bool, f64, usize)>,
 }
 
 /// A top-down grasp for an object: where the palm surface goes and how the fingers close.
@@ -85,7 +87,11 @@ pub struct GraspPlan {
 /// palm surface).
 fn finger_arc(sim: &DexterSim, arm: Arm) -> Result<Vec<(f64, f64, f64)>, SimError> {
     let p = arm.prefix();
-    let chain = Chain::new(sim.model(), &format!("{p}/bhand/palm_surface_link"), &format!("{p}/bhand/finger_3/tip_link"))?;
+    let chain = Chain::new(
+        sim.model(),
+        &format!("{p}/bhand/palm_surface_link"),
+        &format!("{p}/bhand/finger_3/tip_link"),
+    )?;
     let mut state = chain.new_state();
     let mut out = Vec::new();
     for k in 0..=100 {
@@ -100,13 +106,7 @@ fn finger_arc(sim: &DexterSim, arm: Arm) -> Result<Vec<(f64, f64, f64)>, SimErro
 
 /// Plans a top-down grasp of an object with shape `shape` whose frame is at `pose` resting on a table
 /// at `table_z`, for a hand currently at orientation `current`.
-pub fn plan_top_grasp(
-    arc: &[(f64, f64, f64)],
-    shape: &Shape,
-    pose: &Iso3,
-    table_z: f64,
-    current: &Iso3,
-) -> GraspPlan {
+pub fn plan_top_grasp(arc: &[(f64, f64, f64)], shape: &Shape, pose: &Iso3, table_z: f64, current: &Iso3) -> GraspPlan {
     const TIP_RADIUS: f64 = 0.01;
     // Horizontal extents of the object along world x and y directions of its own footprint.
     let r = pose.rotation;
@@ -139,16 +139,32 @@ pub fn plan_top_grasp(
     palm_z = palm_z.max(table_z + max_depth + 0.004);
     // Pre-shape: open enough to clear the object by 2.5 cm on each side.
     let clear = half_width + TIP_RADIUS + 0.025;
-    let preshape = arc.iter().rev().find(|a| a.1 >= clear).map(|a| a.0).unwrap_or(0.0).min(0.9);
+    let preshape = arc
+        .iter()
+        .rev()
+        .find(|a| a.1 >= clear)
+        .map(|a| a.0)
+        .unwrap_or(0.0)
+        .min(0.9);
     let rot = top_down_orientation(&axis, &current.rotation);
     let grasp = Iso3::from_parts(Translation3::new(pose.translation.x, pose.translation.y, palm_z), rot);
-    GraspPlan { grasp, preshape, width: 2.0 * half_width }
+    GraspPlan {
+        grasp,
+        preshape,
+        width: 2.0 * half_width,
+    }
 }
 
 /// Whether `arm` can put its palm at `pose` (IK within limits).
 pub fn reachable(sim: &DexterSim, arm: Arm, pose: &Iso3, seed: u64) -> Result<bool, SimError> {
     let chain = Chain::new(sim.model(), "world", &crate::control::tool_link(arm))?;
-    let settings = IkSettings { position_tolerance: 2e-3, orientation_tolerance: 2e-2, restarts: 20, seed, ..IkSettings::default() };
+    let settings = IkSettings {
+        position_tolerance: 2e-3,
+        orientation_tolerance: 2e-2,
+        restarts: 20,
+        seed,
+        ..IkSettings::default()
+    };
     let q0 = home_arm_guess(arm);
     let sol = inverse_kinematics(&chain, pose, &q0, &settings)?;
     Ok(sol.converged)
@@ -174,7 +190,13 @@ pub fn park_robot(sim: &mut DexterSim, table_z: f64) -> Result<(), SimError> {
     let mut left_solution: Option<nalgebra::DVector<f64>> = None;
     for arm in Arm::BOTH {
         let chain = Chain::new(sim.model(), "world", &crate::control::tool_link(arm))?;
-        let settings = IkSettings { position_tolerance: 1e-4, orientation_tolerance: 1e-3, restarts: 50, seed: 1, ..IkSettings::default() };
+        let settings = IkSettings {
+            position_tolerance: 1e-4,
+            orientation_tolerance: 1e-3,
+            restarts: 50,
+            seed: 1,
+            ..IkSettings::default()
+        };
         // The right arm starts from the mirror image of the left solution, so both park alike.
         let guess = match (arm, left_solution.as_ref()) {
             (Arm::Right, Some(ql)) => {
@@ -188,7 +210,10 @@ pub fn park_robot(sim: &mut DexterSim, table_z: f64) -> Result<(), SimError> {
             left_solution = Some(sol.q.clone());
         }
         if !sol.converged {
-            return Err(SimError::Task(format!("cannot park the {arm} arm (IK error {:.3} m)", sol.position_error)));
+            return Err(SimError::Task(format!(
+                "cannot park the {arm} arm (IK error {:.3} m)",
+                sol.position_error
+            )));
         }
         let binding = control_basis::ChainBinding::by_name(&chain, sim.joint_names())?;
         binding.scatter(sol.q.as_slice(), &mut q);
@@ -245,7 +270,11 @@ impl std::fmt::Debug for Observer<'_> {
 impl<'a> Observer<'a> {
     /// An observer calling `callback(sim, activity)` after every control tick.
     pub fn new(callback: &'a mut dyn FnMut(&DexterSim, &str)) -> Self {
-        Observer { callback, images: None, activity: "" }
+        Observer {
+            callback,
+            images: None,
+            activity: "",
+        }
     }
 
     /// Also receive the head's stereo images (left, right) every time the robot looks.
@@ -268,6 +297,9 @@ pub struct GraspOutcome {
     /// The object weighed through the fingertip sensors while held still after the lift:
     /// (measured N, true m·g N), if it was lifted.
     pub weighed: Option<(f64, f64)>,
+    /// Force closure of the grasp when the Grasp predicate converged: (closure, margin, rank of
+    /// the grasp map), from the contacts' positions, normals and friction (SOCP).
+    pub force_closure: Option<(bool, f64, usize)>,
 }
 
 /// Reach the pre-grasp 10 cm above `plan.grasp` with the hand pre-shaped, descend, close until the
@@ -283,7 +315,13 @@ pub fn grasp_and_lift(
     phase: &mut dyn FnMut(&str, f64),
 ) -> GraspOutcome {
     let arm = reach.arm();
-    let fail = |outcome: String| GraspOutcome { lifted: false, outcome, rose: 0.0, weighed: None };
+    let fail = |outcome: String| GraspOutcome {
+        lifted: false,
+        outcome,
+        rose: 0.0,
+        weighed: None,
+        force_closure: None,
+    };
     // 1. Pre-grasp: above the object, hand pre-shaped.
     obs.activity = "reach pre-grasp";
     hand.set(sim, plan.preshape, 0.0);
@@ -308,13 +346,21 @@ pub fn grasp_and_lift(
     let Some((_, grasp_pose)) = best else {
         return fail("pre-grasp out of reach (no IK solution)".into());
     };
-    let plan = GraspPlan { grasp: grasp_pose, ..*plan };
+    let plan = GraspPlan {
+        grasp: grasp_pose,
+        ..*plan
+    };
     let mut pre = plan.grasp;
     pre.translation.vector.z += 0.10;
     // Large motion in configuration space to a hover pose high above the pre-grasp (a joint-space
     // path may dip; high above, it cannot sweep through the objects), then straight down.
     let mut hover = pre;
-    hover.translation.vector.z = hover.translation.vector.z.max(reach.tool_pose(sim).translation.z).max(pre.translation.z + 0.08);
+    hover.translation.vector.z = hover
+        .translation
+        .vector
+        .z
+        .max(reach.tool_pose(sim).translation.z)
+        .max(pre.translation.z + 0.08);
     // First a straight line (Cartesian Reach ◁ Manipulability) at hover height; if it stalls (a
     // local minimum or a joint limit), the configuration servo to an IK solution takes over.
     reach.set_goal(sim, hover);
@@ -358,7 +404,13 @@ pub fn grasp_and_lift(
     hand.set(sim, FLEX_CLOSED, 0.0);
     let mut still = 0;
     let k = if arm == Arm::Left { 0 } else { 3 };
-    let mut tips = [FingertipWrench { arm, finger: 0, force: [0.0; 3], torque: [0.0; 3], in_contact: false }; 6];
+    let mut tips = [FingertipWrench {
+        arm,
+        finger: 0,
+        force: [0.0; 3],
+        torque: [0.0; 3],
+        in_contact: false,
+    }; 6];
     let grasped = run_until(sim, reach, obs, 3.0, |s, _| {
         let (_, _, parts) = s.hand_wrench_on_object(arm, obj);
         s.fingertip_wrenches(&mut tips);
@@ -373,6 +425,11 @@ pub fn grasp_and_lift(
     if !grasped {
         return fail("grasp did not converge (no opposing contacts)".into());
     }
+    // Force closure of the converged grasp (SOCP, Murray–Li–Sastry): reported, not required — a
+    // BarrettHand grasp with two fingers on one face may lack it and still lift by friction.
+    let closure =
+        control_basis::grasp::force_closure(&sim.hand_contacts_on_object(arm, obj), &sim.object_center_of_mass(obj))
+            .ok();
     // 4. Lift 10 cm.
     phase("lift", sim.time());
     obs.activity = "lift";
@@ -385,7 +442,11 @@ pub fn grasp_and_lift(
     // Hold still and weigh: the fingers carry the object, so Σ f_z = −m·g at rest.
     let mut quiet = 0;
     run_until(sim, reach, obs, 1.0, |s, _| {
-        quiet = if s.object_state(obj).linvel.norm() < 0.002 { quiet + 1 } else { 0 };
+        quiet = if s.object_state(obj).linvel.norm() < 0.002 {
+            quiet + 1
+        } else {
+            0
+        };
         quiet >= 20
     });
     let mut sum = 0.0;
@@ -405,15 +466,23 @@ pub fn grasp_and_lift(
         outcome: if lifted {
             "lifted".into()
         } else {
-            format!("object not held after lift (rose {:.1} cm, {parts} contacts)", rose * 100.0)
+            format!(
+                "object not held after lift (rose {:.1} cm, {parts} contacts)",
+                rose * 100.0
+            )
         },
         rose,
         weighed: lifted.then(|| (sum / n.max(1) as f64, weight)),
+        force_closure: closure.map(|c| (c.closure, c.margin, c.rank)),
     }
 }
 
 /// One pick-and-place in a fresh simulation of `scene`.
-pub fn pick_and_place(scene: &Scene, request: &PickPlaceRequest, settings: SimSettings) -> Result<PickPlaceReport, SimError> {
+pub fn pick_and_place(
+    scene: &Scene,
+    request: &PickPlaceRequest,
+    settings: SimSettings,
+) -> Result<PickPlaceReport, SimError> {
     let mut sim = DexterSim::new(scene, settings)?;
     let debug = std::env::var_os("PBD_DEBUG").is_some();
     let mut last = String::new();
@@ -474,6 +543,7 @@ pub fn pick_and_place_in(
                 final_position: [p.x, p.y, p.z],
                 weighed: None,
                 vision_error: None,
+                force_closure: None,
             });
         }
     };
@@ -482,7 +552,11 @@ pub fn pick_and_place_in(
     let (seen, _eye) = seen;
     let vision_error = (seen.xy() - truth.translation.vector.xy()).norm();
     if std::env::var_os("PBD_DEBUG").is_some() {
-        eprintln!("seen {:?} truth {:?}", seen.as_slice(), truth.translation.vector.as_slice());
+        eprintln!(
+            "seen {:?} truth {:?}",
+            seen.as_slice(),
+            truth.translation.vector.as_slice()
+        );
     }
     let mut pose = truth;
     pose.translation.vector.x = seen.x;
@@ -496,7 +570,13 @@ pub fn pick_and_place_in(
     let mut reach = ReachControl::new(sim, arm)?;
     let hand = HandControl::new(sim, arm)?;
     let mut phases: Vec<(String, f64)> = vec![("search-track".into(), search_started)];
-    let report = |sim: &DexterSim, success: bool, lifted: bool, outcome: String, phases: Vec<(String, f64)>, weighed: Option<(f64, f64)>| {
+    let closure_cell = std::cell::Cell::new(None);
+    let report = |sim: &DexterSim,
+                  success: bool,
+                  lifted: bool,
+                  outcome: String,
+                  phases: Vec<(String, f64)>,
+                  weighed: Option<(f64, f64)>| {
         let p = sim.object_state(obj).pose.translation.vector;
         let wall_time = wall.elapsed().as_secs_f64();
         let sim_time = sim.time() - t0;
@@ -515,14 +595,18 @@ pub fn pick_and_place_in(
             final_position: [p.x, p.y, p.z],
             weighed,
             vision_error: Some(vision_error),
+            force_closure: closure_cell.get(),
         }
     };
 
     let current = reach.tool_pose(sim);
     let plan = plan_top_grasp(&arc, &shape, &pose, table_z, &current);
     phases.push(("reach pre-grasp".into(), sim.time() - t0));
-    let g = grasp_and_lift(sim, &mut reach, &hand, obj, &plan, obs, &mut |name, t| phases.push((name.into(), t - t0)));
+    let g = grasp_and_lift(sim, &mut reach, &hand, obj, &plan, obs, &mut |name, t| {
+        phases.push((name.into(), t - t0))
+    });
     let weighed = g.weighed;
+    closure_cell.set(g.force_closure);
     if !g.lifted {
         return Ok(report(sim, false, false, g.outcome, phases, weighed));
     }
@@ -533,7 +617,8 @@ pub fn pick_and_place_in(
     let object_bottom_below_palm = {
         let op = sim.object_state(obj).pose;
         let palm = reach.tool_pose(sim);
-        palm.translation.z - (op.translation.z - geometry::support_half_extent(&shape, &(op.rotation.inverse() * -Vec3::z())))
+        palm.translation.z
+            - (op.translation.z - geometry::support_half_extent(&shape, &(op.rotation.inverse() * -Vec3::z())))
     };
     let safe_z = table_z + place.wall_height + object_bottom_below_palm + 0.08;
     let mut up = reach.tool_pose(sim);
@@ -551,7 +636,14 @@ pub fn pick_and_place_in(
     }
     if !run_until(sim, &mut reach, obs, 8.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
         let (d, _) = reach.goal_error(sim);
-        return Ok(report(sim, false, true, format!("place not reached ({:.1} cm away)", d * 100.0), phases, weighed));
+        return Ok(report(
+            sim,
+            false,
+            true,
+            format!("place not reached ({:.1} cm away)", d * 100.0),
+            phases,
+            weighed,
+        ));
     }
     // 6. Place: lower until the support force reference is met (the bin carries half the weight).
     phases.push(("place".into(), sim.time() - t0));
@@ -593,7 +685,9 @@ pub fn pick_and_place_in(
     reach.max_speed = 0.3;
     reach.set_goal(sim, away);
     run_until(sim, &mut reach, obs, 2.0, |s, r| r.at_goal(s, 0.01, 0.05));
-    run_until(sim, &mut reach, obs, 2.5, |s, _| s.object_state(obj).linvel.norm() < 0.005);
+    run_until(sim, &mut reach, obs, 2.5, |s, _| {
+        s.object_state(obj).linvel.norm() < 0.005
+    });
     let state = sim.object_state(obj);
     let p = state.pose.translation.vector;
     let inside = (p.x - place.center[0]).abs() <= place.size[0] / 2.0
@@ -604,7 +698,10 @@ pub fn pick_and_place_in(
     let outcome = if success {
         "placed".to_string()
     } else if !inside {
-        format!("object ended outside {} at ({:.3}, {:.3}, {:.3})", place.name, p.x, p.y, p.z)
+        format!(
+            "object ended outside {} at ({:.3}, {:.3}, {:.3})",
+            place.name, p.x, p.y, p.z
+        )
     } else {
         "object still moving".to_string()
     };

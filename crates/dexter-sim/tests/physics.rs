@@ -5,13 +5,23 @@ use dexter_sim::physics::{DexterSim, SimSettings};
 use dexter_sim::scene::Scene;
 
 fn empty_scene() -> Scene {
-    Scene::builtin("pick-place").expect("builtin scene").with_objects(vec![]).expect("empty scene")
+    Scene::builtin("pick-place")
+        .expect("builtin scene")
+        .with_objects(vec![])
+        .expect("empty scene")
 }
 
 #[test]
 fn bodies_follow_urdf_forward_kinematics() {
     let scene = empty_scene();
-    let mut sim = DexterSim::new(&scene, SimSettings { encoder_noise: 0.0, ..SimSettings::default() }).unwrap();
+    let mut sim = DexterSim::new(
+        &scene,
+        SimSettings {
+            encoder_noise: 0.0,
+            ..SimSettings::default()
+        },
+    )
+    .unwrap();
     let n = sim.joint_names().len();
     let mut q = vec![0.0; n];
     for (i, v) in q.iter_mut().enumerate() {
@@ -45,6 +55,11 @@ fn bodies_follow_urdf_forward_kinematics() {
     assert!(worst < 1e-9, "worst {worst}");
     // Encoders read back the configuration.
     for (i, &v) in q.iter().enumerate() {
-        assert!((sim.joint_positions()[i] - v).abs() < 1e-9, "{}: {} vs {v}", sim.joint_names()[i], sim.joint_positions()[i]);
+        assert!(
+            (sim.joint_positions()[i] - v).abs() < 1e-9,
+            "{}: {} vs {v}",
+            sim.joint_names()[i],
+            sim.joint_positions()[i]
+        );
     }
 }

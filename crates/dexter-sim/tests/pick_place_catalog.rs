@@ -21,7 +21,10 @@ fn every_catalog_object_into_every_reachable_bin() {
         return;
     }
     let base = Scene::builtin("pick-place").expect("scene");
-    let seeds: Vec<u64> = match std::env::var("PBD_CATALOG_SEEDS").ok().and_then(|s| s.parse::<u64>().ok()) {
+    let seeds: Vec<u64> = match std::env::var("PBD_CATALOG_SEEDS")
+        .ok()
+        .and_then(|s| s.parse::<u64>().ok())
+    {
         Some(n) => (1..=n).collect(),
         None => vec![1, 2, 3],
     };
@@ -44,7 +47,9 @@ fn every_catalog_object_into_every_reachable_bin() {
             scope.spawn(|| {
                 loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some((object, place, seed)) = jobs.get(i) else { break };
+                    let Some((object, place, seed)) = jobs.get(i) else {
+                        break;
+                    };
                     let scene = base
                         .with_objects(vec![ObjectPlacement {
                             presentation: object.clone(),
@@ -53,10 +58,24 @@ fn every_catalog_object_into_every_reachable_bin() {
                             z: None,
                         }])
                         .expect("scene with one object");
-                    let req = PickPlaceRequest { object: object.clone(), place: place.clone(), arm: None };
-                    let r = pick_and_place(&scene, &req, SimSettings { seed: *seed, ..SimSettings::default() })
-                        .map_err(|e| e.to_string());
-                    results.lock().expect("lock").push((object.clone(), place.clone(), *seed, r));
+                    let req = PickPlaceRequest {
+                        object: object.clone(),
+                        place: place.clone(),
+                        arm: None,
+                    };
+                    let r = pick_and_place(
+                        &scene,
+                        &req,
+                        SimSettings {
+                            seed: *seed,
+                            ..SimSettings::default()
+                        },
+                    )
+                    .map_err(|e| e.to_string());
+                    results
+                        .lock()
+                        .expect("lock")
+                        .push((object.clone(), place.clone(), *seed, r));
                 }
             });
         }
@@ -81,7 +100,10 @@ fn every_catalog_object_into_every_reachable_bin() {
                 if let Some((m, t)) = r.weighed {
                     let e = ((m - t) / t).abs();
                     if e > 0.02 {
-                        println!("weighing {o} seed {s}: {m:.3} N vs m·g {t:.3} N ({:+.2} %)", 100.0 * (m - t) / t);
+                        println!(
+                            "weighing {o} seed {s}: {m:.3} N vs m·g {t:.3} N ({:+.2} %)",
+                            100.0 * (m - t) / t
+                        );
                     }
                     worst_weight = worst_weight.max(e);
                     if e > 0.05 {
@@ -116,6 +138,12 @@ fn every_catalog_object_into_every_reachable_bin() {
         sim_time
     );
     assert!(ok as f64 >= 0.95 * n as f64, "success {ok}/{n} below 95 %");
-    assert!(lifted as f64 >= 0.95 * n as f64, "grasp-and-lift {lifted}/{n} below 95 %");
-    assert!(weight_failures.is_empty(), "weighing off by more than 5 %: {weight_failures:?}");
+    assert!(
+        lifted as f64 >= 0.95 * n as f64,
+        "grasp-and-lift {lifted}/{n} below 95 %"
+    );
+    assert!(
+        weight_failures.is_empty(),
+        "weighing off by more than 5 %: {weight_failures:?}"
+    );
 }
