@@ -743,6 +743,20 @@ impl ControlStack {
         Ok(())
     }
 
+    /// Sets a configuration reference of controller `k` from `q`, reusing the stored vector when the
+    /// reference already is a configuration (allocation-free after the first call): for reference
+    /// generators that move a configuration goal every tick.
+    pub fn set_configuration_reference(&mut self, chain: &Chain, k: usize, q: &[f64]) -> Result<(), CbError> {
+        if let Some(Reference::Configuration(current)) = self.references.get_mut(k)
+            && current.len() == q.len()
+        {
+            crate::error::check_finite("configuration reference", q)?;
+            current.copy_from_slice(q);
+            return Ok(());
+        }
+        self.set_reference(chain, k, Reference::Configuration(DVector::from_column_slice(q)))
+    }
+
     /// One control tick: FK + Jacobian of `state`, every controller's φ/e/J, the predicates, and the
     /// composed step Δu (returned; also [`ControlStack::delta_u`]). Allocation-free.
     pub fn tick(&mut self, chain: &Chain, state: &mut ChainState, contacts: &[Contact], dt_secs: f64) -> &DVector<f64> {

@@ -31,7 +31,15 @@ fn main() {
             place: place.clone(),
             arm: None,
         };
-        match pick_and_place(&scene, &req, SimSettings::default()) {
+        let seed: u64 = std::env::var("SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(0);
+        match pick_and_place(
+            &scene,
+            &req,
+            SimSettings {
+                seed,
+                ..SimSettings::default()
+            },
+        ) {
             Ok(r) => {
                 if r.success {
                     ok += 1;

@@ -61,7 +61,7 @@ fn main() {
         if let (Some(r), Some(start)) = (reach.as_mut(), start) {
             if k % switch == 0 {
                 let mut goal = start;
-                goal.translation.vector.y += if (k / switch) % 2 == 0 { 0.1 } else { 0.0 };
+                goal.translation.vector.y += if (k / switch).is_multiple_of(2) { 0.1 } else { 0.0 };
                 r.set_goal(&sim, goal);
             }
             if k % per == 0 {

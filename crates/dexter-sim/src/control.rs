@@ -37,6 +37,9 @@ pub struct ReachControl {
     joint_goal: Option<(DVector<f64>, DVector<f64>)>,
     /// Joint speed limit of the configuration reference (rad/s).
     pub max_joint_speed: f64,
+    /// Joint acceleration limit of the configuration reference (rad/s²).
+    pub max_joint_acceleration: f64,
+    joint_speed: f64,
     binding: ChainBinding,
     q_chain: Vec<f64>,
     goal: Iso3,
@@ -45,6 +48,10 @@ pub struct ReachControl {
     pub max_speed: f64,
     /// Angular speed limit of the reference (rad/s).
     pub max_angular_speed: f64,
+    /// Linear acceleration limit of the reference (m/s²).
+    pub max_acceleration: f64,
+    /// Current speed of the reference (m/s).
+    speed: f64,
     active: bool,
 }
 
@@ -72,12 +79,16 @@ impl ReachControl {
             joint_stack,
             joint_goal: None,
             max_joint_speed: 1.0,
+            max_joint_acceleration: 2.0,
+            joint_speed: 0.0,
             binding,
             q_chain: vec![0.0; n],
             goal: Iso3::identity(),
             commanded: Iso3::identity(),
             max_speed: 0.3,
             max_angular_speed: 1.2,
+            max_acceleration: 0.6,
+            speed: 0.0,
             active: false,
         };
         let pose = rc.tool_pose(sim);
@@ -115,6 +126,7 @@ impl ReachControl {
     /// straight line (Cartesian Reach ◁ Manipulability).
     pub fn set_goal(&mut self, sim: &DexterSim, goal: Iso3) {
         self.commanded = self.tool_pose(sim);
+        self.speed = 0.0;
         self.goal = goal;
         self.active = true;
         self.joint_goal = None;
@@ -133,6 +145,7 @@ impl ReachControl {
         self.active = true;
         let q_now = DVector::from_column_slice(&self.q_chain);
         self.joint_goal = Some((q_goal, q_now));
+        self.joint_speed = 0.0;
         self.joint_stack.reset_predicates();
         Ok(true)
     }
@@ -174,17 +187,27 @@ impl ReachControl {
         }
         if let Some((q_goal, q_cmd)) = self.joint_goal.as_mut() {
             // Configuration reference generator: bounded joint speed, all joints arrive together.
-            let d = &*q_goal - &*q_cmd;
-            let worst = d.amax();
-            let step = self.max_joint_speed * dt;
-            if worst > step {
-                *q_cmd += d * (step / worst);
+            // Trapezoidal profile on the leading joint; all joints arrive together.
+            let worst = (0..q_goal.len())
+                .map(|i| (q_goal[i] - q_cmd[i]).abs())
+                .fold(0.0, f64::max);
+            let braking = (2.0 * self.max_joint_acceleration * worst).sqrt();
+            self.joint_speed = (self.joint_speed + self.max_joint_acceleration * dt)
+                .min(self.max_joint_speed)
+                .min(braking);
+            let step = self.joint_speed * dt;
+            if worst > step && worst > 1e-12 {
+                let f = step / worst;
+                for i in 0..q_goal.len() {
+                    q_cmd[i] += (q_goal[i] - q_cmd[i]) * f;
+                }
             } else {
                 q_cmd.copy_from(q_goal);
+                self.joint_speed = 0.0;
             }
             let _ = self
                 .joint_stack
-                .set_reference(&self.chain, 0, Reference::Configuration(q_cmd.clone()));
+                .set_configuration_reference(&self.chain, 0, q_cmd.as_slice());
             self.binding.gather(sim.joint_positions(), &mut self.q_chain);
             if self.state.set_q(&self.chain, &self.q_chain).is_err() {
                 return;
@@ -196,14 +219,20 @@ impl ReachControl {
             }
             return;
         }
-        // Reference generator: move `commanded` towards `goal` at bounded speed.
+        // Reference generator: move `commanded` towards `goal` with a trapezoidal speed profile
+        // (bounded speed and acceleration), so that a held object is not shaken out of the hand.
         let dp = self.goal.translation.vector - self.commanded.translation.vector;
-        let step = self.max_speed * dt;
         let dist = dp.norm();
-        if dist > step {
+        let braking = (2.0 * self.max_acceleration * dist).sqrt();
+        self.speed = (self.speed + self.max_acceleration * dt)
+            .min(self.max_speed)
+            .min(braking);
+        let step = self.speed * dt;
+        if dist > step && dist > 1e-9 {
             self.commanded.translation.vector += dp * (step / dist);
         } else {
             self.commanded.translation.vector = self.goal.translation.vector;
+            self.speed = 0.0;
         }
         let dr = self.commanded.rotation.rotation_to(&self.goal.rotation);
         let angle = dr.angle();

@@ -215,7 +215,8 @@ impl SearchTrack {
     /// One tracking tick of `dt` seconds on `blob`: image-based servo of pan/tilt on the mean image
     /// error and of each vergence on its own camera's error.
     pub fn track(&mut self, sim: &mut DexterSim, cams: &StereoCameras, blob: &StereoBlob, dt: f64) -> TrackObservation {
-        let q = sim.joint_positions().to_vec();
+        let q = sim.joint_positions();
+        let (q_pan, q_tilt, q_verge) = (q[self.pan], q[self.tilt], [q[self.verge[0]], q[self.verge[1]]]);
         let mut errs = [None, None];
         for (k, (seg, cam)) in [(&blob.left, &cams.left), (&blob.right, &cams.right)]
             .into_iter()
@@ -226,21 +227,21 @@ impl SearchTrack {
                 errs[k] = Some(((c[0] - cam.cx) / cam.fx, (c[1] - cam.cy) / cam.fy));
             }
         }
-        let seen: Vec<(f64, f64)> = errs.iter().flatten().copied().collect();
-        let error = if seen.is_empty() {
+        let seen = errs.iter().flatten().count();
+        let error = if seen == 0 {
             f64::INFINITY
         } else {
-            let (eu, ev) = seen.iter().fold((0.0, 0.0), |a, e| (a.0 + e.0, a.1 + e.1));
-            let (eu, ev) = (eu / seen.len() as f64, ev / seen.len() as f64);
+            let (eu, ev) = errs.iter().flatten().fold((0.0, 0.0), |a, e| (a.0 + e.0, a.1 + e.1));
+            let (eu, ev) = (eu / seen as f64, ev / seen as f64);
             let k = self.gain * dt;
             // Image u grows to the right (pan negative), v downwards (tilt positive looks down).
-            sim.set_joint_target(self.pan, q[self.pan] - k * eu, -self.gain * eu);
-            sim.set_joint_target(self.tilt, q[self.tilt] + k * ev, self.gain * ev);
+            sim.set_joint_target(self.pan, q_pan - k * eu, -self.gain * eu);
+            sim.set_joint_target(self.tilt, q_tilt + k * ev, self.gain * ev);
             for (i, e) in errs.iter().enumerate() {
                 if let Some((u, _)) = e {
                     // Differential part only: the common part is pan's job.
                     let du = u - eu;
-                    sim.set_joint_target(self.verge[i], q[self.verge[i]] - k * du, -self.gain * du);
+                    sim.set_joint_target(self.verge[i], q_verge[i] - k * du, -self.gain * du);
                 }
             }
             eu * eu + ev * ev

@@ -139,10 +139,12 @@ pub fn default_gains(joint: &str, effort: f64) -> MotorGains {
         };
     }
     if joint.contains("prox_joint") {
+        // The BarrettHand's spread is driven through a worm gear and is not back-drivable: a stiff
+        // PD whose holding torque exceeds the URDF drive effort stands in for the gear's self-locking.
         return MotorGains {
-            kp: 4.0,
-            kd: 0.1,
-            max_effort: effort,
+            kp: 20.0,
+            kd: 0.5,
+            max_effort: effort.max(5.0),
         };
     }
     if joint.starts_with("head/") {
@@ -636,6 +638,17 @@ impl DexterSim {
             ))
             .build();
         self.world.insert_collider(top, Some(table));
+        // The floor, so that a dropped object comes to rest somewhere (and is reported there).
+        let floor = ColliderBuilder::cuboid(5.0, 5.0, 0.05)
+            .translation(DVec3::new(0.0, 0.0, -0.05))
+            .friction(t.friction)
+            .collision_groups(InteractionGroups::new(
+                groups::STATIC,
+                groups::OBJECT,
+                InteractionTestMode::And,
+            ))
+            .build();
+        self.world.insert_collider(floor, Some(table));
         // Bins: a floor plate (2 mm, on the table) and four walls.
         for place in &spec.places {
             let (cx, cy) = (place.center[0], place.center[1]);

@@ -390,16 +390,6 @@ pub fn grasp_and_lift(
     }
     // 3. Grasp: close until fingers on both sides touch and the hand is still.
     phase("grasp", sim.time());
-    if std::env::var_os("PBD_DEBUG").is_some() {
-        eprintln!(
-            "grasp plan {:?} width {:.3} preshape {:.2}; tool {:?}; object {:?}",
-            plan.grasp.translation.vector.as_slice(),
-            plan.width,
-            plan.preshape,
-            reach.tool_pose(sim).translation.vector.as_slice(),
-            sim.object_state(obj).pose.translation.vector.as_slice()
-        );
-    }
     obs.activity = "grasp";
     hand.set(sim, FLEX_CLOSED, 0.0);
     let mut still = 0;
@@ -484,18 +474,8 @@ pub fn pick_and_place(
     settings: SimSettings,
 ) -> Result<PickPlaceReport, SimError> {
     let mut sim = DexterSim::new(scene, settings)?;
-    let debug = std::env::var_os("PBD_DEBUG").is_some();
-    let mut last = String::new();
-    let mut trace = |s: &DexterSim, activity: &str| {
-        if debug && activity != last {
-            last = activity.to_string();
-            let poses: Vec<String> = (0..s.objects().len())
-                .map(|i| format!("{:.3?}", s.object_state(i).pose.translation.vector.as_slice()))
-                .collect();
-            eprintln!("t={:.2} {activity}: objects {}", s.time(), poses.join(" "));
-        }
-    };
-    pick_and_place_in(&mut sim, scene, request, &mut Observer::new(&mut trace))
+    let mut nothing = |_: &DexterSim, _: &str| {};
+    pick_and_place_in(&mut sim, scene, request, &mut Observer::new(&mut nothing))
 }
 
 /// One pick-and-place in an existing simulation, reporting every control tick to `obs`.
@@ -551,13 +531,6 @@ pub fn pick_and_place_in(
     // error of some tall boxes and adds 1 cm to tall cylinders, so the plain triangulation is used.)
     let (seen, _eye) = seen;
     let vision_error = (seen.xy() - truth.translation.vector.xy()).norm();
-    if std::env::var_os("PBD_DEBUG").is_some() {
-        eprintln!(
-            "seen {:?} truth {:?}",
-            seen.as_slice(),
-            truth.translation.vector.as_slice()
-        );
-    }
     let mut pose = truth;
     pose.translation.vector.x = seen.x;
     pose.translation.vector.y = seen.y;
@@ -623,7 +596,7 @@ pub fn pick_and_place_in(
     let safe_z = table_z + place.wall_height + object_bottom_below_palm + 0.08;
     let mut up = reach.tool_pose(sim);
     up.translation.vector.z = up.translation.vector.z.max(safe_z);
-    reach.max_speed = 0.4;
+    reach.max_speed = 0.3;
     reach.set_goal(sim, up);
     run_until(sim, &mut reach, obs, 3.0, |s, r| r.at_goal(s, 0.01, 0.05));
     // Over the place: object centre above the place centre.
@@ -631,10 +604,24 @@ pub fn pick_and_place_in(
     let obj_offset = (up.rotation * palm_to_object.translation.vector).xy();
     over.translation.vector.x = place.center[0] - obj_offset.x;
     over.translation.vector.y = place.center[1] - obj_offset.y;
-    if !reach.set_goal_via_ik(sim, over, 23)? {
-        reach.set_goal(sim, over);
+    // A straight line at the safe height; the configuration servo only if that stalls.
+    reach.set_goal(sim, over);
+    let straight = run_until(sim, &mut reach, obs, 6.0, |s, r| r.at_goal(s, 0.01, 0.05));
+    if !straight && reach.set_goal_via_ik(sim, over, 23)? {
+        run_until(sim, &mut reach, obs, 8.0, |s, r| r.at_goal(s, 0.01, 0.05));
     }
-    if !run_until(sim, &mut reach, obs, 8.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
+    let (_, _, parts) = sim.hand_wrench_on_object(arm, obj);
+    if parts < 2 {
+        return Ok(report(
+            sim,
+            false,
+            true,
+            "object dropped during transport".into(),
+            phases,
+            weighed,
+        ));
+    }
+    if !reach.at_goal(sim, 0.01, 0.05) {
         let (d, _) = reach.goal_error(sim);
         return Ok(report(
             sim,
