@@ -154,4 +154,8 @@ fn bad_input_is_reported_not_panicked() {
         &["bad-version.toml", "version"],
     );
     fails_with(&["sim", "pick-place", "--log-hz", "NaN"], &["--log-hz"]);
+    fails_with(
+        &["sim", "pick-place", "--arm", "right", "--place", "bin-left"],
+        &["right arm", "bin-left", "--arm auto"],
+    );
 }

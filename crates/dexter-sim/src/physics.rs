@@ -139,12 +139,12 @@ pub fn default_gains(joint: &str, effort: f64) -> MotorGains {
         };
     }
     if joint.contains("prox_joint") {
-        // The BarrettHand's spread is driven through a worm gear and is not back-drivable: a stiff
-        // PD whose holding torque exceeds the URDF drive effort stands in for the gear's self-locking.
+        // Spread: a soft PD at the URDF effort. (A stiff, worm-gear-like spread was tried: small balls
+        // then wedge against the palm and are not released.)
         return MotorGains {
-            kp: 20.0,
-            kd: 0.5,
-            max_effort: effort.max(5.0),
+            kp: 10.0,
+            kd: 0.2,
+            max_effort: effort,
         };
     }
     if joint.starts_with("head/") {

@@ -535,10 +535,20 @@ pub fn pick_and_place_in(
     pose.translation.vector.x = seen.x;
     pose.translation.vector.y = seen.y;
     let arc_left = finger_arc(sim, Arm::Left)?;
-    let arm = match request.arm {
-        Some(a) => a,
-        None => choose_arm(sim, &request.object, &arc_left, &shape, &pose, &place, table_z)?,
+    let candidates: &[Arm] = match &request.arm {
+        Some(a) => std::slice::from_ref(a),
+        None => &Arm::BOTH,
     };
+    let arm = choose_arm(
+        sim,
+        &request.object,
+        candidates,
+        &arc_left,
+        &shape,
+        &pose,
+        &place,
+        table_z,
+    )?;
     let arc = finger_arc(sim, arm)?;
     let mut reach = ReachControl::new(sim, arm)?;
     let hand = HandControl::new(sim, arm)?;
@@ -763,16 +773,18 @@ pub fn locate_object(
 
 /// Chooses an arm that reaches the object's grasp and the place, preferring the one whose shoulder
 /// is nearer the object.
+#[allow(clippy::too_many_arguments)]
 fn choose_arm(
     sim: &DexterSim,
     name: &str,
+    candidates: &[Arm],
     arc: &[(f64, f64, f64)],
     shape: &Shape,
     pose: &Iso3,
     place: &PlaceSpec,
     table_z: f64,
 ) -> Result<Arm, SimError> {
-    let mut order = Arm::BOTH;
+    let mut order = candidates.to_vec();
     if pose.translation.y < 0.0 {
         order.reverse();
     }
@@ -798,10 +810,18 @@ fn choose_arm(
             }
         ));
     }
-    Err(SimError::Task(format!(
-        "no single arm can pick `{}` and place it in `{}`: {} (a hand-to-hand transfer is needed)",
-        name,
-        place.name,
-        reasons.join("; ")
-    )))
+    let what = if candidates.len() == 1 {
+        format!(
+            "the {} arm cannot pick `{name}` and place it in `{}`",
+            candidates[0], place.name
+        )
+    } else {
+        format!("no single arm can pick `{name}` and place it in `{}`", place.name)
+    };
+    let hint = if candidates.len() == 1 {
+        "try --arm auto"
+    } else {
+        "a hand-to-hand transfer is needed"
+    };
+    Err(SimError::Task(format!("{what}: {} ({hint})", reasons.join("; "))))
 }
