@@ -627,16 +627,23 @@ impl DexterSim {
         // Table: a 4 cm slab whose top is at `height`, plus a leg block below it to the floor.
         let table_thickness = 0.04;
         let table = self.world.insert_body(RigidBodyBuilder::fixed().build());
-        let top = ColliderBuilder::cuboid(t.size[0] / 2.0, t.size[1] / 2.0, table_thickness / 2.0)
-            .translation(DVec3::new(t.center[0], t.center[1], t.height - table_thickness / 2.0))
-            .friction(t.friction)
-            .contact_skin(self.settings.contact_skin)
-            .collision_groups(InteractionGroups::new(
-                groups::STATIC,
-                groups::OBJECT | groups::HAND,
-                InteractionTestMode::And,
-            ))
-            .build();
+        let skin = self.settings.contact_skin;
+        let static_box = |half: DVec3, center: DVec3| {
+            ColliderBuilder::cuboid(half.x, half.y, half.z)
+                .translation(center)
+                .friction(t.friction)
+                .contact_skin(skin)
+                .collision_groups(InteractionGroups::new(
+                    groups::STATIC,
+                    groups::OBJECT | groups::HAND,
+                    InteractionTestMode::And,
+                ))
+                .build()
+        };
+        let top = static_box(
+            DVec3::new(t.size[0] / 2.0, t.size[1] / 2.0, table_thickness / 2.0),
+            DVec3::new(t.center[0], t.center[1], t.height - table_thickness / 2.0),
+        );
         self.world.insert_collider(top, Some(table));
         // The floor, so that a dropped object comes to rest somewhere (and is reported there).
         let floor = ColliderBuilder::cuboid(5.0, 5.0, 0.05)
@@ -679,17 +686,7 @@ impl DexterSim {
                 ));
             }
             for (c, half) in parts {
-                let col = ColliderBuilder::cuboid(half.x, half.y, half.z)
-                    .translation(c)
-                    .friction(t.friction)
-                    .contact_skin(self.settings.contact_skin)
-                    .collision_groups(InteractionGroups::new(
-                        groups::STATIC,
-                        groups::OBJECT | groups::HAND,
-                        InteractionTestMode::And,
-                    ))
-                    .build();
-                self.world.insert_collider(col, Some(table));
+                self.world.insert_collider(static_box(half, c), Some(table));
             }
         }
         // Objects.
@@ -1116,8 +1113,8 @@ impl DexterSim {
             if self.collider_part.contains_key(&other) {
                 continue;
             }
-            let force_on_1 = pair_force_on_collider1(pair, self.settings.dt, &self.world.bodies, |_p, fc| fc);
-            f += if pair.collider1 == obj { force_on_1 } else { -force_on_1 };
+            let sign = if pair.collider1 == obj { 1.0 } else { -1.0 };
+            for_each_point_force(pair, self.settings.dt, &self.world.bodies, |_, f1| f += sign * f1);
         }
         f
     }
@@ -1134,22 +1131,9 @@ impl DexterSim {
                 (None, Some(p)) if p != Part::Other => (p, pair.collider1, false),
                 _ => continue,
             };
-            for m in pair.solver_manifolds() {
-                let n = m.data.normal;
-                let d1 = -n;
-                let t1 = d1.any_orthonormal_vector();
-                let t2 = d1.cross(t1);
-                for c in m.data.solver_contacts.iter() {
-                    let idx = c.contact_indices()[0] as usize;
-                    let Some(pt) = m.points.get(idx) else { continue };
-                    let imp = pt.data.impulse * d1 + pt.data.tangent_impulse.x * t1 + pt.data.tangent_impulse.y * t2;
-                    let f1 = vec_from_glam(imp / dt);
-                    let (w1, w2) = m.data.solver_contact_world_points(c, &self.world.bodies);
-                    let point = vec_from_glam((w1 + w2) * 0.5);
-                    let force = if on_first { f1 } else { -f1 };
-                    visit(part, Some(other), point, force);
-                }
-            }
+            for_each_point_force(pair, dt, &self.world.bodies, |point, f1| {
+                visit(part, Some(other), point, if on_first { f1 } else { -f1 });
+            });
         }
     }
 
@@ -1193,15 +1177,11 @@ impl DexterSim {
     }
 }
 
-/// The force (normal + friction) that `pair` applies to its `collider1`, summed over the solver's
-/// active contacts; `map(point, force)` may transform each contribution.
-fn pair_force_on_collider1(
-    pair: &ContactPair,
-    dt: f64,
-    _bodies: &RigidBodySet,
-    mut map: impl FnMut(DVec3, Vec3) -> Vec3,
-) -> Vec3 {
-    let mut total = Vec3::zeros();
+/// Calls `visit(world_point, force_on_collider1)` for every contact point of `pair` that the solver
+/// used in the last step: the normal **and friction** impulses over `dt`, in the tangent basis the
+/// solver uses (`../shared/NOTES-grasp-physics.md`). Points the solver did not use are skipped: their
+/// stale impulses would count a weight twice.
+fn for_each_point_force(pair: &ContactPair, dt: f64, bodies: &RigidBodySet, mut visit: impl FnMut(Vec3, Vec3)) {
     for m in pair.solver_manifolds() {
         let d1 = -m.data.normal;
         let t1 = d1.any_orthonormal_vector();
@@ -1210,10 +1190,10 @@ fn pair_force_on_collider1(
             let idx = c.contact_indices()[0] as usize;
             let Some(pt) = m.points.get(idx) else { continue };
             let imp = pt.data.impulse * d1 + pt.data.tangent_impulse.x * t1 + pt.data.tangent_impulse.y * t2;
-            total += map(DVec3::ZERO, vec_from_glam(imp / dt));
+            let (w1, w2) = m.data.solver_contact_world_points(c, bodies);
+            visit(vec_from_glam((w1 + w2) * 0.5), vec_from_glam(imp / dt));
         }
     }
-    total
 }
 
 fn part_of(link: &str) -> Part {

@@ -129,26 +129,8 @@ pub(super) struct Color {
 impl Color {
     /// From `[h_deg, s, v]` (h in degrees, wrapped; s and v clamped to [0, 1]).
     pub fn from_hsv(hsv: [f64; 3], a: f64) -> Self {
-        let [h, s, v] = hsv;
-        let (s, v) = (s.clamp(0.0, 1.0), v.clamp(0.0, 1.0));
-        let h = h.rem_euclid(360.0) / 60.0;
-        let c = v * s;
-        let x = c * (1.0 - (h % 2.0 - 1.0).abs());
-        let (r, g, b) = match h as u32 {
-            0 => (c, x, 0.0),
-            1 => (x, c, 0.0),
-            2 => (0.0, c, x),
-            3 => (0.0, x, c),
-            4 => (x, 0.0, c),
-            _ => (c, 0.0, x),
-        };
-        let m = v - c;
-        Self {
-            r: r + m,
-            g: g + m,
-            b: b + m,
-            a,
-        }
+        let [r, g, b] = dexter_sim::vision::color::hsv_to_rgb(hsv);
+        Self { r, g, b, a }
     }
 }
 
