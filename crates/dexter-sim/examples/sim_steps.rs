@@ -13,7 +13,8 @@
 //!   every 0.5 s), so the figure is not only about resting bodies;
 //! - `SIM_SETTLE=n`: steps taken before timing starts (default 0).
 //!
-//! Prints set-up time, stepping time, steps/s and the number of awake bodies at the end.
+//! Prints set-up time, stepping time, steps/s, the number of awake bodies at the end and the
+//! multibodies' sizes.
 use dexter_sim::Arm;
 use dexter_sim::control::ReachControl;
 use dexter_sim::physics::{DexterSim, SimSettings};
@@ -75,9 +76,15 @@ fn main() {
     let run = t1.elapsed().as_secs_f64();
     let awake = sim.world().islands.num_active_bodies();
     let (bodies, colliders) = sim.counts();
+    let multibodies: Vec<String> = sim
+        .world()
+        .multibody_joints
+        .multibodies()
+        .map(|m| format!("{}/{}", m.num_links(), m.ndofs()))
+        .collect();
     println!(
         "sim_steps: iters {} sleep {} moving {} settle {} | setup {:.3} s | {} steps in {:.3} s = {:.0} steps/s \
-         ({:.1} us/step, reach ticks {:.3} s) | awake bodies {}/{} colliders {}",
+         ({:.1} us/step, reach ticks {:.3} s) | awake bodies {}/{} colliders {} multibodies (links/dofs) {}",
         settings.solver_iterations,
         settings.allow_sleep,
         moving,
@@ -90,6 +97,7 @@ fn main() {
         tick_time,
         awake,
         bodies,
-        colliders
+        colliders,
+        multibodies.join(" ")
     );
 }
