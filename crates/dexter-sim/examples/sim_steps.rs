@@ -13,8 +13,8 @@
 //!   every 0.5 s), so the figure is not only about resting bodies;
 //! - `SIM_SETTLE=n`: steps taken before timing starts (default 0).
 //!
-//! Prints set-up time, stepping time, steps/s, the number of awake bodies at the end and the
-//! multibodies' sizes.
+//! Prints set-up time, stepping time, steps/s, the number of awake bodies at the end, the
+//! multibodies' sizes and state sums (exact, to compare trajectories between builds).
 use dexter_sim::Arm;
 use dexter_sim::control::ReachControl;
 use dexter_sim::physics::{DexterSim, SimSettings};
@@ -76,6 +76,13 @@ fn main() {
     let run = t1.elapsed().as_secs_f64();
     let awake = sim.world().islands.num_active_bodies();
     let (bodies, colliders) = sim.counts();
+    // Final state, to check that a speed change leaves the trajectory unchanged: the joint positions
+    // and object positions, printed exactly, plus the left arm's goal error (moving mode).
+    let q_sum: f64 = sim.joint_positions().iter().sum();
+    let obj_sum: f64 = (0..sim.objects().len())
+        .map(|i| sim.object_state(i).pose.translation.vector.sum())
+        .sum();
+    let goal_err = reach.as_mut().map(|r| r.goal_error(&sim).0);
     let multibodies: Vec<String> = sim
         .world()
         .multibody_joints
@@ -84,7 +91,8 @@ fn main() {
         .collect();
     println!(
         "sim_steps: iters {} sleep {} moving {} settle {} | setup {:.3} s | {} steps in {:.3} s = {:.0} steps/s \
-         ({:.1} us/step, reach ticks {:.3} s) | awake bodies {}/{} colliders {} multibodies (links/dofs) {}",
+         ({:.1} us/step, reach ticks {:.3} s) | awake bodies {}/{} colliders {} multibodies (links/dofs) {} \
+         | state sum q {:e} objects {:e} goal error {:?}",
         settings.solver_iterations,
         settings.allow_sleep,
         moving,
@@ -98,6 +106,9 @@ fn main() {
         awake,
         bodies,
         colliders,
-        multibodies.join(" ")
+        multibodies.join(" "),
+        q_sum,
+        obj_sum,
+        goal_err
     );
 }
