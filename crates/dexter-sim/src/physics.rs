@@ -70,7 +70,7 @@ pub struct SimSettings {
     pub seed: u64,
     /// Random placement jitter of each object: position (m, uniform ±) and yaw (rad, uniform ±).
     pub placement_jitter: (f64, f64),
-    /// Let bodies at rest sleep (objects only; the robot never sleeps).
+    /// Let bodies at rest sleep (objects and robot links; a robot part is woken when its motor reference changes).
     pub allow_sleep: bool,
 }
 
