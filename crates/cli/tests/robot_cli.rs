@@ -2,30 +2,13 @@
 //! Dexter model and on the Barrett WAM URDF against Pinocchio's numbers (tests/data/wam7_kinematics.json,
 //! see tests/data/PROVENANCE.md), plus every kind of bad input a user can give.
 
+mod common;
+
+use common::{pbd, repo, stderr, stdout};
 use std::path::PathBuf;
-use std::process::{Command, Output};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use serde_json::Value;
-
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn pbd(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pbd"))
-        .args(args)
-        .output()
-        .expect("the pbd binary runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 /// Runs `pbd` expecting success and returns stdout.
 fn ok(args: &[&str]) -> String {

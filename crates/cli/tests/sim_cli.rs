@@ -2,25 +2,11 @@
 //! bit-identical for a seed, a different seed changes the noise but not the outcome, the MCAP
 //! recording is a complete file, and bad input gives a clear error with a non-zero exit.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+mod common;
+
+use common::{pbd, repo, stderr};
 
 use serde_json::Value;
-
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn pbd(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pbd"))
-        .args(args)
-        .output()
-        .expect("the pbd binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn ok_json(args: &[&str]) -> Value {
     let o = pbd(args);
