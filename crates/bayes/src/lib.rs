@@ -1,0 +1,2 @@
+//! Conjugate Bayesian models with sufficient statistics (Sweeney 2011, ch. 5 and appendix A).
+#![warn(missing_docs)]
