@@ -133,6 +133,19 @@ impl ReachControl {
         self.stack.reset_predicates();
     }
 
+    /// Moves the goal without restarting the reference: the commanded pose keeps its speed and
+    /// follows the new goal within the speed and acceleration limits. For a goal that moves every tick
+    /// (teleoperation: the operator's hand pose streamed at glove rate).
+    pub fn track(&mut self, sim: &DexterSim, goal: Iso3) {
+        if !self.active || self.joint_goal.is_some() {
+            self.commanded = self.tool_pose(sim);
+            self.speed = 0.0;
+            self.joint_goal = None;
+            self.active = true;
+        }
+        self.goal = goal;
+    }
+
     /// Solves IK for `goal` from the current configuration and servoes there in configuration space
     /// (the Reach goal, transformed into the configuration space once). For large motions: a
     /// configuration servo has no local minima or joint-limit traps. Returns `false` (and does

@@ -11,7 +11,9 @@ pub mod rng;
 pub mod scene;
 pub mod snapshot;
 pub mod task;
+pub mod teleop;
 pub mod vision;
+pub mod watch;
 
 pub use snapshot::Arm;
 

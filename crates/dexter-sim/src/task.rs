@@ -85,7 +85,7 @@ pub struct GraspPlan {
 /// Fingertip geometry of the BarrettHand, sampled along the flexion arc of finger 3 in the palm
 /// surface frame: (flexion, lateral distance of the tip centre from the palm axis, depth below the
 /// palm surface).
-fn finger_arc(sim: &DexterSim, arm: Arm) -> Result<Vec<(f64, f64, f64)>, SimError> {
+pub fn finger_arc(sim: &DexterSim, arm: Arm) -> Result<Vec<(f64, f64, f64)>, SimError> {
     let p = arm.prefix();
     let chain = Chain::new(
         sim.model(),

@@ -1,0 +1,452 @@
+//! What Dexter perceives while it is being taught: one [`schema::Percept`] per observation step, from
+//! its own sensors only — kinematics and encoders for the palms, the fingertip force/torque sensors
+//! for contact and carried load, and the head's stereo cameras for segments (tracked across frames)
+//! and the foveated stimulus. The scene file is used for the places (the robot knows its bins) and the
+//! table height, never for object poses.
+
+use control_basis::math::Vec3;
+use schema::{HandPercept, Percept, PlacePercept, SegmentPercept};
+
+use crate::error::SimError;
+use crate::perception::{Eyes, Pair, SearchTrack};
+use crate::physics::DexterSim;
+use crate::scene::Scene;
+use crate::snapshot::{Arm, FingertipWrench};
+
+/// Tracks segments across frames by their triangulated centroids. A segment a hand carries moves with
+/// the palm (the robot knows what it holds), so it keeps its id while the hand hides it; two tracks
+/// closer than [`MERGE_GAP`] are one object seen in pieces; a track not seen for [`FORGET_SECS`] that
+/// nothing carries is forgotten.
+#[derive(Debug, Clone, Default)]
+struct Tracker {
+    tracks: Vec<SegmentPercept>,
+    last_seen: Vec<f64>,
+    /// Per hand: the carried track's id and the palm position at the last update.
+    carried: [Option<(u32, [f64; 3])>; 2],
+    next_id: u32,
+}
+
+/// A segment moves at most this far between two frames to keep its id (m).
+const TRACK_GATE: f64 = 0.08;
+/// Tracks closer than this are merged (m).
+const MERGE_GAP: f64 = 0.04;
+/// Unseen, uncarried tracks are dropped after this long (s).
+const FORGET_SECS: f64 = 2.0;
+
+impl Tracker {
+    /// Moves carried tracks with their palms; `holding[k]` says whether hand k holds something.
+    fn predict(&mut self, palms: &[[f64; 3]; 2], holding: [bool; 2]) {
+        for k in 0..2 {
+            match (self.carried[k], holding[k]) {
+                (Some((id, prev)), true) => {
+                    if let Some(t) = self.tracks.iter_mut().find(|t| t.id == id) {
+                        for i in 0..3 {
+                            t.centroid[i] += palms[k][i] - prev[i];
+                        }
+                    }
+                    self.carried[k] = Some((id, palms[k]));
+                }
+                (None, true) => {
+                    // Latch the track nearest the palm.
+                    self.carried[k] = self
+                        .tracks
+                        .iter()
+                        .map(|t| (dist(&t.centroid, &palms[k]), t.id))
+                        .filter(|(d, _)| *d < 0.15)
+                        .min_by(|a, b| a.0.total_cmp(&b.0))
+                        .map(|(_, id)| (id, palms[k]));
+                }
+                (_, false) => self.carried[k] = None,
+            }
+        }
+    }
+
+    fn update(&mut self, seen: Vec<SegmentPercept>, t: f64) {
+        for tr in &mut self.tracks {
+            tr.seen = false;
+        }
+        // Greedy nearest-first assignment.
+        let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+        for (i, s) in seen.iter().enumerate() {
+            for (j, tr) in self.tracks.iter().enumerate() {
+                let d = dist(&s.centroid, &tr.centroid);
+                if d < TRACK_GATE {
+                    pairs.push((d, i, j));
+                }
+            }
+        }
+        pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut used_s = vec![false; seen.len()];
+        let mut used_t = vec![false; self.tracks.len()];
+        for (_, i, j) in pairs {
+            if used_s[i] || used_t[j] {
+                continue;
+            }
+            used_s[i] = true;
+            used_t[j] = true;
+            let id = self.tracks[j].id;
+            self.tracks[j] = SegmentPercept { id, ..seen[i].clone() };
+            self.last_seen[j] = t;
+        }
+        for (i, s) in seen.into_iter().enumerate() {
+            if !used_s[i] {
+                self.tracks.push(SegmentPercept { id: self.next_id, ..s });
+                self.last_seen.push(t);
+                self.next_id += 1;
+            }
+        }
+        // Merge pieces of one object (keep the older id) and forget stale tracks.
+        let carried: Vec<u32> = self.carried.iter().flatten().map(|c| c.0).collect();
+        let mut keep = vec![true; self.tracks.len()];
+        for a in 0..self.tracks.len() {
+            for b in a + 1..self.tracks.len() {
+                if keep[a] && keep[b] && dist(&self.tracks[a].centroid, &self.tracks[b].centroid) < MERGE_GAP {
+                    let (old, new) = if self.tracks[a].id < self.tracks[b].id { (a, b) } else { (b, a) };
+                    if self.tracks[new].seen && !self.tracks[old].seen {
+                        let id = self.tracks[old].id;
+                        self.tracks[old] = SegmentPercept { id, ..self.tracks[new].clone() };
+                        self.last_seen[old] = self.last_seen[new];
+                    }
+                    keep[new] = false;
+                }
+            }
+        }
+        for (j, k) in keep.iter_mut().enumerate() {
+            if t - self.last_seen[j] > FORGET_SECS && !carried.contains(&self.tracks[j].id) {
+                *k = false;
+            }
+        }
+        let mut j = 0;
+        self.tracks.retain(|_| {
+            j += 1;
+            keep[j - 1]
+        });
+        let mut j = 0;
+        self.last_seen.retain(|_| {
+            j += 1;
+            keep[j - 1]
+        });
+    }
+}
+
+fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// Builds percepts from the simulator at the observation rate.
+#[derive(Debug)]
+pub struct Watcher {
+    eyes: Eyes,
+    head: SearchTrack,
+    tracker: Tracker,
+    places: Vec<PlacePercept>,
+    table_z: f64,
+    last: Option<(f64, [[f64; 3]; 2])>,
+    tips: [FingertipWrench; 6],
+    palm_links: [usize; 2],
+    flex: [[usize; 3]; 2],
+    /// Where the head looked last.
+    pub gaze_point: Option<Vec3>,
+}
+
+impl Watcher {
+    /// A watcher for `sim` in `scene`; `seed` drives the camera noise.
+    pub fn new(sim: &DexterSim, scene: &Scene, seed: u64) -> Result<Watcher, SimError> {
+        let places = scene
+            .spec
+            .places
+            .iter()
+            .map(|p| PlacePercept {
+                name: p.name.clone(),
+                center: [p.center[0], p.center[1], scene.spec.table.height],
+                half_extents: [p.size[0] / 2.0, p.size[1] / 2.0],
+            })
+            .collect();
+        let link = |name: &str| sim.model().link(name);
+        let dof = |arm: Arm, f: u8| sim.dof(&format!("{}/bhand/finger_{f}/med_joint", arm.prefix()));
+        Ok(Watcher {
+            eyes: Eyes::new(sim, scene, seed)?,
+            head: SearchTrack::new(sim)?,
+            tracker: Tracker::default(),
+            places,
+            table_z: scene.spec.table.height,
+            last: None,
+            tips: [FingertipWrench {
+                arm: Arm::Left,
+                finger: 0,
+                force: [0.0; 3],
+                torque: [0.0; 3],
+                in_contact: false,
+            }; 6],
+            palm_links: [
+                link("left/bhand/palm_surface_link")?,
+                link("right/bhand/palm_surface_link")?,
+            ],
+            flex: [
+                [dof(Arm::Left, 1)?, dof(Arm::Left, 2)?, dof(Arm::Left, 3)?],
+                [dof(Arm::Right, 1)?, dof(Arm::Right, 2)?, dof(Arm::Right, 3)?],
+            ],
+            gaze_point: None,
+        })
+    }
+
+    /// The eyes (for logging images).
+    pub fn eyes(&self) -> &Eyes {
+        &self.eyes
+    }
+
+    /// Points the head at `target` (where the teacher's hand is working).
+    pub fn look_at(&mut self, sim: &mut DexterSim, target: &Vec3) -> Result<(), SimError> {
+        self.gaze_point = Some(*target);
+        self.head.look_at(sim, target)
+    }
+
+    /// One percept at the simulator's current time `t` (s since the start of the demonstration):
+    /// renders the head's stereo pair, segments it, updates the tracks.
+    pub fn percept(&mut self, sim: &DexterSim, t: f64) -> Result<Percept, SimError> {
+        // Hands.
+        let palms: [[f64; 3]; 2] = std::array::from_fn(|k| {
+            let p = sim.link_pose(self.palm_links[k]).translation.vector;
+            [p.x, p.y, p.z]
+        });
+        sim.fingertip_wrenches(&mut self.tips);
+        let q = sim.joint_positions();
+        let mut hands = Vec::with_capacity(2);
+        for (k, arm) in Arm::BOTH.into_iter().enumerate() {
+            let speed = match self.last {
+                Some((t0, prev)) if t > t0 => dist(&palms[k], &prev[k]) / (t - t0),
+                _ => 0.0,
+            };
+            let tips = &self.tips[3 * k..3 * k + 3];
+            let finger_force = std::array::from_fn(|f| {
+                let v = tips[f].force;
+                (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+            });
+            let load = -tips.iter().map(|w| w.force[2]).sum::<f64>();
+            let flexion = self.flex[k].iter().map(|&i| q[i]).sum::<f64>() / 3.0;
+            hands.push(HandPercept {
+                arm: arm.prefix().to_string(),
+                palm: palms[k],
+                palm_speed: speed,
+                flexion,
+                finger_force,
+                load,
+            });
+        }
+        self.last = Some((t, palms));
+        // A hand holds something when two fingers are loaded and the hand is closed.
+        let holding: [bool; 2] = std::array::from_fn(|k| {
+            let h = &hands[k];
+            h.flexion > 0.8 && h.finger_force.iter().filter(|&&f| f > 0.25).count() >= 2
+        });
+        self.tracker.predict(&palms, holding);
+        // Vision.
+        let cams = self.eyes.cameras(sim, Pair::Head)?;
+        let blobs = self.eyes.perceive(sim, Pair::Head)?;
+        let mut seen = Vec::new();
+        let mut gaze_candidates = Vec::new();
+        for b in blobs {
+            let (Some(c), Some(l), Some(r)) = (b.centroid, b.left, b.right) else {
+                continue;
+            };
+            let mut histogram: Vec<(u8, f64)> = Vec::new();
+            let h = &l.features.histogram;
+            let kept: Vec<usize> = h.kept_bins().collect();
+            let total: f64 = kept.iter().map(|&i| h.counts[i] as f64).sum();
+            if total > 0.0 {
+                for i in kept {
+                    histogram.push((i as u8, h.counts[i] as f64 / total));
+                }
+            }
+            let cov = b.mean_covariance();
+            let seg = SegmentPercept {
+                id: 0,
+                centroid: [c.x, c.y, c.z],
+                seen: true,
+                pixels: [l.features.pixel_count as u32, r.features.pixel_count as u32],
+                histogram,
+                covariance: [cov[0][0], cov[0][1], cov[1][0], cov[1][1]],
+            };
+            // Foveated: the segment's image centroid near the principal point in both cameras.
+            let off = |s: &crate::vision::Segment, cam: &crate::vision::Camera| {
+                let u = (s.features.centroid[0] - cam.cx) / cam.width as f64;
+                let v = (s.features.centroid[1] - cam.cy) / cam.height as f64;
+                (u * u + v * v).sqrt()
+            };
+            let o = off(&l, &cams.left).max(off(&r, &cams.right));
+            gaze_candidates.push((o, seg.centroid));
+            seen.push(seg);
+        }
+        self.tracker.update(seen, t);
+        let gaze = gaze_candidates
+            .iter()
+            .filter(|(o, _)| *o < 0.12)
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .and_then(|(_, c)| self.tracker.tracks.iter().find(|t| t.seen && t.centroid == *c))
+            .map(|t| t.id);
+        Ok(Percept {
+            t,
+            hands,
+            segments: self.tracker.tracks.clone(),
+            places: self.places.clone(),
+            table_z: self.table_z,
+            gaze,
+        })
+    }
+}
+
+/// Where the teacher's hand commands come from.
+#[derive(Debug)]
+pub enum TeleopSource {
+    /// The scripted teacher.
+    Script(Box<crate::teleop::Teacher>),
+    /// A recorded stream (glove or mocap data).
+    Replay(crate::teleop::Replay),
+}
+
+/// Settings of a recorded demonstration.
+#[derive(Debug, Clone, Copy)]
+pub struct DemoSettings {
+    /// Observation (camera) rate (Hz).
+    pub percept_hz: f64,
+    /// Longest demonstration (s).
+    pub max_seconds: f64,
+    /// Time after the teacher finishes (s), so the last states are seen.
+    pub tail_seconds: f64,
+    /// Camera noise seed.
+    pub seed: u64,
+}
+
+impl Default for DemoSettings {
+    fn default() -> Self {
+        DemoSettings {
+            percept_hz: 10.0,
+            max_seconds: 600.0,
+            tail_seconds: 1.0,
+            seed: 0,
+        }
+    }
+}
+
+/// What a demonstration run reports.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct DemoReport {
+    /// Simulated seconds.
+    pub sim_time: f64,
+    /// Physics steps.
+    pub steps: u64,
+    /// Percepts captured.
+    pub percepts: usize,
+    /// Hand commands played.
+    pub commands: usize,
+    /// Whether the run was interrupted (signal) before the teacher finished.
+    pub interrupted: bool,
+    /// The teacher's notes (retries, failures).
+    pub notes: Vec<String>,
+}
+
+/// Receives what happens during a demonstration.
+pub trait DemoSink {
+    /// After every control tick (200 Hz).
+    fn tick(&mut self, _sim: &DexterSim, _t: f64) {}
+    /// Every hand command when it changes (glove rate).
+    fn command(&mut self, _command: &crate::teleop::HandCommand) {}
+    /// Every percept (observation rate), with the eyes that made it.
+    fn percept(&mut self, _sim: &DexterSim, _eyes: &Eyes, _percept: &Percept) {}
+    /// Polled every tick: return true to stop (an interrupt); what was captured is kept.
+    fn should_stop(&mut self) -> bool {
+        false
+    }
+}
+
+/// Runs a teleoperated demonstration on `sim` (already parked) in `scene`: the source's hand
+/// commands drive the hands at 200 Hz, the head follows the working hand, and a percept is made at
+/// `settings.percept_hz`.
+pub fn run_demonstration(
+    sim: &mut DexterSim,
+    scene: &Scene,
+    mut source: TeleopSource,
+    settings: &DemoSettings,
+    sink: &mut dyn DemoSink,
+) -> Result<DemoReport, SimError> {
+    let dt_c = 1.0 / crate::task::CONTROL_HZ;
+    let per = ((dt_c / sim.settings().dt).round() as usize).max(1);
+    let mut driver = crate::teleop::TeleopDriver::new(sim)?;
+    let mut watcher = Watcher::new(sim, scene, settings.seed)?;
+    let t0 = sim.time();
+    let s0 = sim.steps();
+    let percept_every = ((crate::task::CONTROL_HZ / settings.percept_hz).round() as usize).max(1);
+    let mut tick = 0usize;
+    let mut percepts = 0usize;
+    let mut commands = 0usize;
+    let mut last_cmd: [Option<f64>; 2] = [None, None];
+    let mut finished_at: Option<f64> = None;
+    let mut interrupted = false;
+    let mut working = Arm::Left;
+    loop {
+        let t = sim.time() - t0;
+        if t > settings.max_seconds {
+            break;
+        }
+        if sink.should_stop() {
+            interrupted = true;
+            break;
+        }
+        let cmds = match &mut source {
+            TeleopSource::Script(teacher) => {
+                let c = teacher.command(sim, scene, t)?;
+                if teacher.finished() && finished_at.is_none() {
+                    finished_at = Some(t);
+                }
+                c
+            }
+            TeleopSource::Replay(r) => {
+                let c = r.at(t);
+                if r.finished() && finished_at.is_none() {
+                    finished_at = Some(t.max(r.duration()));
+                }
+                c
+            }
+        };
+        if finished_at.is_some_and(|f| t > f + settings.tail_seconds) {
+            break;
+        }
+        for (k, c) in cmds.iter().enumerate() {
+            if let Some(c) = c
+                && last_cmd[k] != Some(c.t)
+            {
+                last_cmd[k] = Some(c.t);
+                commands += 1;
+                working = c.hand;
+                sink.command(c);
+            }
+        }
+        driver.tick(sim, &cmds, dt_c);
+        for _ in 0..per {
+            sim.step();
+        }
+        sink.tick(sim, t);
+        if tick % percept_every == 0 {
+            // The head follows the working hand (the robot watches the teacher's hand at work).
+            let palm = driver.palm_pose(sim, working).translation.vector;
+            let target = Vec3::new(palm.x, palm.y, (palm.z - 0.12).max(watcher.table_z + 0.03));
+            watcher.look_at(sim, &target)?;
+            let p = watcher.percept(sim, sim.time() - t0)?;
+            percepts += 1;
+            sink.percept(sim, &watcher.eyes, &p);
+        }
+        tick += 1;
+    }
+    let notes = match &source {
+        TeleopSource::Script(teacher) => teacher.notes.clone(),
+        TeleopSource::Replay(_) => Vec::new(),
+    };
+    Ok(DemoReport {
+        sim_time: sim.time() - t0,
+        steps: sim.steps() - s0,
+        percepts,
+        commands,
+        interrupted,
+        notes,
+    })
+}

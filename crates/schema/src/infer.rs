@@ -1,0 +1,619 @@
+//! Schema inference (§4.2): which schema of the library explains a demonstration, through which
+//! states, and — for a long demonstration — which successive schema instances it is made of.
+//!
+//! ## The HMM of a schema (4.20–4.21), with noisy monitors
+//! The hidden state is the schema state; transitions follow the schema's graph T (4.20) with a
+//! self-loop for the dwell time (`p_stay = 1 − 1/(dwell_secs · rate)`, the rest shared equally by the
+//! successors). The seed's observation model (4.21) is a delta: x_t must equal the state's predicate
+//! vector exactly, so one spurious or missed monitor convergence makes a demonstration impossible
+//! under the right schema. We use an explicit per-component noise model instead:
+//!
+//! | the state says about action k | x_k,t−1 agreed with the state | x_k,t−1 did not (an error burst) |
+//! |---|---|---|
+//! | converged (`1`) | p(x_k,t = 0) = miss | p(x_k,t = 0) = persistence |
+//! | not converged (`0`, and every action outside the schema) | p(x_k,t = 1) = false_alarm | p(x_k,t = 1) = persistence |
+//! | either (`*`) | background: p(x_k,t = x_k,t−1) = 1 − q, a sticky chain on the observed value | same |
+//!
+//! Monitor errors come in bursts (a hand pausing near a bin for a few frames), so an error that
+//! continues costs ln(persistence), not another ln(false_alarm): a two-frame blip is not twice as
+//! damning as a one-frame blip. The delta model is the limit miss, false_alarm → 0. Components a
+//! state does not constrain are scored by the same background process the "none" model uses for
+//! everything, so likelihoods of schemas with different action sets stay comparable.
+//!
+//! ## Goals and repetition (the hierarchical extension of §4.3.3)
+//! A schema explains a demonstration only if the demonstration *reaches its goal*: the teleological
+//! reading of the seed. The model of schema S is S⁺: one or more instances of S separated by gaps
+//! (gap states emit with the background process), ending in a goal of S or in a gap after one. A
+//! demonstration that sorts five objects is thus explained by Pick-And-Place⁺ with five instances.
+//! The alternative "none of these" is the gap process alone. Posterior over the library and none by
+//! (4.10–4.12) with a uniform prior.
+//!
+//! ## Segmentation
+//! One composite HMM holds every schema and the gap; its Viterbi path cuts the demonstration into
+//! instances, each labelled by its schema and re-scored on its own window for a per-instance
+//! posterior. The monitors that converged inside an instance are its procedural facts (§4.2): which
+//! object, which place, which arm, and the object's features at the grasp.
+
+use bayes::hmm::Hmm;
+use bayes::special::log_sum_exp;
+use serde::{Deserialize, Serialize};
+
+use crate::error::SchemaError;
+use crate::library::{Expect, Library};
+use crate::monitor::Observation;
+use crate::percept::{Percept, SegmentPercept};
+
+/// Settings of inference.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct InferenceConfig {
+    /// Observation rate (Hz), for the dwell-time self-loops.
+    pub rate_hz: f64,
+    /// Switching probability per step of the background process.
+    pub background_switch: f64,
+    /// Probability that a component is on at the first step under the background process.
+    pub background_on: f64,
+    /// Probability that a monitor error (miss or false alarm) continues into the next step.
+    pub persistence: f64,
+}
+
+impl Default for InferenceConfig {
+    fn default() -> Self {
+        InferenceConfig {
+            rate_hz: 10.0,
+            background_switch: 0.02,
+            background_on: 0.1,
+            persistence: 0.6,
+        }
+    }
+}
+
+/// Which part of a composite model a hidden state belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Slot {
+    /// Gap before any instance.
+    GapBefore,
+    /// Gap after an instance.
+    GapAfter,
+    /// State `state` of schema `schema`.
+    State { schema: usize, state: usize },
+}
+
+/// A composite HMM: some schemas (repeatable) and the gaps.
+#[derive(Debug, Clone)]
+struct Composite {
+    hmm: Hmm,
+    slots: Vec<Slot>,
+    /// Final-state mask: goal states and the after-gap.
+    accept: Vec<bool>,
+}
+
+/// The inference engine for one library (the models are built once).
+#[derive(Debug, Clone)]
+pub struct Engine {
+    library: Library,
+    config: InferenceConfig,
+    /// S⁺ per schema.
+    per_schema: Vec<Composite>,
+    /// All schemas together, for segmentation.
+    all: Composite,
+    ln: Noise,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Noise {
+    on_conv: f64,
+    off_conv: f64,
+    on_not: f64,
+    off_not: f64,
+    err_again: f64,
+    err_end: f64,
+    stay: f64,
+    switch: f64,
+    first_on: f64,
+    first_off: f64,
+}
+
+/// Log evidence and posterior of one hypothesis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Hypothesis {
+    /// Schema name, or `none`.
+    pub schema: String,
+    /// log p(x | H) (nats); `-inf` when H cannot explain x (serialised as null).
+    pub log_evidence: Option<f64>,
+    /// p(H | x) under a uniform prior.
+    pub posterior: f64,
+}
+
+/// The posterior over the library and "none" (4.10–4.12).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Posterior {
+    /// One entry per schema, then `none`, in library order.
+    pub hypotheses: Vec<Hypothesis>,
+    /// The MAP hypothesis (4.10).
+    pub map: String,
+    /// Its posterior probability.
+    pub map_posterior: f64,
+}
+
+/// One visited state.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StateVisit {
+    /// Schema (or `gap`).
+    pub schema: String,
+    /// State name (or `before`/`after` for gaps).
+    pub state: String,
+    /// Start time (s).
+    pub t_start: f64,
+    /// End time (s).
+    pub t_end: f64,
+}
+
+/// A converged monitor's binding, with when it first and last converged in an instance.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Fact {
+    /// Abstract action.
+    pub action: String,
+    /// Arm, segment, place it was bound to.
+    pub arm: Option<String>,
+    /// Segment id.
+    pub segment: Option<u32>,
+    /// Place.
+    pub place: Option<String>,
+    /// First and last time it was converged (s).
+    pub first: f64,
+    /// Last time.
+    pub last: f64,
+    /// Steps converged.
+    pub steps: usize,
+}
+
+/// One schema instance found in a demonstration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Instance {
+    /// The schema.
+    pub schema: String,
+    /// Start and end (s).
+    pub t_start: f64,
+    /// End (s).
+    pub t_end: f64,
+    /// Posterior over the library on this instance's window.
+    pub posterior: Posterior,
+    /// The converged monitors inside the instance (procedural facts, §4.2).
+    pub facts: Vec<Fact>,
+    /// The object acted on: the segment the grasp (or touch, or reach) monitor converged on.
+    pub object: Option<u32>,
+    /// The place: the place where Place converged (else Reach-to-place).
+    pub place: Option<String>,
+    /// The arm that grasped (or acted).
+    pub arm: Option<String>,
+    /// The object's features when the grasp converged (its segment percept).
+    pub features: Option<SegmentPercept>,
+}
+
+/// Everything inferred from one demonstration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Inference {
+    /// Posterior with the whole demonstration as S⁺ (one or more instances of one schema).
+    pub posterior: Posterior,
+    /// Viterbi state path of the MAP schema (empty if none).
+    pub state_path: Vec<StateVisit>,
+    /// The instances found by the composite model.
+    pub instances: Vec<Instance>,
+    /// Observation steps.
+    pub steps: usize,
+    /// Duration (s).
+    pub duration: f64,
+}
+
+impl Engine {
+    /// Builds the models of `library`.
+    pub fn new(library: &Library, config: InferenceConfig) -> Result<Engine, SchemaError> {
+        if !(config.rate_hz.is_finite() && config.rate_hz > 0.0) {
+            return Err(SchemaError::invalid("inference", "rate_hz", format!("must be positive, got {}", config.rate_hz)));
+        }
+        let q = config.background_switch;
+        let r = config.background_on;
+        if !(q > 0.0 && q < 0.5 && r > 0.0 && r < 1.0 && config.persistence > 0.0 && config.persistence < 1.0) {
+            return Err(SchemaError::invalid("inference", "background", "probabilities out of range"));
+        }
+        let (m, f) = (library.miss, library.false_alarm);
+        let ln = Noise {
+            on_conv: (1.0 - m).ln(),
+            off_conv: m.ln(),
+            on_not: f.ln(),
+            off_not: (1.0 - f).ln(),
+            err_again: config.persistence.ln(),
+            err_end: (1.0 - config.persistence).ln(),
+            stay: (1.0 - q).ln(),
+            switch: q.ln(),
+            first_on: r.ln(),
+            first_off: (1.0 - r).ln(),
+        };
+        let p_stay = (1.0 - 1.0 / (library.dwell_secs * config.rate_hz)).clamp(0.5, 0.999);
+        let per_schema = (0..library.schemas.len())
+            .map(|s| composite(library, &[s], p_stay))
+            .collect::<Result<Vec<_>, _>>()?;
+        let everything: Vec<usize> = (0..library.schemas.len()).collect();
+        let all = composite(library, &everything, p_stay)?;
+        Ok(Engine {
+            library: library.clone(),
+            config,
+            per_schema,
+            all,
+            ln,
+        })
+    }
+
+    /// The library.
+    pub fn library(&self) -> &Library {
+        &self.library
+    }
+
+    /// log p(x_t | slot, x_{t−1}) for every slot of `c`, appended to `out`.
+    fn emissions(&self, c: &Composite, obs: &[Observation], out: &mut Vec<f64>) {
+        let k = self.library.actions.len();
+        let ln = self.ln;
+        // Per step and component: (converged, not converged, either).
+        let mut table = vec![[0.0f64; 3]; k];
+        for (t, o) in obs.iter().enumerate() {
+            let mut background = 0.0;
+            for a in 0..k {
+                let x = o.x[a];
+                let bg = if t == 0 {
+                    if x { ln.first_on } else { ln.first_off }
+                } else if x == obs[t - 1].x[a] {
+                    ln.stay
+                } else {
+                    ln.switch
+                };
+                let prev = if t == 0 { None } else { Some(obs[t - 1].x[a]) };
+                // Expected converged: an error is x = 0; it continues if the previous step was 0 too.
+                let conv = match (x, prev) {
+                    (true, Some(false)) => ln.err_end,
+                    (true, _) => ln.on_conv,
+                    (false, Some(false)) => ln.err_again,
+                    (false, _) => ln.off_conv,
+                };
+                let not = match (x, prev) {
+                    (false, Some(true)) => ln.err_end,
+                    (false, _) => ln.off_not,
+                    (true, Some(true)) => ln.err_again,
+                    (true, _) => ln.on_not,
+                };
+                table[a] = [conv, not, bg];
+                background += bg;
+            }
+            for slot in &c.slots {
+                out.push(match *slot {
+                    Slot::GapBefore | Slot::GapAfter => background,
+                    Slot::State { schema, state } => {
+                        let s = &self.library.schemas[schema];
+                        (0..k)
+                            .map(|a| match s.expects(state, a) {
+                                Expect::Converged => table[a][0],
+                                Expect::NotConverged => table[a][1],
+                                Expect::Either => table[a][2],
+                            })
+                            .sum()
+                    }
+                });
+            }
+        }
+    }
+
+    /// log p(x, final state accepted) under composite `c`, by the forward filter.
+    fn evidence(&self, c: &Composite, obs: &[Observation]) -> Result<f64, SchemaError> {
+        let mut e = Vec::with_capacity(obs.len() * c.slots.len());
+        self.emissions(c, obs, &mut e);
+        let mut filter = bayes::hmm::ForwardFilter::new(&c.hmm);
+        for row in e.chunks_exact(c.slots.len()) {
+            filter.step(&c.hmm, row)?;
+            if filter.is_impossible() {
+                return Ok(f64::NEG_INFINITY);
+            }
+        }
+        let lf = filter.log_filtered();
+        let acc: Vec<f64> = lf.iter().zip(&c.accept).filter(|(_, a)| **a).map(|(l, _)| *l).collect();
+        Ok(filter.log_likelihood() + log_sum_exp(&acc))
+    }
+
+    /// log p(x | none): the background process alone.
+    fn none_evidence(&self, obs: &[Observation]) -> f64 {
+        let k = self.library.actions.len();
+        let ln = self.ln;
+        let mut sum = 0.0;
+        for (t, o) in obs.iter().enumerate() {
+            for a in 0..k {
+                let x = o.x[a];
+                sum += if t == 0 {
+                    if x { ln.first_on } else { ln.first_off }
+                } else if x == obs[t - 1].x[a] {
+                    ln.stay
+                } else {
+                    ln.switch
+                };
+            }
+        }
+        sum
+    }
+
+    /// The posterior over the library and none for `obs` (each schema as S⁺).
+    pub fn posterior(&self, obs: &[Observation]) -> Result<Posterior, SchemaError> {
+        if obs.is_empty() {
+            return Err(SchemaError::Empty("no observations".into()));
+        }
+        let k = self.library.actions.len();
+        if let Some(o) = obs.iter().find(|o| o.x.len() != k) {
+            return Err(SchemaError::invalid(
+                "observations",
+                format!("t={}", o.t),
+                format!("observation vector has {} entries, the library has {k} actions", o.x.len()),
+            ));
+        }
+        let mut names: Vec<String> = self.library.schemas.iter().map(|s| s.name.clone()).collect();
+        names.push("none".into());
+        let mut logs = Vec::with_capacity(names.len());
+        for c in &self.per_schema {
+            logs.push(self.evidence(c, obs)?);
+        }
+        logs.push(self.none_evidence(obs));
+        let z = log_sum_exp(&logs);
+        let hypotheses: Vec<Hypothesis> = names
+            .into_iter()
+            .zip(&logs)
+            .map(|(schema, &l)| Hypothesis {
+                schema,
+                log_evidence: l.is_finite().then_some(l),
+                posterior: if l.is_finite() { (l - z).exp() } else { 0.0 },
+            })
+            .collect();
+        let best = hypotheses
+            .iter()
+            .max_by(|a, b| a.posterior.total_cmp(&b.posterior))
+            .expect("at least none");
+        Ok(Posterior {
+            map: best.schema.clone(),
+            map_posterior: best.posterior,
+            hypotheses: hypotheses.clone(),
+        })
+    }
+
+    /// Viterbi path through composite `c`, ending in an accepted state. `None` if impossible.
+    fn viterbi(&self, c: &Composite, obs: &[Observation]) -> Result<Option<Vec<Slot>>, SchemaError> {
+        let n = c.slots.len();
+        let mut e = Vec::with_capacity((obs.len() + 1) * n);
+        self.emissions(c, obs, &mut e);
+        // A virtual last step that only accepted states can emit: the path must end in one.
+        e.extend(c.accept.iter().map(|&a| if a { 0.0 } else { f64::NEG_INFINITY }));
+        Ok(c.hmm.viterbi(&e)?.map(|v| {
+            let mut path: Vec<Slot> = v.path.iter().map(|&i| c.slots[i]).collect();
+            path.pop();
+            path
+        }))
+    }
+
+    /// Full inference: posterior, the MAP schema's state path, and the instances.
+    pub fn infer(&self, obs: &[Observation], percepts: &[Percept]) -> Result<Inference, SchemaError> {
+        let posterior = self.posterior(obs)?;
+        let mut state_path = Vec::new();
+        if let Ok(s) = self.library.schema(&posterior.map) {
+            let si = self.library.schemas.iter().position(|x| x.name == s.name).expect("found");
+            if let Some(path) = self.viterbi(&self.per_schema[si], obs)? {
+                state_path = self.visits(&path, obs);
+            }
+        }
+        let instances = self.segment(obs, percepts)?;
+        Ok(Inference {
+            posterior,
+            state_path,
+            instances,
+            steps: obs.len(),
+            duration: obs.last().map_or(0.0, |o| o.t) - obs.first().map_or(0.0, |o| o.t),
+        })
+    }
+
+    fn slot_names(&self, slot: Slot) -> (String, String) {
+        match slot {
+            Slot::GapBefore => ("gap".into(), "before".into()),
+            Slot::GapAfter => ("gap".into(), "after".into()),
+            Slot::State { schema, state } => {
+                let s = &self.library.schemas[schema];
+                (s.name.clone(), s.states[state].name.clone())
+            }
+        }
+    }
+
+    fn visits(&self, path: &[Slot], obs: &[Observation]) -> Vec<StateVisit> {
+        let mut out: Vec<StateVisit> = Vec::new();
+        for (t, slot) in path.iter().enumerate() {
+            let (schema, state) = self.slot_names(*slot);
+            match out.last_mut() {
+                Some(v) if v.schema == schema && v.state == state => v.t_end = obs[t].t,
+                _ => out.push(StateVisit {
+                    schema,
+                    state,
+                    t_start: obs[t].t,
+                    t_end: obs[t].t,
+                }),
+            }
+        }
+        out
+    }
+
+    /// The state path of the composite model (every schema), as visits.
+    pub fn composite_path(&self, obs: &[Observation]) -> Result<Vec<StateVisit>, SchemaError> {
+        Ok(self
+            .viterbi(&self.all, obs)?
+            .map(|p| self.visits(&p, obs))
+            .unwrap_or_default())
+    }
+
+    /// Cuts a demonstration into schema instances with the composite model's Viterbi path.
+    pub fn segment(&self, obs: &[Observation], percepts: &[Percept]) -> Result<Vec<Instance>, SchemaError> {
+        let Some(path) = self.viterbi(&self.all, obs)? else {
+            return Ok(Vec::new());
+        };
+        // Runs of one schema that reach one of its goals.
+        let mut runs: Vec<(usize, usize, usize)> = Vec::new(); // (schema, start, end inclusive)
+        let mut t = 0;
+        while t < path.len() {
+            if let Slot::State { schema, .. } = path[t] {
+                let start = t;
+                let mut reached = false;
+                while t < path.len() {
+                    match path[t] {
+                        Slot::State { schema: s, state } if s == schema => {
+                            reached |= self.library.schemas[s].is_goal(state);
+                            // A new instance of the same schema begins at its start state after a goal.
+                            if t > start
+                                && state == self.library.schemas[s].start
+                                && !matches!(path[t - 1], Slot::State { state: p, .. } if p == state)
+                                && reached
+                            {
+                                break;
+                            }
+                            t += 1;
+                        }
+                        _ => break,
+                    }
+                }
+                if reached {
+                    runs.push((schema, start, t - 1));
+                }
+            } else {
+                t += 1;
+            }
+        }
+        let mut instances = Vec::new();
+        for (i, &(schema, a, b)) in runs.iter().enumerate() {
+            // Score the instance on its window, extended into the neighbouring gaps halfway.
+            let lo = if i == 0 { 0 } else { (runs[i - 1].2 + 1 + a) / 2 };
+            let hi = if i + 1 == runs.len() { obs.len() - 1 } else { (b + runs[i + 1].1) / 2 };
+            let posterior = self.posterior(&obs[lo..=hi])?;
+            let facts = facts(&self.library, &obs[a..=b]);
+            let pick = |action: &str| facts.iter().filter(|f| f.action == action).max_by_key(|f| f.steps);
+            let grasp = pick("grasp");
+            let object = grasp.or(pick("touch")).or(pick("reach_object")).and_then(|f| f.segment);
+            let arm = grasp.or(pick("touch")).or(pick("reach_object")).and_then(|f| f.arm.clone());
+            let place = pick("place").or(pick("reach_place")).and_then(|f| f.place.clone());
+            // Features at the grasp: the segment's percept when the grasp first converged (the last
+            // frame it was seen before, if the hand hides it).
+            let features = grasp.and_then(|g| {
+                let seg = g.segment?;
+                let k = obs.iter().position(|o| o.t >= g.first)?;
+                percepts
+                    .get(..=k.min(percepts.len().saturating_sub(1)))?
+                    .iter()
+                    .rev()
+                    .filter_map(|p| p.segments.iter().find(|s| s.id == seg && s.seen))
+                    .next()
+                    .cloned()
+            });
+            instances.push(Instance {
+                schema: self.library.schemas[schema].name.clone(),
+                t_start: obs[a].t,
+                t_end: obs[b].t,
+                posterior,
+                facts,
+                object,
+                place,
+                arm,
+                features,
+            });
+        }
+        Ok(instances)
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &InferenceConfig {
+        &self.config
+    }
+}
+
+/// Groups the converged monitors of `obs` by binding.
+fn facts(library: &Library, obs: &[Observation]) -> Vec<Fact> {
+    let mut out: Vec<Fact> = Vec::new();
+    for o in obs {
+        for h in &o.hits {
+            let action = &library.actions[h.action].name;
+            match out
+                .iter_mut()
+                .find(|f| &f.action == action && f.arm == h.arm && f.segment == h.segment && f.place == h.place)
+            {
+                Some(f) => {
+                    f.last = o.t;
+                    f.steps += 1;
+                }
+                None => out.push(Fact {
+                    action: action.clone(),
+                    arm: h.arm.clone(),
+                    segment: h.segment,
+                    place: h.place.clone(),
+                    first: o.t,
+                    last: o.t,
+                    steps: 1,
+                }),
+            }
+        }
+    }
+    out
+}
+
+/// Builds the composite HMM of `schemas` (each repeatable) with the two gaps.
+fn composite(library: &Library, schemas: &[usize], p_stay: f64) -> Result<Composite, SchemaError> {
+    let mut slots = vec![Slot::GapBefore, Slot::GapAfter];
+    for &s in schemas {
+        for state in 0..library.schemas[s].states.len() {
+            slots.push(Slot::State { schema: s, state });
+        }
+    }
+    let n = slots.len();
+    let index = |schema: usize, state: usize| {
+        slots
+            .iter()
+            .position(|x| *x == Slot::State { schema, state })
+            .expect("slot exists")
+    };
+    let mut trans = vec![0.0f64; n * n];
+    let starts: Vec<usize> = schemas.iter().map(|&s| index(s, library.schemas[s].start)).collect();
+    // Gaps: stay, or begin an instance of any schema.
+    for gap in [0usize, 1] {
+        trans[gap * n + gap] = p_stay;
+        for &st in &starts {
+            trans[gap * n + st] += (1.0 - p_stay) / starts.len() as f64;
+        }
+    }
+    for &s in schemas {
+        let sc = &library.schemas[s];
+        for state in 0..sc.states.len() {
+            let i = index(s, state);
+            let mut succ: Vec<usize> = sc.successors(state).map(|t| index(s, t.to)).collect();
+            if sc.is_goal(state) {
+                // After a goal the demonstration may go on: a gap, then another instance.
+                succ.push(1);
+            }
+            if succ.is_empty() {
+                trans[i * n + i] = 1.0;
+            } else {
+                trans[i * n + i] = p_stay;
+                for j in &succ {
+                    trans[i * n + j] += (1.0 - p_stay) / succ.len() as f64;
+                }
+            }
+        }
+    }
+    let mut start = vec![0.0f64; n];
+    start[0] = 0.5;
+    for &st in &starts {
+        start[st] += 0.5 / starts.len() as f64;
+    }
+    let mut accept = vec![false; n];
+    accept[1] = true;
+    for &s in schemas {
+        for &g in &library.schemas[s].goal {
+            accept[index(s, g)] = true;
+        }
+    }
+    let hmm = Hmm::new(start.iter().map(|p| p.ln()).collect(), trans.iter().map(|p| p.ln()).collect())?;
+    Ok(Composite { hmm, slots, accept })
+}

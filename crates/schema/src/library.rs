@@ -1,0 +1,412 @@
+//! The schema library as data: abstract actions d(C) (3.22) and schemas (Def. 3.3) with their state
+//! spaces of predicate vectors, goal states, transition graphs T and policies π.
+//!
+//! Format: `assets/schemas/README.md`. The built-in library is `assets/schemas/library.toml`.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::SchemaError;
+
+/// The built-in library's TOML text.
+pub const BUILTIN_LIBRARY: &str = include_str!("../../../assets/schemas/library.toml");
+
+/// The library format version this crate reads.
+pub const LIBRARY_VERSION: u32 = 1;
+
+/// An abstract action: the declarative type d(C) = (φ, F_f, F_τ) of a controller (3.22). Every
+/// controller of the control basis with the same type belongs to its monitor set (4.15).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Action {
+    /// Unique name; also the monitor-set name in observation vectors.
+    pub name: String,
+    /// The potential φ: `quadratic` or `force_residual`.
+    pub potential: String,
+    /// The coordinate frame of the feedback element F_f (e.g. `segment_centroid`, `place_region`).
+    pub feedback: String,
+    /// The coordinate frame of the effector F_τ (`head`, `arm`, `hand`).
+    pub effector: String,
+    /// What it means.
+    #[serde(default)]
+    pub description: String,
+}
+
+/// What a state says about one of its schema's abstract actions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Expect {
+    /// `1`: the action's monitor set has converged.
+    Converged,
+    /// `0`: it has not.
+    NotConverged,
+    /// `*`: either; this state does not depend on it.
+    Either,
+}
+
+/// One state of a schema: a named predicate vector over the schema's actions.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct State {
+    /// Name (unique in the schema).
+    pub name: String,
+    /// Expected convergence per action of the schema, in the order of [`Schema::actions`].
+    pub z: Vec<Expect>,
+}
+
+/// An edge of the state graph.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Transition {
+    /// From state (index into [`Schema::states`]).
+    pub from: usize,
+    /// To state.
+    pub to: usize,
+    /// `Some(label)` for a contingency (drop, regrasp, transfer).
+    pub contingency: Option<String>,
+}
+
+/// A sensorimotor schema (Def. 3.3) without its procedural policy ψ, which is bound at run time.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Schema {
+    /// Unique name.
+    pub name: String,
+    /// What it is for.
+    pub description: String,
+    /// Its abstract actions, as indices into [`Library::actions`].
+    pub actions: Vec<usize>,
+    /// The state space Z.
+    pub states: Vec<State>,
+    /// The start state.
+    pub start: usize,
+    /// The goal states G ⊂ Z.
+    pub goal: Vec<usize>,
+    /// The transition graph T (self-loops are implicit).
+    pub transitions: Vec<Transition>,
+    /// π: the action to run in each state (index into [`Library::actions`]).
+    pub policy: Vec<usize>,
+}
+
+impl Schema {
+    /// The state with this name.
+    pub fn state(&self, name: &str) -> Option<usize> {
+        self.states.iter().position(|s| s.name == name)
+    }
+
+    /// Whether `state` is a goal state.
+    pub fn is_goal(&self, state: usize) -> bool {
+        self.goal.contains(&state)
+    }
+
+    /// What state `state` expects of library action `action` (`NotConverged` for actions outside the
+    /// schema: their convergence is not explained by this schema).
+    pub fn expects(&self, state: usize, action: usize) -> Expect {
+        match self.actions.iter().position(|&a| a == action) {
+            Some(k) => self.states[state].z[k],
+            None => Expect::NotConverged,
+        }
+    }
+
+    /// Successors of `state` in T (without the implicit self-loop).
+    pub fn successors(&self, state: usize) -> impl Iterator<Item = &Transition> {
+        self.transitions.iter().filter(move |t| t.from == state)
+    }
+}
+
+/// A schema library: the robot's universe of schemas 𝒮 and the abstract actions they use.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Library {
+    /// Where it was loaded from (a path, or `<builtin>`).
+    pub origin: String,
+    /// p(x_k = 0 | the state says converged).
+    pub miss: f64,
+    /// p(x_k = 1 | the state says not converged).
+    pub false_alarm: f64,
+    /// Mean dwell time per state (s).
+    pub dwell_secs: f64,
+    /// Abstract actions; their order is the order of the observation vector x_t (4.19).
+    pub actions: Vec<Action>,
+    /// Schemas.
+    pub schemas: Vec<Schema>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLibrary {
+    version: u32,
+    miss: f64,
+    false_alarm: f64,
+    dwell_secs: f64,
+    #[serde(default)]
+    action: Vec<Action>,
+    #[serde(default)]
+    schema: Vec<RawSchema>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSchema {
+    name: String,
+    #[serde(default)]
+    description: String,
+    actions: Vec<String>,
+    start: String,
+    goal: Vec<String>,
+    states: Vec<RawState>,
+    #[serde(default)]
+    transitions: Vec<RawTransition>,
+    policy: std::collections::BTreeMap<String, String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawState {
+    name: String,
+    z: String,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTransition {
+    from: String,
+    to: String,
+    contingency: Option<String>,
+}
+
+impl Library {
+    /// The built-in library (`assets/schemas/library.toml`).
+    pub fn builtin() -> Library {
+        Library::parse(BUILTIN_LIBRARY, "<builtin>").expect("the built-in schema library is valid")
+    }
+
+    /// Reads a library file.
+    pub fn open(path: impl AsRef<std::path::Path>) -> Result<Library, SchemaError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| SchemaError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Library::parse(&text, &path.display().to_string())
+    }
+
+    /// Parses and validates a library; `origin` names it in errors.
+    pub fn parse(text: &str, origin: &str) -> Result<Library, SchemaError> {
+        let raw: RawLibrary = toml::from_str(text).map_err(|e| SchemaError::Parse {
+            path: origin.to_string(),
+            message: e.to_string(),
+        })?;
+        let inv = |field: String, msg: String| SchemaError::invalid(origin, field, msg);
+        if raw.version != LIBRARY_VERSION {
+            return Err(inv(
+                "version".into(),
+                format!("library format version {} is not supported (this build reads {LIBRARY_VERSION})", raw.version),
+            ));
+        }
+        for (field, v, lo, hi) in [
+            ("miss", raw.miss, 0.0, 0.5),
+            ("false_alarm", raw.false_alarm, 0.0, 0.5),
+        ] {
+            if !(v > lo && v < hi) {
+                return Err(inv(field.into(), format!("must be in ({lo}, {hi}), got {v}")));
+            }
+        }
+        if !(raw.dwell_secs.is_finite() && raw.dwell_secs > 0.0) {
+            return Err(inv("dwell_secs".into(), format!("must be positive, got {}", raw.dwell_secs)));
+        }
+        if raw.action.is_empty() {
+            return Err(inv("action".into(), "the library declares no abstract actions".into()));
+        }
+        for (i, a) in raw.action.iter().enumerate() {
+            if a.name.is_empty() {
+                return Err(inv(format!("action[{i}].name"), "empty name".into()));
+            }
+            if raw.action[..i].iter().any(|b| b.name == a.name) {
+                return Err(inv(format!("action[{i}].name"), format!("duplicate action `{}`", a.name)));
+            }
+            if !matches!(a.potential.as_str(), "quadratic" | "force_residual") {
+                return Err(inv(
+                    format!("action[{i}].potential"),
+                    format!("unknown potential `{}` (quadratic, force_residual)", a.potential),
+                ));
+            }
+        }
+        if raw.schema.is_empty() {
+            return Err(inv("schema".into(), "the library declares no schemas".into()));
+        }
+        let action_index = |name: &str, field: String| {
+            raw.action
+                .iter()
+                .position(|a| a.name == name)
+                .ok_or_else(|| inv(field, format!("unknown action `{name}`")))
+        };
+        let mut schemas = Vec::new();
+        for (si, rs) in raw.schema.iter().enumerate() {
+            let f = |rest: &str| format!("schema[{si}].{rest}");
+            if schemas.iter().any(|s: &Schema| s.name == rs.name) {
+                return Err(inv(f("name"), format!("duplicate schema `{}`", rs.name)));
+            }
+            let mut actions = Vec::new();
+            for (k, a) in rs.actions.iter().enumerate() {
+                let idx = action_index(a, f(&format!("actions[{k}]")))?;
+                if actions.contains(&idx) {
+                    return Err(inv(f(&format!("actions[{k}]")), format!("action `{a}` listed twice")));
+                }
+                actions.push(idx);
+            }
+            if actions.is_empty() {
+                return Err(inv(f("actions"), "a schema needs at least one action".into()));
+            }
+            let mut states: Vec<State> = Vec::new();
+            for (k, st) in rs.states.iter().enumerate() {
+                if states.iter().any(|s| s.name == st.name) {
+                    return Err(inv(f(&format!("states[{k}].name")), format!("duplicate state `{}`", st.name)));
+                }
+                let z: Result<Vec<Expect>, SchemaError> = st
+                    .z
+                    .chars()
+                    .map(|c| match c {
+                        '1' => Ok(Expect::Converged),
+                        '0' => Ok(Expect::NotConverged),
+                        '*' => Ok(Expect::Either),
+                        other => Err(inv(
+                            f(&format!("states[{k}].z")),
+                            format!("`{other}` is not one of 1, 0, *"),
+                        )),
+                    })
+                    .collect();
+                let z = z?;
+                if z.len() != actions.len() {
+                    return Err(inv(
+                        f(&format!("states[{k}].z")),
+                        format!("has {} entries but the schema has {} actions", z.len(), actions.len()),
+                    ));
+                }
+                states.push(State {
+                    name: st.name.clone(),
+                    z,
+                });
+            }
+            if states.is_empty() {
+                return Err(inv(f("states"), "a schema needs states".into()));
+            }
+            let state_index = |name: &str, field: String| {
+                states
+                    .iter()
+                    .position(|s| s.name == name)
+                    .ok_or_else(|| inv(field, format!("unknown state `{name}`")))
+            };
+            let start = state_index(&rs.start, f("start"))?;
+            let mut goal = Vec::new();
+            for (k, g) in rs.goal.iter().enumerate() {
+                goal.push(state_index(g, f(&format!("goal[{k}]")))?);
+            }
+            if goal.is_empty() {
+                return Err(inv(f("goal"), "a schema needs at least one goal state".into()));
+            }
+            if goal.contains(&start) {
+                return Err(inv(f("goal"), "the start state cannot be a goal".into()));
+            }
+            let mut transitions = Vec::new();
+            for (k, t) in rs.transitions.iter().enumerate() {
+                let from = state_index(&t.from, f(&format!("transitions[{k}].from")))?;
+                let to = state_index(&t.to, f(&format!("transitions[{k}].to")))?;
+                if from == to {
+                    return Err(inv(f(&format!("transitions[{k}]")), "self-loops are implicit".into()));
+                }
+                transitions.push(Transition {
+                    from,
+                    to,
+                    contingency: t.contingency.clone(),
+                });
+            }
+            let mut policy = vec![usize::MAX; states.len()];
+            for (sname, aname) in &rs.policy {
+                let s = state_index(sname, f(&format!("policy.{sname}")))?;
+                policy[s] = action_index(aname, f(&format!("policy.{sname}")))?;
+            }
+            if let Some(k) = policy.iter().position(|&p| p == usize::MAX) {
+                return Err(inv(f("policy"), format!("no action for state `{}`", states[k].name)));
+            }
+            // Every goal must be reachable from the start.
+            let mut seen = vec![false; states.len()];
+            let mut stack = vec![start];
+            while let Some(s) = stack.pop() {
+                if std::mem::replace(&mut seen[s], true) {
+                    continue;
+                }
+                stack.extend(transitions.iter().filter(|t| t.from == s).map(|t| t.to));
+            }
+            if let Some(&g) = goal.iter().find(|&&g| !seen[g]) {
+                return Err(inv(f("goal"), format!("goal `{}` is unreachable from the start", states[g].name)));
+            }
+            schemas.push(Schema {
+                name: rs.name.clone(),
+                description: rs.description.clone(),
+                actions,
+                states,
+                start,
+                goal,
+                transitions,
+                policy,
+            });
+        }
+        Ok(Library {
+            origin: origin.to_string(),
+            miss: raw.miss,
+            false_alarm: raw.false_alarm,
+            dwell_secs: raw.dwell_secs,
+            actions: raw.action,
+            schemas,
+        })
+    }
+
+    /// The index of the action with this name.
+    pub fn action(&self, name: &str) -> Result<usize, SchemaError> {
+        self.actions
+            .iter()
+            .position(|a| a.name == name)
+            .ok_or_else(|| SchemaError::unknown("action", name, self.actions.iter().map(|a| a.name.as_str())))
+    }
+
+    /// The schema with this name.
+    pub fn schema(&self, name: &str) -> Result<&Schema, SchemaError> {
+        self.schemas
+            .iter()
+            .find(|s| s.name == name)
+            .ok_or_else(|| SchemaError::unknown("schema", name, self.schemas.iter().map(|s| s.name.as_str())))
+    }
+
+    /// Names of the actions, in observation-vector order.
+    pub fn action_names(&self) -> Vec<&str> {
+        self.actions.iter().map(|a| a.name.as_str()).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn builtin_library_loads() {
+        let lib = Library::builtin();
+        assert!(lib.schemas.len() >= 6);
+        let pp = lib.schema("pick_and_place").unwrap();
+        assert!(pp.transitions.iter().any(|t| t.contingency.as_deref() == Some("transfer")));
+        assert!(pp.transitions.iter().any(|t| t.contingency.as_deref() == Some("regrasp")));
+    }
+
+    #[test]
+    fn bad_libraries_name_the_field() {
+        let good = BUILTIN_LIBRARY;
+        for (from, to, needle) in [
+            ("version = 1", "version = 7", "version"),
+            ("miss = 0.05", "miss = 1.5", "miss"),
+            ("z = \"*100000\"", "z = \"*10000\"", "states[1].z"),
+            ("z = \"*100000\"", "z = \"*1x0000\"", "states[1].z"),
+            ("goal = [\"released\", \"done\"]", "goal = [\"nowhere\"]", "goal[0]"),
+            ("to = \"at_object\" }", "to = \"nowhere\" }", "transitions"),
+        ] {
+            let text = good.replacen(from, to, 1);
+            assert_ne!(text, good, "{from}");
+            let err = Library::parse(&text, "lib.toml").unwrap_err().to_string();
+            assert!(err.contains("lib.toml") && err.contains(needle), "{err}");
+        }
+        assert!(Library::parse("not toml [", "x.toml").unwrap_err().to_string().contains("x.toml"));
+    }
+}
