@@ -1,2 +1,8 @@
 //! Conjugate Bayesian models with sufficient statistics (Sweeney 2011, ch. 5 and appendix A).
 #![warn(missing_docs)]
+
+pub mod error;
+pub mod hmm;
+pub mod special;
+
+pub use error::{BayesError, Result};

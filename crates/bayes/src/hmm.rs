@@ -1,0 +1,659 @@
+//! Discrete-time hidden Markov models in log space: forward log-likelihood, a streaming
+//! allocation-free forward filter, forward–backward smoothing and Viterbi decoding.
+//!
+//! The model ([`Hmm`]) holds the log start distribution π and the log transition matrix A
+//! (`A[i][j] = p(z_{t+1} = j | z_t = i)`, row = from). Emissions are *not* part of the model: the
+//! caller supplies, for every time step, the log likelihood `log p(o_t | z_t = j)` of each state
+//! j, so any emission model works (categorical, Gaussian, a miss/false-alarm model over
+//! predicate vectors, …). [`categorical_log_emissions`] builds them for a categorical model.
+//! These are the quantities of the schema HMMs in Sweeney (2011) §4.3, eqs. (4.10)–(4.21).
+//!
+//! ## Numerics
+//! Probabilities are carried as normalised *filtered* posteriors `p(z_t | o_1..t)` (both as logs
+//! and as plain numbers) plus the running `log p(o_1..t)`. One step is
+//!
+//! ```text
+//!   pred_j  = Σ_i p(z_{t-1}=i | o_<t) · A_ij            (plain arithmetic, sparse rows)
+//!   u_j     = ln pred_j + log p(o_t | z_t=j)
+//!   c_t     = log Σ_j exp(u_j)  = log p(o_t | o_<t)     (log-sum-exp)
+//!   log p(z_t=j | o_1..t) = u_j − c_t
+//! ```
+//!
+//! The plain-arithmetic prediction is exact to rounding whenever `pred_j ≥ 1e-250`: every term it
+//! could have lost to underflow is below 1e-307. When `pred_j` is smaller (or zero), that one
+//! entry is recomputed by a log-sum-exp over the state's incoming transitions, so no probability
+//! is ever rounded to zero that the log-space recursion would keep. A step costs one `ln` and one
+//! `exp` per state plus one multiply-add per non-zero transition.
+//!
+//! `-inf` is allowed everywhere (impossible starts, transitions, observations). When an
+//! observation has zero probability under every reachable state, the log-likelihood becomes
+//! `-inf` and stays there, the filtered posterior becomes all zeros, smoothing and Viterbi return
+//! `None`, and no NaN is produced.
+
+use crate::error::{BayesError, Result, check_len};
+
+/// A state prediction below this is recomputed exactly in log space (see the module docs).
+const LINEAR_MIN: f64 = 1e-250;
+/// |log Σ p| allowed for a row that must sum to one.
+const NORMALISATION_TOL: f64 = 1e-8;
+
+/// A discrete-time HMM: log start probabilities and a (possibly sparse) log transition matrix.
+///
+/// Immutable once built; the working state of a streaming filter lives in [`ForwardFilter`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Hmm {
+    n: usize,
+    log_start: Vec<f64>,
+    /// n×n row-major, row = from.
+    log_trans: Vec<f64>,
+    /// exp(log_trans), dense; used when the matrix is dense.
+    trans: Vec<f64>,
+    dense: bool,
+    /// Outgoing non-zero transitions (CSR): for source i, `out_ptr[i]..out_ptr[i+1]`.
+    out_ptr: Vec<usize>,
+    out_to: Vec<usize>,
+    out_lin: Vec<f64>,
+    out_log: Vec<f64>,
+    /// Incoming non-zero transitions (CSC): for destination j, `in_ptr[j]..in_ptr[j+1]`,
+    /// sources in increasing order.
+    in_ptr: Vec<usize>,
+    in_from: Vec<usize>,
+    in_log: Vec<f64>,
+}
+
+impl Hmm {
+    /// Builds an HMM from the log start distribution (length n) and the log transition matrix
+    /// (n×n, row-major, row = from state).
+    ///
+    /// Errors: n = 0, wrong sizes, NaN or `+inf` entries, or a distribution (the start vector or
+    /// a transition row) whose probabilities do not sum to 1 within 1e-8 (in log).
+    pub fn new(log_start: Vec<f64>, log_trans: Vec<f64>) -> Result<Self> {
+        let n = log_start.len();
+        if n == 0 {
+            return Err(BayesError::Empty { what: "HMM start distribution" });
+        }
+        check_len("HMM log transition matrix (n×n)", n * n, log_trans.len())?;
+        check_log_distribution("HMM log start distribution", 0, &log_start)?;
+        for i in 0..n {
+            check_log_distribution("HMM log transition matrix", i, &log_trans[i * n..(i + 1) * n])?;
+        }
+        let trans: Vec<f64> = log_trans.iter().map(|&l| l.exp()).collect();
+        let mut out_ptr = Vec::with_capacity(n + 1);
+        let (mut out_to, mut out_lin, mut out_log) = (Vec::new(), Vec::new(), Vec::new());
+        out_ptr.push(0);
+        for i in 0..n {
+            for j in 0..n {
+                let l = log_trans[i * n + j];
+                if l > f64::NEG_INFINITY {
+                    out_to.push(j);
+                    out_lin.push(l.exp());
+                    out_log.push(l);
+                }
+            }
+            out_ptr.push(out_to.len());
+        }
+        let mut in_ptr = Vec::with_capacity(n + 1);
+        let (mut in_from, mut in_log) = (Vec::new(), Vec::new());
+        in_ptr.push(0);
+        for j in 0..n {
+            for i in 0..n {
+                let l = log_trans[i * n + j];
+                if l > f64::NEG_INFINITY {
+                    in_from.push(i);
+                    in_log.push(l);
+                }
+            }
+            in_ptr.push(in_from.len());
+        }
+        // The dense loop vectorises; the sparse one wins once most entries are zero.
+        let dense = 2 * out_to.len() > n * n;
+        Ok(Self { n, log_start, log_trans, trans, dense, out_ptr, out_to, out_lin, out_log, in_ptr, in_from, in_log })
+    }
+
+    /// Builds an HMM from probabilities (start: n, transitions: n×n row-major, row = from); takes
+    /// logs and calls [`Hmm::new`]. Negative entries are an error.
+    pub fn from_probabilities(start: &[f64], trans: &[f64]) -> Result<Self> {
+        for (what, xs) in [("HMM start probabilities", start), ("HMM transition probabilities", trans)] {
+            if let Some((index, &value)) = xs.iter().enumerate().find(|&(_, &p)| p.is_nan() || p < 0.0) {
+                return Err(BayesError::NonFinite { what, index, value, requirement: "a probability ≥ 0" });
+            }
+        }
+        Self::new(start.iter().map(|p| p.ln()).collect(), trans.iter().map(|p| p.ln()).collect())
+    }
+
+    /// Number of hidden states n.
+    pub fn n_states(&self) -> usize {
+        self.n
+    }
+
+    /// log π, length n.
+    pub fn log_start(&self) -> &[f64] {
+        &self.log_start
+    }
+
+    /// The log transition matrix, n×n row-major, row = from.
+    pub fn log_transitions(&self) -> &[f64] {
+        &self.log_trans
+    }
+
+    /// Number of transitions with non-zero probability.
+    pub fn nonzero_transitions(&self) -> usize {
+        self.out_to.len()
+    }
+
+    /// log p(o_1..T) by the forward algorithm.
+    ///
+    /// `log_emissions` is T×n row-major: entry (t, j) = log p(o_t | z_t = j). Returns `-inf` when
+    /// the sequence is impossible. Errors: T = 0, a length not a multiple of n, NaN or `+inf`.
+    pub fn forward(&self, log_emissions: &[f64]) -> Result<f64> {
+        self.check_emissions(log_emissions)?;
+        let mut filter = ForwardFilter::new(self);
+        for row in log_emissions.chunks_exact(self.n) {
+            filter.step_unchecked(self, row);
+            if filter.is_impossible() {
+                break;
+            }
+        }
+        Ok(filter.log_likelihood())
+    }
+
+    /// Smoothed state posteriors p(z_t | o_1..T) by the scaled forward–backward algorithm.
+    ///
+    /// Same input as [`Hmm::forward`]. Returns `None` when the sequence is impossible
+    /// (p(o_1..T) = 0), where the posterior is undefined.
+    pub fn forward_backward(&self, log_emissions: &[f64]) -> Result<Option<Smoothed>> {
+        self.check_emissions(log_emissions)?;
+        let n = self.n;
+        let t_len = log_emissions.len() / n;
+        // Forward pass, keeping every normalised log α_t and c_t.
+        let mut filter = ForwardFilter::new(self);
+        let mut log_alpha = vec![0.0; t_len * n];
+        let mut c = vec![0.0; t_len];
+        for (t, row) in log_emissions.chunks_exact(n).enumerate() {
+            c[t] = filter.step_unchecked(self, row);
+            if filter.is_impossible() {
+                return Ok(None);
+            }
+            log_alpha[t * n..(t + 1) * n].copy_from_slice(&filter.log_alpha);
+        }
+        // Backward pass with scaled β̂_t = β_t / p(o_{t+1..T} | o_1..t).
+        let mut log_beta = vec![0.0; n];
+        let mut v = vec![0.0; n];
+        let mut w = vec![0.0; n];
+        let mut posteriors = vec![0.0; t_len * n];
+        write_posterior(&log_alpha[(t_len - 1) * n..], &log_beta, &mut posteriors[(t_len - 1) * n..]);
+        for t in (0..t_len - 1).rev() {
+            let e_next = &log_emissions[(t + 1) * n..(t + 2) * n];
+            let mut m = f64::NEG_INFINITY;
+            for j in 0..n {
+                v[j] = e_next[j] + log_beta[j];
+                m = m.max(v[j]);
+            }
+            for j in 0..n {
+                w[j] = (v[j] - m).exp();
+            }
+            for i in 0..n {
+                let b = if self.dense {
+                    self.trans[i * n..(i + 1) * n].iter().zip(&w).map(|(a, w)| a * w).sum::<f64>()
+                } else {
+                    let r = self.out_ptr[i]..self.out_ptr[i + 1];
+                    self.out_to[r.clone()].iter().zip(&self.out_lin[r]).map(|(&j, a)| a * w[j]).sum::<f64>()
+                };
+                let lb = if b >= LINEAR_MIN {
+                    m + b.ln()
+                } else {
+                    let r = self.out_ptr[i]..self.out_ptr[i + 1];
+                    lse_iter(self.out_to[r.clone()].iter().zip(&self.out_log[r]).map(|(&j, l)| l + v[j]))
+                };
+                log_beta[i] = lb - c[t + 1];
+            }
+            write_posterior(&log_alpha[t * n..(t + 1) * n], &log_beta, &mut posteriors[t * n..(t + 1) * n]);
+        }
+        Ok(Some(Smoothed { n_states: n, log_likelihood: filter.log_likelihood(), posteriors }))
+    }
+
+    /// The most probable state path and its log joint probability max_z log p(z, o_1..T)
+    /// (Viterbi). Ties go to the lowest state index. `None` when the sequence is impossible.
+    pub fn viterbi(&self, log_emissions: &[f64]) -> Result<Option<ViterbiPath>> {
+        self.check_emissions(log_emissions)?;
+        let n = self.n;
+        let t_len = log_emissions.len() / n;
+        let mut delta: Vec<f64> = self.log_start.iter().zip(&log_emissions[..n]).map(|(s, e)| s + e).collect();
+        let mut next = vec![f64::NEG_INFINITY; n];
+        let mut back = vec![0u32; t_len * n];
+        for t in 1..t_len {
+            let e = &log_emissions[t * n..(t + 1) * n];
+            let bp = &mut back[t * n..(t + 1) * n];
+            for j in 0..n {
+                let (mut best, mut arg) = (f64::NEG_INFINITY, 0usize);
+                if e[j] > f64::NEG_INFINITY {
+                    for k in self.in_ptr[j]..self.in_ptr[j + 1] {
+                        let s = delta[self.in_from[k]] + self.in_log[k];
+                        if s > best {
+                            best = s;
+                            arg = self.in_from[k];
+                        }
+                    }
+                }
+                next[j] = best + e[j];
+                bp[j] = arg as u32;
+            }
+            std::mem::swap(&mut delta, &mut next);
+            if delta.iter().all(|&d| d == f64::NEG_INFINITY) {
+                return Ok(None);
+            }
+        }
+        let (mut state, mut best) = (0usize, f64::NEG_INFINITY);
+        for (j, &d) in delta.iter().enumerate() {
+            if d > best {
+                best = d;
+                state = j;
+            }
+        }
+        if best == f64::NEG_INFINITY {
+            return Ok(None);
+        }
+        let mut path = vec![0usize; t_len];
+        path[t_len - 1] = state;
+        for t in (1..t_len).rev() {
+            state = back[t * n + state] as usize;
+            path[t - 1] = state;
+        }
+        Ok(Some(ViterbiPath { path, log_prob: best }))
+    }
+
+    fn check_emissions(&self, log_emissions: &[f64]) -> Result<()> {
+        if log_emissions.is_empty() {
+            return Err(BayesError::Empty { what: "log emission sequence" });
+        }
+        if !log_emissions.len().is_multiple_of(self.n) {
+            return Err(BayesError::DimensionMismatch {
+                what: "log emission matrix (T×n, a multiple of n)",
+                expected: log_emissions.len().div_ceil(self.n) * self.n,
+                got: log_emissions.len(),
+            });
+        }
+        check_log_emission(log_emissions)
+    }
+
+    /// Exact log Σ_i exp(log_alpha_i + log A_ij) over the incoming transitions of j.
+    fn exact_predict(&self, j: usize, log_alpha: &[f64]) -> f64 {
+        let r = self.in_ptr[j]..self.in_ptr[j + 1];
+        lse_iter(self.in_from[r.clone()].iter().zip(&self.in_log[r]).map(|(&i, l)| log_alpha[i] + l))
+    }
+}
+
+/// Smoothed posteriors from [`Hmm::forward_backward`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Smoothed {
+    n_states: usize,
+    /// log p(o_1..T).
+    pub log_likelihood: f64,
+    /// p(z_t = j | o_1..T), T×n row-major; each row sums to 1.
+    pub posteriors: Vec<f64>,
+}
+
+impl Smoothed {
+    /// The posterior row of time step t (length n).
+    ///
+    /// # Panics
+    /// If t ≥ T.
+    pub fn at(&self, t: usize) -> &[f64] {
+        &self.posteriors[t * self.n_states..(t + 1) * self.n_states]
+    }
+
+    /// Number of time steps T.
+    pub fn len(&self) -> usize {
+        self.posteriors.len() / self.n_states
+    }
+
+    /// Always false (a smoothing result has at least one step).
+    pub fn is_empty(&self) -> bool {
+        self.posteriors.is_empty()
+    }
+}
+
+/// The result of [`Hmm::viterbi`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ViterbiPath {
+    /// The most probable state sequence z_1..T.
+    pub path: Vec<usize>,
+    /// log p(path, o_1..T).
+    pub log_prob: f64,
+}
+
+/// Streaming forward filter: the working state for one observation stream of an [`Hmm`].
+///
+/// Holds the filtered posterior p(z_t | o_1..t) and the running log p(o_1..t). `step` allocates
+/// nothing. The filter does not borrow the model (so both can live in one struct); pass the same
+/// `Hmm` it was made for to every `step`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ForwardFilter {
+    n: usize,
+    steps: usize,
+    log_likelihood: f64,
+    log_alpha: Vec<f64>,
+    post: Vec<f64>,
+    pred: Vec<f64>,
+}
+
+impl ForwardFilter {
+    /// A filter at t = 0 (no observation yet) for `hmm`.
+    pub fn new(hmm: &Hmm) -> Self {
+        let n = hmm.n;
+        let mut f = Self {
+            n,
+            steps: 0,
+            log_likelihood: 0.0,
+            log_alpha: vec![0.0; n],
+            post: vec![0.0; n],
+            pred: vec![0.0; n],
+        };
+        f.reset(hmm);
+        f
+    }
+
+    /// Back to t = 0; the state distribution is the start distribution again.
+    pub fn reset(&mut self, hmm: &Hmm) {
+        self.steps = 0;
+        self.log_likelihood = 0.0;
+        self.log_alpha.copy_from_slice(&hmm.log_start);
+        for (p, l) in self.post.iter_mut().zip(&hmm.log_start) {
+            *p = l.exp();
+        }
+    }
+
+    /// Absorbs one observation given as its log likelihood under each state (length n) and
+    /// returns log p(o_t | o_1..t−1) (`-inf` if the observation is impossible, and for every step
+    /// after that). Allocates nothing.
+    ///
+    /// Errors: wrong length or a NaN / `+inf` entry (the filter is then unchanged).
+    pub fn step(&mut self, hmm: &Hmm, log_emission: &[f64]) -> Result<f64> {
+        check_len("log emission row (one entry per state)", self.n, log_emission.len())?;
+        check_len("HMM state count of this filter", self.n, hmm.n)?;
+        check_log_emission(log_emission)?;
+        Ok(self.step_unchecked(hmm, log_emission))
+    }
+
+    fn step_unchecked(&mut self, hmm: &Hmm, e: &[f64]) -> f64 {
+        debug_assert_eq!(e.len(), self.n);
+        if self.is_impossible() {
+            self.steps += 1;
+            return f64::NEG_INFINITY;
+        }
+        let n = self.n;
+        // u_j (unnormalised log posterior) goes into log_alpha in place, via pred.
+        if self.steps == 0 {
+            for j in 0..n {
+                self.log_alpha[j] = hmm.log_start[j] + e[j];
+            }
+        } else {
+            self.pred.fill(0.0);
+            if hmm.dense {
+                for i in 0..n {
+                    let p = self.post[i];
+                    if p == 0.0 {
+                        continue;
+                    }
+                    for (acc, a) in self.pred.iter_mut().zip(&hmm.trans[i * n..(i + 1) * n]) {
+                        *acc += p * a;
+                    }
+                }
+            } else {
+                for i in 0..n {
+                    let p = self.post[i];
+                    if p == 0.0 {
+                        continue;
+                    }
+                    let r = hmm.out_ptr[i]..hmm.out_ptr[i + 1];
+                    for (&j, a) in hmm.out_to[r.clone()].iter().zip(&hmm.out_lin[r]) {
+                        self.pred[j] += p * a;
+                    }
+                }
+            }
+            for j in 0..n {
+                let pj = self.pred[j];
+                // Park u_j in pred: log_alpha (t−1) is still needed by exact_predict.
+                self.pred[j] = if e[j] == f64::NEG_INFINITY {
+                    f64::NEG_INFINITY
+                } else if pj >= LINEAR_MIN {
+                    pj.ln() + e[j]
+                } else {
+                    hmm.exact_predict(j, &self.log_alpha) + e[j]
+                };
+            }
+            self.log_alpha.copy_from_slice(&self.pred);
+        }
+        self.steps += 1;
+        let m = self.log_alpha.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if m == f64::NEG_INFINITY {
+            self.log_likelihood = f64::NEG_INFINITY;
+            self.post.fill(0.0);
+            return f64::NEG_INFINITY;
+        }
+        let mut s = 0.0;
+        for (p, &u) in self.post.iter_mut().zip(&self.log_alpha) {
+            *p = (u - m).exp();
+            s += *p;
+        }
+        let c = m + s.ln();
+        let inv = 1.0 / s;
+        for (p, l) in self.post.iter_mut().zip(self.log_alpha.iter_mut()) {
+            *p *= inv;
+            *l -= c;
+        }
+        self.log_likelihood += c;
+        c
+    }
+
+    /// log p(o_1..t) so far (0 before the first step, `-inf` once impossible).
+    pub fn log_likelihood(&self) -> f64 {
+        self.log_likelihood
+    }
+
+    /// p(z_t = j | o_1..t), length n; sums to 1 (all zeros once the stream is impossible).
+    /// Before the first step this is the start distribution.
+    pub fn filtered(&self) -> &[f64] {
+        &self.post
+    }
+
+    /// log p(z_t = j | o_1..t), length n (all `-inf` once the stream is impossible).
+    pub fn log_filtered(&self) -> &[f64] {
+        &self.log_alpha
+    }
+
+    /// Number of observations absorbed.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+
+    /// True once an observation had probability zero (the log-likelihood is `-inf`).
+    pub fn is_impossible(&self) -> bool {
+        self.log_likelihood == f64::NEG_INFINITY
+    }
+}
+
+/// Log emission matrix (T×n row-major) for a categorical emission model:
+/// entry (t, j) = `log_emission_probs[j * n_symbols + obs[t]]`.
+///
+/// `log_emission_probs` is n×K row-major (row = state), log p(symbol k | state j).
+pub fn categorical_log_emissions(log_emission_probs: &[f64], n_states: usize, obs: &[usize]) -> Result<Vec<f64>> {
+    if n_states == 0 {
+        return Err(BayesError::Empty { what: "categorical emission model (states)" });
+    }
+    if !log_emission_probs.len().is_multiple_of(n_states) || log_emission_probs.is_empty() {
+        return Err(BayesError::DimensionMismatch {
+            what: "categorical log emission matrix (n×K)",
+            expected: n_states * log_emission_probs.len().div_ceil(n_states).max(1),
+            got: log_emission_probs.len(),
+        });
+    }
+    check_log_emission(log_emission_probs)?;
+    let k = log_emission_probs.len() / n_states;
+    let mut out = Vec::with_capacity(obs.len() * n_states);
+    for &o in obs {
+        if o >= k {
+            return Err(BayesError::IndexOutOfRange { what: "observation symbol", index: o, len: k });
+        }
+        out.extend((0..n_states).map(|j| log_emission_probs[j * k + o]));
+    }
+    Ok(out)
+}
+
+/// Posterior row ∝ exp(log α + log β), normalised.
+fn write_posterior(log_alpha: &[f64], log_beta: &[f64], out: &mut [f64]) {
+    let m = log_alpha.iter().zip(log_beta).map(|(a, b)| a + b).fold(f64::NEG_INFINITY, f64::max);
+    let mut s = 0.0;
+    for ((o, a), b) in out.iter_mut().zip(log_alpha).zip(log_beta) {
+        *o = (a + b - m).exp();
+        s += *o;
+    }
+    for o in out.iter_mut() {
+        *o /= s;
+    }
+}
+
+/// log-sum-exp of an iterator (two passes would need a clone; this is the streaming form).
+fn lse_iter(it: impl Iterator<Item = f64> + Clone) -> f64 {
+    let m = it.clone().fold(f64::NEG_INFINITY, f64::max);
+    if m == f64::NEG_INFINITY {
+        return m;
+    }
+    m + it.map(|x| (x - m).exp()).sum::<f64>().ln()
+}
+
+fn check_log_emission(xs: &[f64]) -> Result<()> {
+    match xs.iter().position(|v| v.is_nan() || *v == f64::INFINITY) {
+        None => Ok(()),
+        Some(index) => Err(BayesError::NonFinite {
+            what: "log emission likelihood",
+            index,
+            value: xs[index],
+            requirement: "not NaN and not +inf (-inf means impossible)",
+        }),
+    }
+}
+
+fn check_log_distribution(what: &'static str, row: usize, xs: &[f64]) -> Result<()> {
+    if let Some(index) = xs.iter().position(|v| v.is_nan() || *v == f64::INFINITY) {
+        return Err(BayesError::NonFinite {
+            what,
+            index,
+            value: xs[index],
+            requirement: "a log probability: not NaN and not +inf",
+        });
+    }
+    let log_sum = lse_iter(xs.iter().copied());
+    if log_sum.abs() > NORMALISATION_TOL {
+        return Err(BayesError::NotNormalised { what, row, log_sum });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two_state() -> Hmm {
+        Hmm::from_probabilities(&[0.6, 0.4], &[0.7, 0.3, 0.4, 0.6]).unwrap()
+    }
+
+    /// Brute force over all paths: log p(o) and the best path.
+    fn brute(hmm: &Hmm, e: &[f64]) -> (f64, f64, Vec<usize>) {
+        let n = hmm.n_states();
+        let t_len = e.len() / n;
+        let mut total = 0.0;
+        let mut best = (f64::NEG_INFINITY, vec![]);
+        for code in 0..n.pow(t_len as u32) {
+            let path: Vec<usize> = (0..t_len).map(|t| code / n.pow(t as u32) % n).collect();
+            let mut lp = hmm.log_start()[path[0]] + e[path[0]];
+            for t in 1..t_len {
+                lp += hmm.log_transitions()[path[t - 1] * n + path[t]] + e[t * n + path[t]];
+            }
+            total += lp.exp();
+            if lp > best.0 {
+                best = (lp, path);
+            }
+        }
+        (total.ln(), best.0, best.1)
+    }
+
+    #[test]
+    fn forward_and_viterbi_match_brute_force() {
+        let hmm = two_state();
+        let e = [-0.1, -2.0, -1.5, -0.3, -0.2, -0.9, -3.0, -0.05];
+        let (lp, vp, path) = brute(&hmm, &e);
+        assert!((hmm.forward(&e).unwrap() - lp).abs() < 1e-14);
+        let v = hmm.viterbi(&e).unwrap().unwrap();
+        assert!((v.log_prob - vp).abs() < 1e-14);
+        assert_eq!(v.path, path);
+    }
+
+    #[test]
+    fn smoothed_rows_sum_to_one_and_last_equals_filtered() {
+        let hmm = two_state();
+        let e = [-0.1, -2.0, -1.5, -0.3, -0.2, -0.9];
+        let s = hmm.forward_backward(&e).unwrap().unwrap();
+        let mut f = ForwardFilter::new(&hmm);
+        for row in e.chunks(2) {
+            f.step(&hmm, row).unwrap();
+        }
+        for t in 0..3 {
+            assert!((s.at(t).iter().sum::<f64>() - 1.0).abs() < 1e-14);
+        }
+        for j in 0..2 {
+            assert!((s.at(2)[j] - f.filtered()[j]).abs() < 1e-14);
+        }
+        assert!((s.log_likelihood - f.log_likelihood()).abs() < 1e-14);
+    }
+
+    #[test]
+    fn impossible_observation_gives_neg_inf_without_nan() {
+        let hmm = two_state();
+        let ninf = f64::NEG_INFINITY;
+        let e = [-0.1, -2.0, ninf, ninf, -0.2, -0.9];
+        assert_eq!(hmm.forward(&e).unwrap(), ninf);
+        assert!(hmm.viterbi(&e).unwrap().is_none());
+        assert!(hmm.forward_backward(&e).unwrap().is_none());
+        let mut f = ForwardFilter::new(&hmm);
+        for row in e.chunks(2) {
+            let c = f.step(&hmm, row).unwrap();
+            assert!(!c.is_nan());
+        }
+        assert!(f.is_impossible());
+        assert!(f.filtered().iter().all(|&p| p == 0.0));
+    }
+
+    #[test]
+    fn bad_input_is_an_error() {
+        assert!(Hmm::from_probabilities(&[0.5, 0.6], &[1.0, 0.0, 0.0, 1.0]).is_err());
+        assert!(Hmm::from_probabilities(&[0.5, 0.5], &[1.0, 0.0, 0.0]).is_err());
+        assert!(Hmm::new(vec![], vec![]).is_err());
+        assert!(Hmm::new(vec![0.0, f64::NAN], vec![0.0; 4]).is_err());
+        let hmm = two_state();
+        assert!(hmm.forward(&[]).is_err());
+        assert!(hmm.forward(&[0.0, 0.0, 0.0]).is_err());
+        assert!(hmm.forward(&[0.0, f64::NAN]).is_err());
+        assert!(hmm.forward(&[0.0, f64::INFINITY]).is_err());
+        let mut f = ForwardFilter::new(&hmm);
+        assert!(f.step(&hmm, &[0.0]).is_err());
+        assert_eq!(f.steps(), 0);
+        assert!(categorical_log_emissions(&[0.0, 0.0], 2, &[1]).is_err());
+    }
+
+    #[test]
+    fn tiny_transition_survives_where_linear_space_would_underflow() {
+        // State 1 is reachable only through a transition of probability e^-800, and only state 1
+        // can emit the second symbol; the answer must be finite, near -800.
+        let l = -800.0_f64;
+        let stay = (-(l.exp())).ln_1p(); // log(1 - e^-800) = -0 in f64
+        let hmm = Hmm::new(vec![0.0, f64::NEG_INFINITY], vec![stay, l, f64::NEG_INFINITY, 0.0]).unwrap();
+        let e = [0.0, f64::NEG_INFINITY, f64::NEG_INFINITY, 0.0];
+        let lp = hmm.forward(&e).unwrap();
+        assert!((lp - l).abs() < 1e-12, "{lp}");
+        let s = hmm.forward_backward(&e).unwrap().unwrap();
+        assert_eq!(s.at(1), &[0.0, 1.0]);
+        assert!((s.at(0)[0] - 1.0).abs() < 1e-15);
+        assert!((hmm.viterbi(&e).unwrap().unwrap().log_prob - l).abs() < 1e-12);
+    }
+}
