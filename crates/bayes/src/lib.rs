@@ -3,6 +3,7 @@
 
 pub mod error;
 pub mod hmm;
+pub mod multivariate;
 pub mod special;
 
 pub use error::{BayesError, Result};

@@ -103,8 +103,9 @@ pub fn ln_gamma(x: f64) -> f64 {
         if x == x.floor() {
             return f64::INFINITY;
         }
-        // Reflection: Γ(x)Γ(1−x) = π / sin(πx).
-        let s = (PI * x).sin().abs();
+        // Reflection: Γ(x)Γ(1−x) = π / sin(πx); |sin(πx)| has period 1, and reducing first
+        // keeps πx from rounding at large |x|.
+        let s = (PI * (x - x.floor())).sin().abs();
         return LN_PI - s.ln() - ln_gamma(1.0 - x);
     }
     if x >= STIRLING_MIN {
@@ -186,7 +187,7 @@ pub fn digamma(x: f64) -> f64 {
             return f64::NAN;
         }
         // ψ(1−x) − ψ(x) = π cot(πx).
-        return digamma(1.0 - x) - PI / (PI * x).tan();
+        return digamma(1.0 - x) - PI / (PI * (x - x.floor())).tan();
     }
     let mut acc = 0.0;
     let mut y = x;
@@ -263,8 +264,7 @@ fn incomplete_gamma(a: f64, x: f64) -> Option<(f64, f64, bool)> {
     if x.is_infinite() {
         return Some((1.0, 0.0, true));
     }
-    // ln of x^a e^{-x} / Γ(a)
-    let ln_prefactor = a * x.ln() - x - ln_gamma(a);
+    let ln_prefactor = ln_gamma_prefactor(a, x);
     if x < a + 1.0 {
         // P(a,x) = x^a e^{-x} / Γ(a+1) · Σ_n x^n / ((a+1)…(a+n))
         let mut term = 1.0 / a;
@@ -308,6 +308,38 @@ fn incomplete_gamma(a: f64, x: f64) -> Option<(f64, f64, bool)> {
         let q = (ln_prefactor + h.ln()).exp();
         Some((0.0, q.min(1.0), false))
     }
+}
+
+/// ln(x^a e^{−x} / Γ(a)). For a ≥ 10 the Stirling form
+/// `a·(ln1p δ − δ) + ½ ln a − ½ ln 2π − tail(a)`, δ = (x−a)/a, avoids subtracting terms of size
+/// a·ln x (which would cost ~a·eps of relative accuracy in Q near the median).
+fn ln_gamma_prefactor(a: f64, x: f64) -> f64 {
+    if a < STIRLING_MIN {
+        return a * x.ln() - x - ln_gamma(a);
+    }
+    let delta = (x - a) / a;
+    // Far from the median there is no cancellation, and x/a must not go through 1 + δ.
+    let a_log1pmx = if delta.abs() > 0.5 { a * (x / a).ln() - (x - a) } else { a * log1pmx(delta) };
+    a_log1pmx + 0.5 * a.ln() - LN_SQRT_2PI - stirling_tail(a)
+}
+
+/// ln(1 + δ) − δ, accurate for small δ: with u = δ/(2+δ), ln(1+δ) = 2 atanh u, so
+/// ln(1+δ) − δ = −uδ + 2(u³/3 + u⁵/5 + …).
+fn log1pmx(delta: f64) -> f64 {
+    if delta.abs() > 0.5 {
+        return delta.ln_1p() - delta;
+    }
+    let u = delta / (2.0 + delta);
+    let u2 = u * u;
+    let mut term = u * u2;
+    let mut sum = 0.0_f64;
+    let mut k = 3.0;
+    while term.abs() > 1e-18 * sum.abs().max(1e-300) && k < 200.0 {
+        sum += term / k;
+        term *= u2;
+        k += 2.0;
+    }
+    -u * delta + 2.0 * sum
 }
 
 /// log(Σ exp(xᵢ)) without overflow; `-inf` for an empty slice or when every xᵢ is `-inf`.
