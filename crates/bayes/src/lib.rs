@@ -5,5 +5,6 @@ pub mod error;
 pub mod hmm;
 pub mod multivariate;
 pub mod special;
+pub mod univariate;
 
 pub use error::{BayesError, Result};
