@@ -28,13 +28,15 @@ fn normalised_log(row: &[f64]) -> Vec<f64> {
 
 fn dense(rng: &mut SplitMix) -> Hmm {
     let start = normalised_log(&(0..N).map(|_| rng.next()).collect::<Vec<_>>());
-    let trans = (0..N).flat_map(|_| normalised_log(&(0..N).map(|_| rng.next()).collect::<Vec<_>>())).collect();
+    let trans = (0..N)
+        .flat_map(|_| normalised_log(&(0..N).map(|_| rng.next()).collect::<Vec<_>>()))
+        .collect();
     Hmm::new(start, trans).unwrap()
 }
 
 /// Left-to-right: stay or advance by one or two states (3 non-zeros per row).
 fn left_to_right(rng: &mut SplitMix) -> Hmm {
-    let mut start = vec![f64::NEG_INFINITY; N];
+    let mut start = [f64::NEG_INFINITY; N];
     start[0] = 0.0;
     let mut trans = vec![0.0; N * N];
     for i in 0..N {

@@ -26,7 +26,12 @@ pub struct ChiSquareTest {
 fn check_counts(what: &'static str, xs: impl Iterator<Item = f64>) -> Result<()> {
     for (index, v) in xs.enumerate() {
         if !(v.is_finite() && v >= 0.0) {
-            return Err(BayesError::NonFinite { what, index, value: v, requirement: "a finite count >= 0" });
+            return Err(BayesError::NonFinite {
+                what,
+                index,
+                value: v,
+                requirement: "a finite count >= 0",
+            });
         }
     }
     Ok(())
@@ -43,15 +48,27 @@ pub fn chi2_contingency<R: AsRef<[f64]>>(table: &[R], yates: bool) -> Result<Chi
     const WHAT: &str = "chi-square contingency table";
     let r = table.len();
     if r < 2 {
-        return Err(BayesError::DimensionMismatch { what: "contingency table rows (at least 2)", expected: 2, got: r });
+        return Err(BayesError::DimensionMismatch {
+            what: "contingency table rows (at least 2)",
+            expected: 2,
+            got: r,
+        });
     }
     let k = table[0].as_ref().len();
     if k < 2 {
-        return Err(BayesError::DimensionMismatch { what: "contingency table columns (at least 2)", expected: 2, got: k });
+        return Err(BayesError::DimensionMismatch {
+            what: "contingency table columns (at least 2)",
+            expected: 2,
+            got: k,
+        });
     }
     for row in table {
         if row.as_ref().len() != k {
-            return Err(BayesError::DimensionMismatch { what: "contingency table row length", expected: k, got: row.as_ref().len() });
+            return Err(BayesError::DimensionMismatch {
+                what: "contingency table row length",
+                expected: k,
+                got: row.as_ref().len(),
+            });
         }
     }
     check_counts(WHAT, table.iter().flat_map(|row| row.as_ref().iter().copied()))?;
@@ -62,8 +79,12 @@ pub fn chi2_contingency<R: AsRef<[f64]>>(table: &[R], yates: bool) -> Result<Chi
     for (i, rs) in row_sums.iter().enumerate() {
         for (j, cs) in col_sums.iter().enumerate() {
             let e = rs * cs / n;
-            if !(e > 0.0) {
-                return Err(BayesError::ZeroExpected { what: WHAT, row: i, col: j });
+            if e.is_nan() || e <= 0.0 {
+                return Err(BayesError::ZeroExpected {
+                    what: WHAT,
+                    row: i,
+                    col: j,
+                });
             }
             expected.push(e);
         }
@@ -74,11 +95,20 @@ pub fn chi2_contingency<R: AsRef<[f64]>>(table: &[R], yates: bool) -> Result<Chi
     for (i, row) in table.iter().enumerate() {
         for (j, &o) in row.as_ref().iter().enumerate() {
             let e = expected[i * k + j];
-            let o = if correct { o + (e - o).signum() * (e - o).abs().min(0.5) } else { o };
+            let o = if correct {
+                o + (e - o).signum() * (e - o).abs().min(0.5)
+            } else {
+                o
+            };
             statistic += (o - e) * (o - e) / e;
         }
     }
-    Ok(ChiSquareTest { statistic, dof, p_value: chi2_sf(statistic, dof as f64), expected })
+    Ok(ChiSquareTest {
+        statistic,
+        dof,
+        p_value: chi2_sf(statistic, dof as f64),
+        expected,
+    })
 }
 
 /// χ² goodness of fit of observed counts against the uniform expectation N/k (k ≥ 2),
@@ -87,16 +117,29 @@ pub fn chi2_contingency<R: AsRef<[f64]>>(table: &[R], yates: bool) -> Result<Chi
 pub fn chi2_uniform_fit(f_obs: &[f64]) -> Result<ChiSquareTest> {
     let k = f_obs.len();
     if k < 2 {
-        return Err(BayesError::DimensionMismatch { what: "goodness-of-fit cells (at least 2)", expected: 2, got: k });
+        return Err(BayesError::DimensionMismatch {
+            what: "goodness-of-fit cells (at least 2)",
+            expected: 2,
+            got: k,
+        });
     }
     check_counts("chi-square observed counts", f_obs.iter().copied())?;
     let e = f_obs.iter().sum::<f64>() / k as f64;
-    if !(e > 0.0) {
-        return Err(BayesError::ZeroExpected { what: "chi-square goodness of fit", row: 0, col: 0 });
+    if e.is_nan() || e <= 0.0 {
+        return Err(BayesError::ZeroExpected {
+            what: "chi-square goodness of fit",
+            row: 0,
+            col: 0,
+        });
     }
     let statistic = f_obs.iter().map(|o| (o - e) * (o - e) / e).sum::<f64>();
     let dof = k - 1;
-    Ok(ChiSquareTest { statistic, dof, p_value: chi2_sf(statistic, dof as f64), expected: vec![e; k] })
+    Ok(ChiSquareTest {
+        statistic,
+        dof,
+        p_value: chi2_sf(statistic, dof as f64),
+        expected: vec![e; k],
+    })
 }
 
 #[cfg(test)]
@@ -109,7 +152,10 @@ mod tests {
         assert!(chi2_contingency(&[vec![1.0, 2.0], vec![1.0]], false).is_err());
         assert!(chi2_contingency(&[[1.0, -2.0], [1.0, 1.0]], false).is_err());
         assert!(chi2_contingency(&[[1.0, f64::NAN], [1.0, 1.0]], false).is_err());
-        assert!(matches!(chi2_contingency(&[[0.0, 2.0], [0.0, 1.0]], false), Err(BayesError::ZeroExpected { .. })));
+        assert!(matches!(
+            chi2_contingency(&[[0.0, 2.0], [0.0, 1.0]], false),
+            Err(BayesError::ZeroExpected { .. })
+        ));
         assert!(chi2_uniform_fit(&[3.0]).is_err());
         assert!(chi2_uniform_fit(&[0.0, 0.0]).is_err());
     }

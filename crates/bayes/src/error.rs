@@ -118,13 +118,13 @@ pub(crate) fn check_finite(what: &'static str, index: usize, v: f64) -> Result<(
     if v.is_finite() {
         Ok(())
     } else {
-        Err(BayesError::NonFinite { what, index, value: v, requirement: "finite" })
+        Err(BayesError::NonFinite {
+            what,
+            index,
+            value: v,
+            requirement: "finite",
+        })
     }
-}
-
-/// Err unless every element of `xs` is finite.
-pub(crate) fn check_all_finite(what: &'static str, xs: &[f64]) -> Result<()> {
-    xs.iter().enumerate().try_for_each(|(i, &v)| check_finite(what, i, v))
 }
 
 /// Err unless `v` is finite and > 0.
@@ -132,7 +132,11 @@ pub(crate) fn check_positive(name: &'static str, v: f64) -> Result<()> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
-        Err(BayesError::InvalidParameter { name, value: v, requirement: "finite and > 0" })
+        Err(BayesError::InvalidParameter {
+            name,
+            value: v,
+            requirement: "finite and > 0",
+        })
     }
 }
 

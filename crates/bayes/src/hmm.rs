@@ -70,7 +70,9 @@ impl Hmm {
     pub fn new(log_start: Vec<f64>, log_trans: Vec<f64>) -> Result<Self> {
         let n = log_start.len();
         if n == 0 {
-            return Err(BayesError::Empty { what: "HMM start distribution" });
+            return Err(BayesError::Empty {
+                what: "HMM start distribution",
+            });
         }
         check_len("HMM log transition matrix (n×n)", n * n, log_trans.len())?;
         check_log_distribution("HMM log start distribution", 0, &log_start)?;
@@ -107,18 +109,42 @@ impl Hmm {
         }
         // The dense loop vectorises; the sparse one wins once most entries are zero.
         let dense = 2 * out_to.len() > n * n;
-        Ok(Self { n, log_start, log_trans, trans, dense, out_ptr, out_to, out_lin, out_log, in_ptr, in_from, in_log })
+        Ok(Self {
+            n,
+            log_start,
+            log_trans,
+            trans,
+            dense,
+            out_ptr,
+            out_to,
+            out_lin,
+            out_log,
+            in_ptr,
+            in_from,
+            in_log,
+        })
     }
 
     /// Builds an HMM from probabilities (start: n, transitions: n×n row-major, row = from); takes
     /// logs and calls [`Hmm::new`]. Negative entries are an error.
     pub fn from_probabilities(start: &[f64], trans: &[f64]) -> Result<Self> {
-        for (what, xs) in [("HMM start probabilities", start), ("HMM transition probabilities", trans)] {
+        for (what, xs) in [
+            ("HMM start probabilities", start),
+            ("HMM transition probabilities", trans),
+        ] {
             if let Some((index, &value)) = xs.iter().enumerate().find(|&(_, &p)| p.is_nan() || p < 0.0) {
-                return Err(BayesError::NonFinite { what, index, value, requirement: "a probability ≥ 0" });
+                return Err(BayesError::NonFinite {
+                    what,
+                    index,
+                    value,
+                    requirement: "a probability ≥ 0",
+                });
             }
         }
-        Self::new(start.iter().map(|p| p.ln()).collect(), trans.iter().map(|p| p.ln()).collect())
+        Self::new(
+            start.iter().map(|p| p.ln()).collect(),
+            trans.iter().map(|p| p.ln()).collect(),
+        )
     }
 
     /// Number of hidden states n.
@@ -181,7 +207,11 @@ impl Hmm {
         let mut v = vec![0.0; n];
         let mut w = vec![0.0; n];
         let mut posteriors = vec![0.0; t_len * n];
-        write_posterior(&log_alpha[(t_len - 1) * n..], &log_beta, &mut posteriors[(t_len - 1) * n..]);
+        write_posterior(
+            &log_alpha[(t_len - 1) * n..],
+            &log_beta,
+            &mut posteriors[(t_len - 1) * n..],
+        );
         for t in (0..t_len - 1).rev() {
             let e_next = &log_emissions[(t + 1) * n..(t + 2) * n];
             let mut m = f64::NEG_INFINITY;
@@ -192,24 +222,45 @@ impl Hmm {
             for j in 0..n {
                 w[j] = (v[j] - m).exp();
             }
-            for i in 0..n {
+            for (i, log_beta_i) in log_beta.iter_mut().enumerate() {
                 let b = if self.dense {
-                    self.trans[i * n..(i + 1) * n].iter().zip(&w).map(|(a, w)| a * w).sum::<f64>()
+                    self.trans[i * n..(i + 1) * n]
+                        .iter()
+                        .zip(&w)
+                        .map(|(a, w)| a * w)
+                        .sum::<f64>()
                 } else {
                     let r = self.out_ptr[i]..self.out_ptr[i + 1];
-                    self.out_to[r.clone()].iter().zip(&self.out_lin[r]).map(|(&j, a)| a * w[j]).sum::<f64>()
+                    self.out_to[r.clone()]
+                        .iter()
+                        .zip(&self.out_lin[r])
+                        .map(|(&j, a)| a * w[j])
+                        .sum::<f64>()
                 };
                 let lb = if b >= LINEAR_MIN {
                     m + b.ln()
                 } else {
                     let r = self.out_ptr[i]..self.out_ptr[i + 1];
-                    lse_iter(self.out_to[r.clone()].iter().zip(&self.out_log[r]).map(|(&j, l)| l + v[j]))
+                    lse_iter(
+                        self.out_to[r.clone()]
+                            .iter()
+                            .zip(&self.out_log[r])
+                            .map(|(&j, l)| l + v[j]),
+                    )
                 };
-                log_beta[i] = lb - c[t + 1];
+                *log_beta_i = lb - c[t + 1];
             }
-            write_posterior(&log_alpha[t * n..(t + 1) * n], &log_beta, &mut posteriors[t * n..(t + 1) * n]);
+            write_posterior(
+                &log_alpha[t * n..(t + 1) * n],
+                &log_beta,
+                &mut posteriors[t * n..(t + 1) * n],
+            );
         }
-        Ok(Some(Smoothed { n_states: n, log_likelihood: filter.log_likelihood(), posteriors }))
+        Ok(Some(Smoothed {
+            n_states: n,
+            log_likelihood: filter.log_likelihood(),
+            posteriors,
+        }))
     }
 
     /// The most probable state path and its log joint probability max_z log p(z, o_1..T)
@@ -218,7 +269,12 @@ impl Hmm {
         self.check_emissions(log_emissions)?;
         let n = self.n;
         let t_len = log_emissions.len() / n;
-        let mut delta: Vec<f64> = self.log_start.iter().zip(&log_emissions[..n]).map(|(s, e)| s + e).collect();
+        let mut delta: Vec<f64> = self
+            .log_start
+            .iter()
+            .zip(&log_emissions[..n])
+            .map(|(s, e)| s + e)
+            .collect();
         let mut next = vec![f64::NEG_INFINITY; n];
         let mut back = vec![0u32; t_len * n];
         for t in 1..t_len {
@@ -264,7 +320,9 @@ impl Hmm {
 
     fn check_emissions(&self, log_emissions: &[f64]) -> Result<()> {
         if log_emissions.is_empty() {
-            return Err(BayesError::Empty { what: "log emission sequence" });
+            return Err(BayesError::Empty {
+                what: "log emission sequence",
+            });
         }
         if !log_emissions.len().is_multiple_of(self.n) {
             return Err(BayesError::DimensionMismatch {
@@ -279,7 +337,12 @@ impl Hmm {
     /// Exact log Σ_i exp(log_alpha_i + log A_ij) over the incoming transitions of j.
     fn exact_predict(&self, j: usize, log_alpha: &[f64]) -> f64 {
         let r = self.in_ptr[j]..self.in_ptr[j + 1];
-        lse_iter(self.in_from[r.clone()].iter().zip(&self.in_log[r]).map(|(&i, l)| log_alpha[i] + l))
+        lse_iter(
+            self.in_from[r.clone()]
+                .iter()
+                .zip(&self.in_log[r])
+                .map(|(&i, l)| log_alpha[i] + l),
+        )
     }
 }
 
@@ -384,8 +447,8 @@ impl ForwardFilter {
         let n = self.n;
         // u_j (unnormalised log posterior) goes into log_alpha in place, via pred.
         if self.steps == 0 {
-            for j in 0..n {
-                self.log_alpha[j] = hmm.log_start[j] + e[j];
+            for ((a, s), ej) in self.log_alpha.iter_mut().zip(&hmm.log_start).zip(e) {
+                *a = s + ej;
             }
         } else {
             self.pred.fill(0.0);
@@ -411,15 +474,14 @@ impl ForwardFilter {
                     }
                 }
             }
-            for j in 0..n {
-                let pj = self.pred[j];
+            for (j, (p, &ej)) in self.pred.iter_mut().zip(e).enumerate() {
                 // Park u_j in pred: log_alpha (t−1) is still needed by exact_predict.
-                self.pred[j] = if e[j] == f64::NEG_INFINITY {
+                *p = if ej == f64::NEG_INFINITY {
                     f64::NEG_INFINITY
-                } else if pj >= LINEAR_MIN {
-                    pj.ln() + e[j]
+                } else if *p >= LINEAR_MIN {
+                    p.ln() + ej
                 } else {
-                    hmm.exact_predict(j, &self.log_alpha) + e[j]
+                    hmm.exact_predict(j, &self.log_alpha) + ej
                 };
             }
             self.log_alpha.copy_from_slice(&self.pred);
@@ -479,7 +541,9 @@ impl ForwardFilter {
 /// `log_emission_probs` is n×K row-major (row = state), log p(symbol k | state j).
 pub fn categorical_log_emissions(log_emission_probs: &[f64], n_states: usize, obs: &[usize]) -> Result<Vec<f64>> {
     if n_states == 0 {
-        return Err(BayesError::Empty { what: "categorical emission model (states)" });
+        return Err(BayesError::Empty {
+            what: "categorical emission model (states)",
+        });
     }
     if !log_emission_probs.len().is_multiple_of(n_states) || log_emission_probs.is_empty() {
         return Err(BayesError::DimensionMismatch {
@@ -493,7 +557,11 @@ pub fn categorical_log_emissions(log_emission_probs: &[f64], n_states: usize, ob
     let mut out = Vec::with_capacity(obs.len() * n_states);
     for &o in obs {
         if o >= k {
-            return Err(BayesError::IndexOutOfRange { what: "observation symbol", index: o, len: k });
+            return Err(BayesError::IndexOutOfRange {
+                what: "observation symbol",
+                index: o,
+                len: k,
+            });
         }
         out.extend((0..n_states).map(|j| log_emission_probs[j * k + o]));
     }
@@ -502,7 +570,11 @@ pub fn categorical_log_emissions(log_emission_probs: &[f64], n_states: usize, ob
 
 /// Posterior row ∝ exp(log α + log β), normalised.
 fn write_posterior(log_alpha: &[f64], log_beta: &[f64], out: &mut [f64]) {
-    let m = log_alpha.iter().zip(log_beta).map(|(a, b)| a + b).fold(f64::NEG_INFINITY, f64::max);
+    let m = log_alpha
+        .iter()
+        .zip(log_beta)
+        .map(|(a, b)| a + b)
+        .fold(f64::NEG_INFINITY, f64::max);
     let mut s = 0.0;
     for ((o, a), b) in out.iter_mut().zip(log_alpha).zip(log_beta) {
         *o = (a + b - m).exp();

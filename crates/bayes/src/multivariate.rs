@@ -44,14 +44,24 @@ pub fn cholesky(what: &'static str, a: &DMatrix<f64>) -> Result<CholeskyFactor> 
         return Err(BayesError::Empty { what });
     }
     if let Some(index) = a.iter().position(|v| !v.is_finite()) {
-        return Err(BayesError::NonFinite { what, index, value: a[index], requirement: "finite" });
+        return Err(BayesError::NonFinite {
+            what,
+            index,
+            value: a[index],
+            requirement: "finite",
+        });
     }
     for i in 0..rows {
         for j in 0..i {
             let d = (a[(i, j)] - a[(j, i)]).abs();
             let scale = (a[(i, i)] * a[(j, j)]).abs().sqrt().max(a[(i, j)].abs());
             if d > SYMMETRY_TOL * scale {
-                return Err(BayesError::NotSymmetric { what, row: i, col: j, asymmetry: d });
+                return Err(BayesError::NotSymmetric {
+                    what,
+                    row: i,
+                    col: j,
+                    asymmetry: d,
+                });
             }
         }
     }
@@ -89,7 +99,12 @@ fn mahalanobis_sq(chol: &CholeskyFactor, x: &DVector<f64>, m: &DVector<f64>) -> 
 fn check_vector(what: &'static str, v: &DVector<f64>, d: usize) -> Result<()> {
     check_len(what, d, v.len())?;
     if let Some(index) = v.iter().position(|x| !x.is_finite()) {
-        return Err(BayesError::NonFinite { what, index, value: v[index], requirement: "finite" });
+        return Err(BayesError::NonFinite {
+            what,
+            index,
+            value: v[index],
+            requirement: "finite",
+        });
     }
     Ok(())
 }
@@ -123,14 +138,20 @@ pub fn mvt_log_pdf_chol(x: &DVector<f64>, loc: &DVector<f64>, shape_chol: &Chole
     let p = d as f64;
     let m = mahalanobis_sq(shape_chol, x, loc);
     // ln Γ((ν+p)/2) − ln Γ(ν/2) without cancellation at large ν.
-    Ok(ln_gamma_diff(df / 2.0, p / 2.0) - 0.5 * p * (df.ln() + LN_PI) - 0.5 * log_det(shape_chol)
+    Ok(ln_gamma_diff(df / 2.0, p / 2.0)
+        - 0.5 * p * (df.ln() + LN_PI)
+        - 0.5 * log_det(shape_chol)
         - 0.5 * (df + p) * (m / df).ln_1p())
 }
 
 /// Inverse-Wishart log density, scipy `invwishart.logpdf(X, df, scale)` (see the module docs).
 /// Requires df > p − 1 (may be non-integer).
 pub fn inv_wishart_log_pdf(x: &DMatrix<f64>, df: f64, scale: &DMatrix<f64>) -> Result<f64> {
-    inv_wishart_log_pdf_chol(&cholesky("inverse-Wishart X", x)?, df, &cholesky("inverse-Wishart scale", scale)?)
+    inv_wishart_log_pdf_chol(
+        &cholesky("inverse-Wishart X", x)?,
+        df,
+        &cholesky("inverse-Wishart scale", scale)?,
+    )
 }
 
 /// [`inv_wishart_log_pdf`] with X and the scale Ψ given by their Cholesky factors.
@@ -141,7 +162,11 @@ pub fn inv_wishart_log_pdf_chol(x_chol: &CholeskyFactor, df: f64, scale_chol: &C
     check_len("inverse-Wishart scale dimension", p, ls.nrows())?;
     let pf = p as f64;
     if !(df.is_finite() && df > pf - 1.0) {
-        return Err(BayesError::InvalidParameter { name: "df", value: df, requirement: "finite and > p - 1" });
+        return Err(BayesError::InvalidParameter {
+            name: "df",
+            value: df,
+            requirement: "finite and > p - 1",
+        });
     }
     // tr(Ψ X⁻¹) = ‖L_X⁻¹ L_Ψ‖²_F: forward substitution column by column (L_Ψ is lower).
     let mut trace = 0.0;
@@ -165,7 +190,11 @@ pub fn inv_wishart_log_pdf_chol(x_chol: &CholeskyFactor, df: f64, scale_chol: &C
 }
 
 /// One draw from N(mean, LLᵀ): `mean + L z`, z standard normal.
-pub fn sample_mvn<R: Rng + ?Sized>(rng: &mut R, mean: &DVector<f64>, cov_chol: &CholeskyFactor) -> Result<DVector<f64>> {
+pub fn sample_mvn<R: Rng + ?Sized>(
+    rng: &mut R,
+    mean: &DVector<f64>,
+    cov_chol: &CholeskyFactor,
+) -> Result<DVector<f64>> {
     let l = cov_chol.l_dirty();
     let d = l.nrows();
     check_vector("mvn mean", mean, d)?;
@@ -188,12 +217,19 @@ pub fn sample_inv_wishart<R: Rng + ?Sized>(rng: &mut R, df: f64, scale_chol: &Ch
     let c = scale_chol.l();
     let p = c.nrows();
     if !(df.is_finite() && df > p as f64 - 1.0) {
-        return Err(BayesError::InvalidParameter { name: "df", value: df, requirement: "finite and > p - 1" });
+        return Err(BayesError::InvalidParameter {
+            name: "df",
+            value: df,
+            requirement: "finite and > p - 1",
+        });
     }
     let mut a = DMatrix::zeros(p, p);
     for i in 0..p {
-        let chi = ChiSquared::new(df - i as f64)
-            .map_err(|_| BayesError::InvalidParameter { name: "df", value: df, requirement: "> p - 1" })?;
+        let chi = ChiSquared::new(df - i as f64).map_err(|_| BayesError::InvalidParameter {
+            name: "df",
+            value: df,
+            requirement: "> p - 1",
+        })?;
         a[(i, i)] = chi.sample(rng).sqrt();
         for j in 0..i {
             a[(i, j)] = StandardNormal.sample(rng);
@@ -202,7 +238,9 @@ pub fn sample_inv_wishart<R: Rng + ?Sized>(rng: &mut R, df: f64, scale_chol: &Ch
     // A⁻¹ (lower); a zero diagonal has probability zero but would make the draw infinite.
     let a_inv = a
         .solve_lower_triangular(&DMatrix::identity(p, p))
-        .ok_or(BayesError::NotPositiveDefinite { what: "Bartlett factor (degenerate draw)" })?;
+        .ok_or(BayesError::NotPositiveDefinite {
+            what: "Bartlett factor (degenerate draw)",
+        })?;
     let t = &c * a_inv.transpose();
     Ok(&t * t.transpose())
 }
@@ -217,9 +255,15 @@ mod tests {
     fn bad_matrices_are_errors() {
         let x = DVector::from_vec(vec![0.0, 0.0]);
         let not_pd = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
-        assert!(matches!(mvn_log_pdf(&x, &x, &not_pd), Err(BayesError::NotPositiveDefinite { .. })));
+        assert!(matches!(
+            mvn_log_pdf(&x, &x, &not_pd),
+            Err(BayesError::NotPositiveDefinite { .. })
+        ));
         let asym = DMatrix::from_row_slice(2, 2, &[1.0, 0.5, 0.0, 1.0]);
-        assert!(matches!(mvn_log_pdf(&x, &x, &asym), Err(BayesError::NotSymmetric { .. })));
+        assert!(matches!(
+            mvn_log_pdf(&x, &x, &asym),
+            Err(BayesError::NotSymmetric { .. })
+        ));
         let nan = DMatrix::from_row_slice(2, 2, &[1.0, f64::NAN, f64::NAN, 1.0]);
         assert!(mvn_log_pdf(&x, &x, &nan).is_err());
         let eye = DMatrix::identity(2, 2);
@@ -253,7 +297,9 @@ mod tests {
         let mean = DVector::from_vec(vec![1.0, -2.0]);
         let draw = |seed| {
             let mut rng = StdRng::seed_from_u64(seed);
-            (0..20_000).map(|_| sample_mvn(&mut rng, &mean, &chol).unwrap()).collect::<Vec<_>>()
+            (0..20_000)
+                .map(|_| sample_mvn(&mut rng, &mean, &chol).unwrap())
+                .collect::<Vec<_>>()
         };
         let xs = draw(3);
         assert_eq!(xs, draw(3));

@@ -38,7 +38,12 @@ const LN_PI: f64 = 1.144_729_885_849_400_2;
 /// non-finite loc, scale ≤ 0 or non-finite.
 pub fn student_t_log_pdf(x: f64, df: f64, loc: f64, scale: f64) -> Result<f64> {
     if x.is_nan() {
-        return Err(BayesError::NonFinite { what: "Student-t point x", index: 0, value: x, requirement: "not NaN" });
+        return Err(BayesError::NonFinite {
+            what: "Student-t point x",
+            index: 0,
+            value: x,
+            requirement: "not NaN",
+        });
     }
     Ok(StudentT::new(df, loc, scale)?.log_pdf(x))
 }
@@ -69,8 +74,12 @@ impl TryFrom<StudentTRaw> for StudentT {
 impl StudentT {
     /// ν > 0 (may be +inf: the Normal limit), loc finite, scale > 0 and finite.
     pub fn new(df: f64, loc: f64, scale: f64) -> Result<Self> {
-        if !(df > 0.0) {
-            return Err(BayesError::InvalidParameter { name: "df", value: df, requirement: "> 0" });
+        if df.is_nan() || df <= 0.0 {
+            return Err(BayesError::InvalidParameter {
+                name: "df",
+                value: df,
+                requirement: "> 0",
+            });
         }
         check_finite("Student-t loc", 0, loc)?;
         check_positive("scale", scale)?;
@@ -101,7 +110,11 @@ impl StudentT {
         }
         let az = z.abs();
         // ln1p(z²/ν), without overflowing z² in the far tail.
-        let log_kernel = if az > 1e150 { 2.0 * az.ln() - nu.ln() + (nu / az / az).ln_1p() } else { (z * z / nu).ln_1p() };
+        let log_kernel = if az > 1e150 {
+            2.0 * az.ln() - nu.ln() + (nu / az / az).ln_1p()
+        } else {
+            (z * z / nu).ln_1p()
+        };
         ln_gamma_diff(0.5 * nu, 0.5) - 0.5 * (nu.ln() + LN_PI) - self.scale.ln() - 0.5 * (nu + 1.0) * log_kernel
     }
 
@@ -112,7 +125,9 @@ impl StudentT {
             return self.loc + self.scale * z;
         }
         // Gamma(ν/2, scale 2/ν) = χ²(ν)/ν; parameters are valid by construction.
-        let g = Gamma::new(0.5 * self.df, 2.0 / self.df).map(|g| g.sample(rng)).unwrap_or(1.0);
+        let g = Gamma::new(0.5 * self.df, 2.0 / self.df)
+            .map(|g| g.sample(rng))
+            .unwrap_or(1.0);
         self.loc + self.scale * z / g.sqrt()
     }
 }
@@ -152,10 +167,18 @@ impl GaussianStats {
     pub fn from_parts(n: u64, mean: f64, m2: f64) -> Result<Self> {
         check_finite("GaussianStats mean", 0, mean)?;
         if !(m2.is_finite() && m2 >= 0.0) {
-            return Err(BayesError::InvalidParameter { name: "m2", value: m2, requirement: "finite and >= 0" });
+            return Err(BayesError::InvalidParameter {
+                name: "m2",
+                value: m2,
+                requirement: "finite and >= 0",
+            });
         }
         if n == 0 && (mean != 0.0 || m2 != 0.0) {
-            return Err(BayesError::InvalidParameter { name: "mean/m2 with n = 0", value: mean, requirement: "0" });
+            return Err(BayesError::InvalidParameter {
+                name: "mean/m2 with n = 0",
+                value: mean,
+                requirement: "0",
+            });
         }
         Ok(Self { n, mean, m2 })
     }
@@ -299,7 +322,9 @@ impl NormalInverseGamma {
         let n = s.n as f64;
         let db = self.delta_beta(s);
         let beta_n = self.beta + db;
-        ln_gamma_diff(self.alpha, 0.5 * n) - self.alpha * (db / self.beta).ln_1p() - 0.5 * n * beta_n.ln()
+        ln_gamma_diff(self.alpha, 0.5 * n)
+            - self.alpha * (db / self.beta).ln_1p()
+            - 0.5 * n * beta_n.ln()
             - 0.5 * (n / self.kappa).ln_1p()
             - n * LN_SQRT_2PI
     }
@@ -328,12 +353,16 @@ impl NormalInverseGamma {
 
     /// Log density of (μ, σ²) under this distribution (σ² > 0; `-inf` otherwise).
     pub fn log_pdf(&self, mu: f64, sigma2: f64) -> f64 {
-        if !(sigma2 > 0.0) || mu.is_nan() {
-            return if mu.is_nan() || sigma2.is_nan() { f64::NAN } else { f64::NEG_INFINITY };
+        if mu.is_nan() || sigma2.is_nan() {
+            return f64::NAN;
+        }
+        if sigma2 <= 0.0 {
+            return f64::NEG_INFINITY;
         }
         let d = mu - self.mu;
         // N(μ; μ₀, σ²/κ) · InvGamma(σ²; α, β)
-        -LN_SQRT_2PI + 0.5 * (self.kappa / sigma2).ln() - 0.5 * self.kappa * d * d / sigma2 + self.alpha * self.beta.ln()
+        -LN_SQRT_2PI + 0.5 * (self.kappa / sigma2).ln() - 0.5 * self.kappa * d * d / sigma2
+            + self.alpha * self.beta.ln()
             - crate::special::ln_gamma(self.alpha)
             - (self.alpha + 1.0) * sigma2.ln()
             - self.beta / sigma2

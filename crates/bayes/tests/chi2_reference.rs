@@ -17,7 +17,10 @@ fn check_p(label: &str, got: f64, want: f64, stat: f64, worst: &mut Worst) {
     }
     let rel = (got - want).abs() / want;
     worst.see(rel, || label.to_string());
-    assert!(rel <= 1e-12 + 2e-15 * stat, "{label}: p {got}, want {want}, rel {rel:e}");
+    assert!(
+        rel <= 1e-12 + 2e-15 * stat,
+        "{label}: p {got}, want {want}, rel {rel:e}"
+    );
 }
 
 #[test]
@@ -31,8 +34,18 @@ fn contingency_tables_match_scipy_and_mpmath() {
             let t = chi2_contingency(&table, yates).unwrap();
             assert_eq!(t.dof as u64, c["dof"].as_u64().unwrap(), "{label}");
             let want_stat = f(&c[format!("statistic_{suffix}").as_str()]);
-            assert!(scaled_diff(t.statistic, want_stat) <= 1e-12, "{label}: stat {} vs {want_stat}", t.statistic);
-            check_p(&label, t.p_value, f(&c[format!("pvalue_{suffix}_mp").as_str()]), t.statistic, &mut worst);
+            assert!(
+                scaled_diff(t.statistic, want_stat) <= 1e-12,
+                "{label}: stat {} vs {want_stat}",
+                t.statistic
+            );
+            check_p(
+                &label,
+                t.p_value,
+                f(&c[format!("pvalue_{suffix}_mp").as_str()]),
+                t.statistic,
+                &mut worst,
+            );
             let (_, expected) = fm(&c["expected"]);
             for (a, b) in t.expected.iter().zip(&expected) {
                 assert!(scaled_diff(*a, *b) <= 1e-14, "{label}: expected {a} vs {b}");
@@ -51,7 +64,12 @@ fn uniform_goodness_of_fit_matches_scipy_and_mpmath() {
         let t = chi2_uniform_fit(&fv(&c["f_obs"])).unwrap();
         assert_eq!(t.dof as u64, c["dof"].as_u64().unwrap());
         assert!(scaled_diff(t.expected[0], f(&c["expected_each"])) <= 1e-15, "{label}");
-        assert!(scaled_diff(t.statistic, f(&c["statistic"])) <= 1e-12, "{label}: {} vs {}", t.statistic, c["statistic"]);
+        assert!(
+            scaled_diff(t.statistic, f(&c["statistic"])) <= 1e-12,
+            "{label}: {} vs {}",
+            t.statistic,
+            c["statistic"]
+        );
         check_p(&label, t.p_value, f(&c["pvalue_mp"]), t.statistic, &mut worst);
     }
     worst.report("goodness-of-fit p-value relative error");

@@ -21,12 +21,21 @@ fn dirichlet_multinomial_matches_mpmath() {
         assert_eq!(counts.total(), c["N"].as_u64().unwrap());
 
         for (got, want) in d.predictive_probs(&counts).unwrap().iter().zip(fv(&c["predictive"])) {
-            assert!(scaled_diff(*got, want) <= 1e-15, "{}: predictive {got} vs {want}", label());
+            assert!(
+                scaled_diff(*got, want) <= 1e-15,
+                "{}: predictive {got} vs {want}",
+                label()
+            );
         }
         let lml = d.log_marginal_likelihood(&counts).unwrap();
         let ds = scaled_diff(lml, f(&c["log_ml_sequence"]));
         w_seq.see(ds, label);
-        assert!(ds <= tol(1.0), "{}: log p(sequence) {lml} vs {}", label(), c["log_ml_sequence"]);
+        assert!(
+            ds <= tol(1.0),
+            "{}: log p(sequence) {lml} vs {}",
+            label(),
+            c["log_ml_sequence"]
+        );
         // The chain of sequential predictives (5.14) gives the same number.
         let mut cc = d.empty_counts();
         let mut chain = 0.0;
@@ -35,11 +44,20 @@ fn dirichlet_multinomial_matches_mpmath() {
             cc.update(k).unwrap();
         }
         assert!(scaled_diff(chain, lml) <= 1e-12, "{}: chain {chain} vs {lml}", label());
-        assert!(scaled_diff(chain, f(&c["log_ml_sequence_chain"])) <= 1e-12, "{}", label());
+        assert!(
+            scaled_diff(chain, f(&c["log_ml_sequence_chain"])) <= 1e-12,
+            "{}",
+            label()
+        );
         let pmf = d.log_pmf_counts(&counts).unwrap();
         let dp = scaled_diff(pmf, f(&c["log_pmf_counts_mp"]));
         w_pmf.see(dp, label);
-        assert!(dp <= tol(1.0), "{}: log pmf {pmf} vs {}", label(), c["log_pmf_counts_mp"]);
+        assert!(
+            dp <= tol(1.0),
+            "{}: log pmf {pmf} vs {}",
+            label(),
+            c["log_pmf_counts_mp"]
+        );
     }
     w_seq.report("log p(sequence) scaled diff");
     w_pmf.report("log pmf(counts) scaled diff");

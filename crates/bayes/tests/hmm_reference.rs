@@ -28,7 +28,13 @@ fn cases() -> Vec<Case> {
             let log_emis: Vec<f64> = emis.iter().map(|p| p.ln()).collect();
             let log_e = categorical_log_emissions(&log_emis, n, &uv(&c["obs"])).unwrap();
             let label = format!("case {i} ({}, n={n}, T={})", c["kind"].as_str().unwrap(), c["T"]);
-            Case { label, hmm, log_e, n, json: c.clone() }
+            Case {
+                label,
+                hmm,
+                log_e,
+                n,
+                json: c.clone(),
+            }
         })
         .collect()
 }
@@ -80,7 +86,11 @@ fn forward_log_likelihood_matches_hmmlearn() {
         worst.see(d, || c.label.clone());
         assert!(d <= 1e-12, "{}: got {got}, want {want}, scaled diff {d:e}", c.label);
         // The numpy scaled forward pass agrees too.
-        assert!(scaled_diff(got, f(&c.json["log_prob_scaled_forward"])) <= 1e-12, "{}", c.label);
+        assert!(
+            scaled_diff(got, f(&c.json["log_prob_scaled_forward"])) <= 1e-12,
+            "{}",
+            c.label
+        );
     }
     worst.report("forward scaled diff");
 }
@@ -95,7 +105,12 @@ fn streaming_filter_matches_batch_and_fails_at_impossible_at() {
             let step = filter.step(&c.hmm, row).unwrap();
             assert!(!step.is_nan(), "{}", c.label);
             sum += step;
-            assert_eq!(filter.is_impossible(), impossible_at.is_some_and(|k| t >= k), "{} at t = {t}", c.label);
+            assert_eq!(
+                filter.is_impossible(),
+                impossible_at.is_some_and(|k| t >= k),
+                "{} at t = {t}",
+                c.label
+            );
             if !filter.is_impossible() {
                 let s: f64 = filter.filtered().iter().sum();
                 assert!((s - 1.0).abs() < 1e-13, "{}", c.label);

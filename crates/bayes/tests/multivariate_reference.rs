@@ -23,8 +23,14 @@ fn mvn_matches_mpmath() {
         let got = mvn_log_pdf(&vec_of(&c["x"]), &vec_of(&c["mean"]), &mat_of(&c["cov"])).unwrap();
         let (want, cond) = (f(&c["logpdf_mp"]), f(&c["cond"]));
         let d = scaled_diff(got, want);
-        worst.see(d / tol(cond), || format!("case {i} ({}), scaled diff {d:.2e}", c["kind"]));
-        assert!(d <= tol(cond), "case {i} ({}): got {got}, want {want}, diff {d:e}, cond {cond:e}", c["kind"]);
+        worst.see(d / tol(cond), || {
+            format!("case {i} ({}), scaled diff {d:.2e}", c["kind"])
+        });
+        assert!(
+            d <= tol(cond),
+            "case {i} ({}): got {got}, want {want}, diff {d:e}, cond {cond:e}",
+            c["kind"]
+        );
     }
     worst.report("mvn diff / tolerance");
 }
@@ -37,8 +43,14 @@ fn multivariate_t_matches_mpmath() {
         let got = mvt_log_pdf(&vec_of(&c["x"]), &vec_of(&c["loc"]), &mat_of(&c["shape"]), f(&c["df"])).unwrap();
         let (want, cond) = (f(&c["logpdf_mp"]), f(&c["cond"]));
         let d = scaled_diff(got, want);
-        worst.see(d / tol(cond), || format!("case {i} ({}), scaled diff {d:.2e}", c["kind"]));
-        assert!(d <= tol(cond), "case {i} ({}): got {got}, want {want}, diff {d:e}", c["kind"]);
+        worst.see(d / tol(cond), || {
+            format!("case {i} ({}), scaled diff {d:.2e}", c["kind"])
+        });
+        assert!(
+            d <= tol(cond),
+            "case {i} ({}): got {got}, want {want}, diff {d:e}",
+            c["kind"]
+        );
     }
     worst.report("mvt diff / tolerance");
 }
@@ -51,8 +63,14 @@ fn inverse_wishart_matches_mpmath() {
         let got = inv_wishart_log_pdf(&mat_of(&c["X"]), f(&c["df"]), &mat_of(&c["scale"])).unwrap();
         let (want, cond) = (f(&c["logpdf_mp"]), f(&c["cond_X"]));
         let d = scaled_diff(got, want);
-        worst.see(d / tol(cond), || format!("case {i} ({}), scaled diff {d:.2e}", c["kind"]));
-        assert!(d <= tol(cond), "case {i} ({}): got {got}, want {want}, diff {d:e}", c["kind"]);
+        worst.see(d / tol(cond), || {
+            format!("case {i} ({}), scaled diff {d:.2e}", c["kind"])
+        });
+        assert!(
+            d <= tol(cond),
+            "case {i} ({}): got {got}, want {want}, diff {d:e}",
+            c["kind"]
+        );
     }
     worst.report("inverse-Wishart diff / tolerance");
 }

@@ -24,7 +24,11 @@ fn ln_gamma_matches_mpmath() {
         let got = ln_gamma(x);
         // Relative accuracy everywhere except the reflected negative arguments (absolute there:
         // sin(πx) loses relative accuracy with |x|).
-        let e = if x > 0.0 { rel(got, want, 1e-300) } else { rel(got, want, 1.0) };
+        let e = if x > 0.0 {
+            rel(got, want, 1e-300)
+        } else {
+            rel(got, want, 1.0)
+        };
         worst.see(e, || format!("x = {x}"));
         assert!(e <= 1e-15, "ln_gamma({x}) = {got}, want {want}, error {e:e}");
     }
@@ -64,7 +68,10 @@ fn ln_multigamma_matches_mpmath() {
     for c in data["ln_multigamma"].as_array().unwrap() {
         let (p, a, want) = (c["p"].as_u64().unwrap() as usize, f(&c["a"]), f(&c["value"]));
         let got = ln_multigamma(p, a);
-        assert!(rel(got, want, 1.0) <= 1e-15, "ln_multigamma({p}, {a}) = {got}, want {want}");
+        assert!(
+            rel(got, want, 1.0) <= 1e-15,
+            "ln_multigamma({p}, {a}) = {got}, want {want}"
+        );
     }
     assert_eq!(ln_multigamma(0, 2.0), 0.0);
 }
@@ -83,7 +90,10 @@ fn incomplete_gamma_matches_mpmath() {
                 w.see(e, || format!("a = {a}, x = {x}"));
                 // The prefactor x^a e^−x is exp of a number of size x + a·|ln x|, whose
                 // rounding is amplified by that size: allow a few ulp times it.
-                assert!(e <= 4e-16 * (x + a + a * x.ln().abs()).max(25.0), "{name}({a}, {x}) = {got}, want {want}, rel {e:e}");
+                assert!(
+                    e <= 4e-16 * (x + a + a * x.ln().abs()).max(25.0),
+                    "{name}({a}, {x}) = {got}, want {want}, rel {e:e}"
+                );
             } else {
                 assert!(got <= 1e-299, "{name}({a}, {x}) = {got}, want {want}");
             }

@@ -15,7 +15,11 @@ fn student_t_matches_mpmath_for_df_1e_minus_3_to_1e10() {
         let want = f(&c["logpdf_mp"]);
         let d = scaled_diff(got, want);
         worst.see(d, || format!("case {i} ({}, df = {df:e})", c["kind"]));
-        assert!(d <= tol(1.0), "case {i} ({}): got {got}, want {want}, diff {d:e}", c["kind"]);
+        assert!(
+            d <= tol(1.0),
+            "case {i} ({}): got {got}, want {want}, diff {d:e}",
+            c["kind"]
+        );
     }
     worst.report("Student-t scaled diff");
 }
@@ -31,7 +35,12 @@ fn nig_posterior_marginal_and_predictive_match_reference() {
         let stats = GaussianStats::from_slice(&xs).unwrap();
         assert_eq!(stats.n(), c["n"].as_u64().unwrap());
         let post = prior.posterior(&stats);
-        for (got, key) in [(post.mu(), "mu_n"), (post.kappa(), "kappa_n"), (post.alpha(), "alpha_n"), (post.beta(), "beta_n")] {
+        for (got, key) in [
+            (post.mu(), "mu_n"),
+            (post.kappa(), "kappa_n"),
+            (post.alpha(), "alpha_n"),
+            (post.beta(), "beta_n"),
+        ] {
             let d = scaled_diff(got, f(&c[key]));
             w_post.see(d, || format!("{} {key}", label()));
             assert!(d <= 1e-12, "{} {key}: got {got}, want {}", label(), c[key]);
@@ -40,7 +49,12 @@ fn nig_posterior_marginal_and_predictive_match_reference() {
         let lml = prior.log_marginal_likelihood(&stats);
         let d = scaled_diff(lml, f(&c["log_marginal_likelihood"]));
         w_ml.see(d, label);
-        assert!(d <= tol(1.0), "{}: lml {lml}, want {}", label(), c["log_marginal_likelihood"]);
+        assert!(
+            d <= tol(1.0),
+            "{}: lml {lml}, want {}",
+            label(),
+            c["log_marginal_likelihood"]
+        );
         assert!(scaled_diff(lml, f(&c["log_ml_chain_rule"])) <= 1e-12, "{}", label());
         // Chain rule through our own predictive, one observation at a time (A.25).
         let mut s = GaussianStats::new();
@@ -51,13 +65,27 @@ fn nig_posterior_marginal_and_predictive_match_reference() {
         }
         assert!(scaled_diff(chain, lml) <= 1e-12, "{}: chain {chain} vs {lml}", label());
         let t = prior.posterior_predictive(&stats);
-        for (got, key) in [(t.df(), "predictive_df"), (t.loc(), "predictive_loc"), (t.scale(), "predictive_scale")] {
-            assert!(scaled_diff(got, f(&c[key])) <= 1e-12, "{} {key}: got {got}, want {}", label(), c[key]);
+        for (got, key) in [
+            (t.df(), "predictive_df"),
+            (t.loc(), "predictive_loc"),
+            (t.scale(), "predictive_scale"),
+        ] {
+            assert!(
+                scaled_diff(got, f(&c[key])) <= 1e-12,
+                "{} {key}: got {got}, want {}",
+                label(),
+                c[key]
+            );
         }
         for (q, want) in fv(&c["query"]).into_iter().zip(fv(&c["predictive_logpdf"])) {
             let d = scaled_diff(t.log_pdf(q), want);
             w_pred.see(d, label);
-            assert!(d <= tol(1.0), "{}: predictive at {q}: {} vs {want}", label(), t.log_pdf(q));
+            assert!(
+                d <= tol(1.0),
+                "{}: predictive at {q}: {} vs {want}",
+                label(),
+                t.log_pdf(q)
+            );
         }
     }
     w_ml.report("NIG log marginal likelihood scaled diff");

@@ -33,12 +33,16 @@ pub fn fv(v: &Value) -> Vec<f64> {
 /// A matrix (list of rows) flattened row-major, with its row count.
 pub fn fm(v: &Value) -> (usize, Vec<f64>) {
     let rows = v.as_array().unwrap();
-    (rows.len(), rows.iter().flat_map(|r| fv(r)).collect())
+    (rows.len(), rows.iter().flat_map(fv).collect())
 }
 
 /// A vector of indices.
 pub fn uv(v: &Value) -> Vec<usize> {
-    v.as_array().unwrap().iter().map(|x| x.as_u64().unwrap() as usize).collect()
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_u64().unwrap() as usize)
+        .collect()
 }
 
 /// |a − b| / max(1, |b|); 0 when both are the same infinity, +inf when only one is infinite or
