@@ -20,6 +20,9 @@ impl DemoSink for Sink {
         let o = self.bank.observe(p);
         self.obs.push(o.clone());
         self.percepts.push(p.clone());
+        if std::env::var("PALM").is_ok() {
+            println!("  t={:.2} palm z {:.3} f {:?} flex {:.2}", p.t, p.hands[0].palm[2], p.hands[0].finger_force, p.hands[0].flexion);
+        }
         if o.x != self.last {
             let on: Vec<String> = o
                 .hits
@@ -78,6 +81,11 @@ fn main() {
     }
     for v in &inf.state_path {
         println!("  {:>6.1}-{:>6.1} {} {}", v.t_start, v.t_end, v.schema, v.state);
+    }
+    if let Ok(name) = std::env::var("SCHEMA") {
+        for v in engine.state_path(&name, &sink.obs).unwrap() {
+            println!("  [{name}] {:>6.1}-{:>6.1} {} {}", v.t_start, v.t_end, v.schema, v.state);
+        }
     }
     for i in &inf.instances {
         println!("instance {} {:.1}-{:.1} object {:?} place {:?} arm {:?} map {} {:.3}", i.schema, i.t_start, i.t_end, i.object, i.place, i.arm, i.posterior.map, i.posterior.map_posterior);

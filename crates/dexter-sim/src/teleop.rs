@@ -400,6 +400,7 @@ enum Step {
     TakeAway { object: usize },
     Park,
     TouchTop { object: usize },
+    TouchDown { to: Iso3 },
     WanderTo { target: Vec3 },
     Reopen,
 }
@@ -541,8 +542,10 @@ impl Teacher {
                     }
                 }
             }
-            steps.push(Step::Park);
-            steps.push(Step::Pause(0.8));
+            if !matches!(task, TeachTask::PickHold { .. }) {
+                steps.push(Step::Park);
+                steps.push(Step::Pause(0.8));
+            }
         }
         let arm = first_arm.ok_or_else(|| SimError::Task("no task for the teacher".into()))?;
         let tremor = std::array::from_fn(|_| {
@@ -723,16 +726,29 @@ impl Teacher {
                 self.begin(t, park, 0.3, 0.25);
             }
             Step::TouchTop { object } => {
+                // One fingertip (F3) on the object's top, the others beside it: the palm is offset
+                // so that F3's tip, at the open-hand flexion, is above the centre.
                 let op = sim.object_state(object).pose;
                 let shape = &scene.catalog.objects[sim.objects()[object].catalog_index].shape;
                 let top = op.translation.z + geometry::support_half_extent(shape, &(op.rotation.inverse() * Vec3::z()));
                 let arc = finger_arc(sim, self.arm)?;
-                // Open fingers (flexion 0.3): the tips hang this far below the palm.
-                let depth = arc.iter().min_by(|a, b| (a.0 - 0.3).abs().total_cmp(&(b.0 - 0.3).abs())).map_or(0.1, |a| -a.2);
+                let &(_, lateral, depth) = arc
+                    .iter()
+                    .min_by(|a, b| (a.0 - 0.3).abs().total_cmp(&(b.0 - 0.3).abs()))
+                    .expect("the arc has samples");
+                const TIP_RADIUS: f64 = 0.01;
                 let mut to = here;
-                to.translation.vector.z = top + depth.abs() - 0.006;
-                self.begin(t, to, 0.3, 0.06);
+                let f3 = here.rotation * Vec3::new(0.0, lateral, 0.0);
+                to.translation.vector.x = op.translation.x - f3.x;
+                to.translation.vector.y = op.translation.y - f3.y;
+                to.translation.vector.z = top + depth.abs() + TIP_RADIUS - 0.008;
+                // First above the touch point, then down onto it.
+                let mut above = to;
+                above.translation.vector.z += 0.06;
+                self.steps.insert(self.index, Step::TouchDown { to });
+                self.begin(t, above, 0.3, 0.2);
             }
+            Step::TouchDown { to } => self.begin(t, to, 0.3, 0.05),
             Step::WanderTo { target } => {
                 let to = Iso3::from_parts(Translation3::from(target), here.rotation);
                 let flex = 0.3 + 0.3 * self.rng.next_f64();

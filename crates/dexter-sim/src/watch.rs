@@ -429,7 +429,7 @@ pub fn run_demonstration(
         if tick % percept_every == 0 {
             // The head follows the working hand (the robot watches the teacher's hand at work).
             let palm = driver.palm_pose(sim, working).translation.vector;
-            let target = Vec3::new(palm.x, palm.y, (palm.z - 0.12).max(watcher.table_z + 0.03));
+            let target = Vec3::new(palm.x, palm.y, palm.z.max(watcher.table_z + 0.03));
             watcher.look_at(sim, &target)?;
             let p = watcher.percept(sim, sim.time() - t0)?;
             percepts += 1;

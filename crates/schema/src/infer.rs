@@ -62,7 +62,7 @@ impl Default for InferenceConfig {
             rate_hz: 10.0,
             background_switch: 0.02,
             background_on: 0.1,
-            persistence: 0.6,
+            persistence: 0.4,
         }
     }
 }
@@ -82,7 +82,10 @@ enum Slot {
 #[derive(Debug, Clone)]
 struct Composite {
     hmm: Hmm,
+    /// The slot of each hidden state; every slot appears twice, as its entry step then its dwell.
     slots: Vec<Slot>,
+    /// Whether each hidden state is the first step in its slot (errors are fresh there).
+    entry: Vec<bool>,
     /// Final-state mask: goal states and the after-gap.
     accept: Vec<bool>,
 }
@@ -96,7 +99,8 @@ pub struct Engine {
     per_schema: Vec<Composite>,
     /// All schemas together, for segmentation.
     all: Composite,
-    ln: Noise,
+    /// Per action.
+    ln: Vec<Noise>,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -216,25 +220,32 @@ impl Engine {
         if !(q > 0.0 && q < 0.5 && r > 0.0 && r < 1.0 && config.persistence > 0.0 && config.persistence < 1.0) {
             return Err(SchemaError::invalid("inference", "background", "probabilities out of range"));
         }
-        let (m, f) = (library.miss, library.false_alarm);
-        let ln = Noise {
-            on_conv: (1.0 - m).ln(),
-            off_conv: m.ln(),
-            on_not: f.ln(),
-            off_not: (1.0 - f).ln(),
-            err_again: config.persistence.ln(),
-            err_end: (1.0 - config.persistence).ln(),
-            stay: (1.0 - q).ln(),
-            switch: q.ln(),
-            first_on: r.ln(),
-            first_off: (1.0 - r).ln(),
-        };
+        let ln: Vec<Noise> = (0..library.actions.len())
+            .map(|a| {
+                let (m, f) = library.noise(a);
+                Noise {
+                    on_conv: (1.0 - m).ln(),
+                    off_conv: m.ln(),
+                    on_not: f.ln(),
+                    off_not: (1.0 - f).ln(),
+                    err_again: config.persistence.ln(),
+                    err_end: (1.0 - config.persistence).ln(),
+                    stay: (1.0 - q).ln(),
+                    switch: q.ln(),
+                    first_on: r.ln(),
+                    first_off: (1.0 - r).ln(),
+                }
+            })
+            .collect();
         let p_stay = (1.0 - 1.0 / (library.dwell_secs * config.rate_hz)).clamp(0.5, 0.999);
+        // Before and after a task the teacher may idle for long: gaps, start and terminal states
+        // dwell ten times longer than the task's own states.
+        let p_idle = (1.0 - 0.1 / (library.dwell_secs * config.rate_hz)).clamp(0.5, 0.9999);
         let per_schema = (0..library.schemas.len())
-            .map(|s| composite(library, &[s], p_stay))
+            .map(|s| composite(library, &[s], p_stay, p_idle))
             .collect::<Result<Vec<_>, _>>()?;
         let everything: Vec<usize> = (0..library.schemas.len()).collect();
-        let all = composite(library, &everything, p_stay)?;
+        let all = composite(library, &everything, p_stay, p_idle)?;
         Ok(Engine {
             library: library.clone(),
             config,
@@ -252,47 +263,55 @@ impl Engine {
     /// log p(x_t | slot, x_{t−1}) for every slot of `c`, appended to `out`.
     fn emissions(&self, c: &Composite, obs: &[Observation], out: &mut Vec<f64>) {
         let k = self.library.actions.len();
-        let ln = self.ln;
-        // Per step and component: (converged, not converged, either).
-        let mut table = vec![[0.0f64; 3]; k];
+        // Per step and component: converged (fresh, in a burst), not converged (fresh, in a burst),
+        // either. "Fresh" applies on the first step of a state, where an error cannot continue one.
+        let mut table = vec![[0.0f64; 5]; k];
         for (t, o) in obs.iter().enumerate() {
-            let mut background = 0.0;
+            // The gap (and "none"): every action not converged.
+            let mut gap = [0.0, 0.0];
             for a in 0..k {
+                let ln = self.ln[a];
                 let x = o.x[a];
-                let bg = if t == 0 {
-                    if x { ln.first_on } else { ln.first_off }
-                } else if x == obs[t - 1].x[a] {
-                    ln.stay
-                } else {
-                    ln.switch
-                };
                 let prev = if t == 0 { None } else { Some(obs[t - 1].x[a]) };
-                // Expected converged: an error is x = 0; it continues if the previous step was 0 too.
-                let conv = match (x, prev) {
+                let bg = match prev {
+                    None => {
+                        if x {
+                            ln.first_on
+                        } else {
+                            ln.first_off
+                        }
+                    }
+                    Some(p) if p == x => ln.stay,
+                    Some(_) => ln.switch,
+                };
+                let conv_fresh = if x { ln.on_conv } else { ln.off_conv };
+                let not_fresh = if x { ln.on_not } else { ln.off_not };
+                // In a burst: the previous step was in error too.
+                let conv_burst = match (x, prev) {
                     (true, Some(false)) => ln.err_end,
-                    (true, _) => ln.on_conv,
                     (false, Some(false)) => ln.err_again,
-                    (false, _) => ln.off_conv,
+                    _ => conv_fresh,
                 };
-                let not = match (x, prev) {
+                let not_burst = match (x, prev) {
                     (false, Some(true)) => ln.err_end,
-                    (false, _) => ln.off_not,
                     (true, Some(true)) => ln.err_again,
-                    (true, _) => ln.on_not,
+                    _ => not_fresh,
                 };
-                table[a] = [conv, not, bg];
-                background += bg;
+                table[a] = [conv_fresh, conv_burst, not_fresh, not_burst, bg];
+                gap[0] += not_fresh;
+                gap[1] += not_burst;
             }
-            for slot in &c.slots {
+            for (slot, &entry) in c.slots.iter().zip(&c.entry) {
+                let b = usize::from(!entry);
                 out.push(match *slot {
-                    Slot::GapBefore | Slot::GapAfter => background,
+                    Slot::GapBefore | Slot::GapAfter => gap[b],
                     Slot::State { schema, state } => {
                         let s = &self.library.schemas[schema];
                         (0..k)
                             .map(|a| match s.expects(state, a) {
-                                Expect::Converged => table[a][0],
-                                Expect::NotConverged => table[a][1],
-                                Expect::Either => table[a][2],
+                                Expect::Converged => table[a][b],
+                                Expect::NotConverged => table[a][2 + b],
+                                Expect::Either => table[a][4],
                             })
                             .sum()
                     }
@@ -317,24 +336,19 @@ impl Engine {
         Ok(filter.log_likelihood() + log_sum_exp(&acc))
     }
 
-    /// log p(x | none): the background process alone.
+    /// log p(x | none): nothing intended; every convergence is a false alarm.
     fn none_evidence(&self, obs: &[Observation]) -> f64 {
-        let k = self.library.actions.len();
-        let ln = self.ln;
-        let mut sum = 0.0;
-        for (t, o) in obs.iter().enumerate() {
-            for a in 0..k {
-                let x = o.x[a];
-                sum += if t == 0 {
-                    if x { ln.first_on } else { ln.first_off }
-                } else if x == obs[t - 1].x[a] {
-                    ln.stay
-                } else {
-                    ln.switch
-                };
-            }
-        }
-        sum
+        let gap_only = Composite {
+            hmm: Hmm::new(vec![0.0, f64::NEG_INFINITY], vec![f64::NEG_INFINITY, 0.0, f64::NEG_INFINITY, 0.0])
+                .expect("a two-state chain"),
+            slots: vec![Slot::GapBefore, Slot::GapBefore],
+            entry: vec![true, false],
+            accept: vec![true, true],
+        };
+        let mut e = Vec::with_capacity(2 * obs.len());
+        self.emissions(&gap_only, obs, &mut e);
+        // Entry at the first step, dwell after.
+        e.iter().enumerate().filter(|(i, _)| (*i == 0) || (*i % 2 == 1 && *i > 1)).map(|(_, v)| v).sum()
     }
 
     /// The posterior over the library and none for `obs` (each schema as S⁺).
@@ -438,6 +452,16 @@ impl Engine {
             }
         }
         out
+    }
+
+    /// The Viterbi state path of schema `name` (as S⁺) on `obs`; empty if it cannot explain them.
+    pub fn state_path(&self, name: &str, obs: &[Observation]) -> Result<Vec<StateVisit>, SchemaError> {
+        self.library.schema(name)?;
+        let si = self.library.schemas.iter().position(|x| x.name == name).expect("found");
+        Ok(self
+            .viterbi(&self.per_schema[si], obs)?
+            .map(|p| self.visits(&p, obs))
+            .unwrap_or_default())
     }
 
     /// The state path of the composite model (every schema), as visits.
@@ -559,61 +583,70 @@ fn facts(library: &Library, obs: &[Observation]) -> Vec<Fact> {
     out
 }
 
-/// Builds the composite HMM of `schemas` (each repeatable) with the two gaps.
-fn composite(library: &Library, schemas: &[usize], p_stay: f64) -> Result<Composite, SchemaError> {
-    let mut slots = vec![Slot::GapBefore, Slot::GapAfter];
+/// Builds the composite HMM of `schemas` (each repeatable) with the two gaps. Every slot has an
+/// entry step and a dwell: a transition enters a slot at its entry step.
+fn composite(library: &Library, schemas: &[usize], p_stay: f64, p_idle: f64) -> Result<Composite, SchemaError> {
+    let mut base = vec![Slot::GapBefore, Slot::GapAfter];
     for &s in schemas {
         for state in 0..library.schemas[s].states.len() {
-            slots.push(Slot::State { schema: s, state });
+            base.push(Slot::State { schema: s, state });
         }
     }
-    let n = slots.len();
+    let nb = base.len();
     let index = |schema: usize, state: usize| {
-        slots
-            .iter()
+        base.iter()
             .position(|x| *x == Slot::State { schema, state })
             .expect("slot exists")
     };
-    let mut trans = vec![0.0f64; n * n];
+    // Successors and stay probability per base slot.
     let starts: Vec<usize> = schemas.iter().map(|&s| index(s, library.schemas[s].start)).collect();
-    // Gaps: stay, or begin an instance of any schema.
-    for gap in [0usize, 1] {
-        trans[gap * n + gap] = p_stay;
-        for &st in &starts {
-            trans[gap * n + st] += (1.0 - p_stay) / starts.len() as f64;
-        }
-    }
+    let mut succ: Vec<Vec<usize>> = vec![starts.clone(), starts.clone()];
+    let mut stay = vec![p_idle, p_idle];
     for &s in schemas {
         let sc = &library.schemas[s];
         for state in 0..sc.states.len() {
-            let i = index(s, state);
-            let mut succ: Vec<usize> = sc.successors(state).map(|t| index(s, t.to)).collect();
+            let mut out: Vec<usize> = sc.successors(state).map(|t| index(s, t.to)).collect();
+            // The start and terminal states (no successors) are where a teacher idles.
+            let terminal = out.is_empty();
             if sc.is_goal(state) {
                 // After a goal the demonstration may go on: a gap, then another instance.
-                succ.push(1);
+                out.push(1);
             }
-            if succ.is_empty() {
-                trans[i * n + i] = 1.0;
-            } else {
-                trans[i * n + i] = p_stay;
-                for j in &succ {
-                    trans[i * n + j] += (1.0 - p_stay) / succ.len() as f64;
-                }
+            stay.push(if state == sc.start || terminal { p_idle } else { p_stay });
+            succ.push(out);
+        }
+    }
+    let n = 2 * nb;
+    let mut trans = vec![0.0f64; n * n];
+    for i in 0..nb {
+        for from in [2 * i, 2 * i + 1] {
+            if succ[i].is_empty() {
+                trans[from * n + 2 * i + 1] = 1.0;
+                continue;
+            }
+            trans[from * n + 2 * i + 1] = stay[i];
+            for &j in &succ[i] {
+                trans[from * n + 2 * j] += (1.0 - stay[i]) / succ[i].len() as f64;
             }
         }
     }
     let mut start = vec![0.0f64; n];
     start[0] = 0.5;
     for &st in &starts {
-        start[st] += 0.5 / starts.len() as f64;
+        start[2 * st] += 0.5 / starts.len() as f64;
     }
-    let mut accept = vec![false; n];
-    accept[1] = true;
+    let mut accept_base = vec![false; nb];
+    accept_base[1] = true;
     for &s in schemas {
         for &g in &library.schemas[s].goal {
-            accept[index(s, g)] = true;
+            accept_base[index(s, g)] = true;
         }
     }
     let hmm = Hmm::new(start.iter().map(|p| p.ln()).collect(), trans.iter().map(|p| p.ln()).collect())?;
-    Ok(Composite { hmm, slots, accept })
+    Ok(Composite {
+        hmm,
+        slots: base.iter().flat_map(|&b| [b, b]).collect(),
+        entry: (0..n).map(|i| i % 2 == 0).collect(),
+        accept: accept_base.iter().flat_map(|&a| [a, a]).collect(),
+    })
 }

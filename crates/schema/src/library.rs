@@ -29,6 +29,12 @@ pub struct Action {
     /// What it means.
     #[serde(default)]
     pub description: String,
+    /// This monitor set's miss probability, if it differs from the library's.
+    #[serde(default)]
+    pub miss: Option<f64>,
+    /// This monitor set's false-alarm probability, if it differs from the library's.
+    #[serde(default)]
+    pub false_alarm: Option<f64>,
 }
 
 /// What a state says about one of its schema's abstract actions.
@@ -219,6 +225,13 @@ impl Library {
             if raw.action[..i].iter().any(|b| b.name == a.name) {
                 return Err(inv(format!("action[{i}].name"), format!("duplicate action `{}`", a.name)));
             }
+            for (field, v) in [("miss", a.miss), ("false_alarm", a.false_alarm)] {
+                if let Some(v) = v
+                    && !(v > 0.0 && v < 0.5)
+                {
+                    return Err(inv(format!("action[{i}].{field}"), format!("must be in (0, 0.5), got {v}")));
+                }
+            }
             if !matches!(a.potential.as_str(), "quadratic" | "force_residual") {
                 return Err(inv(
                     format!("action[{i}].potential"),
@@ -370,6 +383,12 @@ impl Library {
             .iter()
             .find(|s| s.name == name)
             .ok_or_else(|| SchemaError::unknown("schema", name, self.schemas.iter().map(|s| s.name.as_str())))
+    }
+
+    /// (miss, false alarm) of action `a`'s monitor set.
+    pub fn noise(&self, a: usize) -> (f64, f64) {
+        let act = &self.actions[a];
+        (act.miss.unwrap_or(self.miss), act.false_alarm.unwrap_or(self.false_alarm))
     }
 
     /// Names of the actions, in observation-vector order.

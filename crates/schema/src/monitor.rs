@@ -269,7 +269,7 @@ impl MonitorBank {
             if grasp.is_none()
                 && any_contact
                 && !opposing
-                && let Some(seg) = near(2.0 * c.reach_radius)
+                && let Some(seg) = near(3.0 * c.reach_radius)
             {
                 hit(ix.touch, arm, Some(seg), None);
             }
