@@ -181,7 +181,7 @@ pub(crate) fn validate_spd2(field: &str, a: &[[f64; 2]; 2]) -> Result<()> {
     }
     let m = m2(a);
     let det = m[(0, 0)] * m[(1, 1)] - m[(0, 1)] * m[(1, 0)];
-    if cholesky(&m).is_none() || !(det > 1e-12 * scale * scale) {
+    if cholesky(&m).is_none() || det.is_nan() || det <= 1e-12 * scale * scale {
         return Err(GraspError::NotPositiveDefinite {
             field: field.to_string(),
             reason: format!("diagonal ({}, {}), determinant {det:e}", a[0][0], a[1][1]),

@@ -185,8 +185,8 @@ impl GibbsState {
         let bi = &data.b_inv[i];
         let ld = data.ln_det_b[i];
         let row = &self.n_obj[m * self.a..(m + 1) * self.a];
-        for j in 0..self.a {
-            let counts = (row[j] as f64 + alpha) * (self.n_orient[j * self.q + w] as f64 + beta)
+        for (j, &n_mj) in row.iter().enumerate() {
+            let counts = (n_mj as f64 + alpha) * (self.n_orient[j * self.q + w] as f64 + beta)
                 / (self.n_proto[j] as f64 + qbeta);
             self.logw[j] = counts.ln() + self.pos_cache[j].log_pred(x) + self.app_cache[j].log_pred(bi, ld);
         }

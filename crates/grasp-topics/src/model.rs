@@ -668,7 +668,7 @@ impl GraspModel {
                     reason: "not SPD".into(),
                 });
             }
-            if !(p.appearance.dof > 1.0) {
+            if p.appearance.dof.is_nan() || p.appearance.dof <= 1.0 {
                 return Err(invalid(format!("{f}.appearance.dof"), "must be > 1"));
             }
         }

@@ -294,6 +294,19 @@ mod tests {
             assert_relative_eq!(pred_x, ps.log_marginal(&p) - mx0, epsilon = 1e-9);
             assert_relative_eq!(pred_b, aps.log_marginal(&p) - mb0, epsilon = 1e-9);
         }
+        // The cached t agrees with bayes' reference density.
+        let (kn, nun, mun, lam) = ps.posterior(&p);
+        let dof = nun - 2.0;
+        let shape = lam * ((kn + 1.0) / (kn * dof));
+        let x = Vector3::new(0.02, -0.01, 0.1);
+        let reference = bayes::multivariate::mvt_log_pdf(
+            &nalgebra::DVector::from_column_slice(x.as_slice()),
+            &nalgebra::DVector::from_column_slice(mun.as_slice()),
+            &nalgebra::DMatrix::from_column_slice(3, 3, shape.as_slice()),
+            dof,
+        )
+        .unwrap();
+        assert_relative_eq!(PositionCache::new(&ps, &p).log_pred(&x), reference, epsilon = 1e-10);
         // Removing undoes adding.
         let mut ps2 = ps;
         ps2.add(&Vector3::new(0.3, -0.2, 0.0));

@@ -95,7 +95,7 @@ fn geweke(sampler: &Hyperparameters, draws: usize, seed: u64) -> Vec<f64> {
         sample_dataset(&spec, rng).unwrap()
     };
     // Marginal-conditional.
-    let mut mc = vec![Vec::with_capacity(draws); 9];
+    let mut mc = vec![Vec::<f64>::new(); 9];
     for _ in 0..draws {
         let s = forward(&mut rng);
         for (k, v) in stats(&s.truth, &s.data).into_iter().enumerate() {
@@ -105,7 +105,7 @@ fn geweke(sampler: &Hyperparameters, draws: usize, seed: u64) -> Vec<f64> {
     // Successive-conditional.
     let s = forward(&mut rng);
     let (mut data, mut z) = (s.data, s.truth);
-    let mut sc = vec![Vec::with_capacity(draws); 9];
+    let mut sc = vec![Vec::<f64>::new(); 9];
     for _ in 0..draws {
         let mut state = GibbsState::with_assignments(&data, sampler, A, &z).unwrap();
         state.sweep(&data, &mut rng);
