@@ -13,7 +13,10 @@ use crate::convert::iso_from_glam;
 use crate::error::SimError;
 use crate::physics::DexterSim;
 use crate::scene::Scene;
-use crate::vision::{Camera, ItemLabel, Material, RenderItem, RenderScene, StereoBlob, StereoCameras, StereoVision};
+use crate::vision::{
+    Camera, ItemLabel, Material, RenderItem, RenderScene, StereoBlob, StereoCameras, StereoConfig, StereoVision,
+    SupportPlane,
+};
 
 /// Which stereo pair.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -87,9 +90,18 @@ impl Eyes {
             }
         }
         let spec = scene.spec.camera.clone();
+        // Objects rest on the known table plane: centroids from the support-plane estimate.
+        let config = StereoConfig {
+            support: Some(SupportPlane::at(scene.spec.table.height)),
+            ..StereoConfig::default()
+        };
+        let mut head = StereoVision::new(&spec, &scene.spec.light, seed)?;
+        head.set_config(config);
+        let mut chassis = StereoVision::new(&spec, &scene.spec.light, seed ^ 0xC4A5_5150)?;
+        chassis.set_config(config);
         Ok(Eyes {
-            head: StereoVision::new(&spec, &scene.spec.light, seed)?,
-            chassis: StereoVision::new(&spec, &scene.spec.light, seed ^ 0xC4A5_5150)?,
+            head,
+            chassis,
             scene: rs,
             robot_items,
             object_items,

@@ -177,43 +177,74 @@ fn report(label: &str, errs: &[(&'static str, f64)]) -> ErrorStats {
     s
 }
 
-/// Triangulated centroids against the true centroids of 96 random objects (boxes, cylinders and
-/// spheres of 4–14 cm with 1–3 colour bands, random yaw) alone on the table at x 0.4–0.8 m,
-/// y −0.25–0.25 m.
+/// The stereo settings for objects on the table: the known table plane enables the support-plane
+/// centroid ([`dexter_sim::vision::support`]).
+fn on_table() -> StereoConfig {
+    StereoConfig {
+        support: Some(SupportPlane::at(TABLE_TOP)),
+        ..StereoConfig::default()
+    }
+}
+
+/// Centroids against the true centroids of 96 random objects (boxes, cylinders and spheres of
+/// 4–14 cm with 1–3 colour bands, random yaw) alone on the table at x 0.4–0.8 m, y −0.25–0.25 m:
+/// every one within 1 cm (the acceptance of issue 3).
 ///
-/// Measured, no correction:
+/// Measured (mean / p90 / max, within 1 cm):
 ///
-/// | cameras | mean | p90 | max | within 1 cm |
-/// |---|---|---|---|---|
-/// | 160×120, hfov 60° (default) | 4.5 mm | 8.4 mm | 13.1 mm | 90/96 |
-/// | 320×240, hfov 60° | 2.8 mm | 6.5 mm | 11.2 mm | 95/96 |
-/// | 640×480, hfov 60° | 2.6 mm | 6.1 mm | 11.8 mm | 94/96 |
+/// | cameras | triangulated silhouette centroid | support-plane centroid (default on the table) |
+/// |---|---|---|
+/// | 160×120, hfov 60° (default) | 4.5 / 8.4 / 13.1 mm, 90/96 | 1.3 / 2.6 / 4.0 mm, 96/96 |
+/// | 320×240 | 2.8 / 6.5 / 11.2 mm, 95/96 | 0.7 / 1.4 / 2.0 mm, 96/96 |
+/// | 640×480 | 2.6 / 6.1 / 11.8 mm, 94/96 | 0.4 / 0.7 / 1.2 mm, 96/96 |
 ///
-/// Spheres: 3.8 mm mean at 160×120, 1.5 mm at 320×240, 0.8 mm at 640×480. For boxes and
-/// cylinders resolution stops helping beyond 320×240: the remaining error is geometric. The two cameras see different faces of a box or cylinder and
-/// perspective magnifies the nearer ones, so the two silhouette-centroid rays do not pass through one
-/// 3-D point. Large flat boxes seen obliquely are the worst case (another draw of objects gave a
-/// 13 × 7 × 12 cm box 23 mm off even at 640×480).
+/// Over 500 objects at 160×120 the support-plane centroid is within 1 cm for all (mean 1.3 mm,
+/// max 6.4 mm; boxes 1.6 / 4.8, cylinders 1.6 / 6.3, spheres 0.7 / 2.6 mm); at 320×240 and
+/// 640×480 max 2.6 and 2.0 mm.
 ///
-/// Pushing the point back along the viewing direction (`DepthCorrection::PushBack`) makes it worse:
-/// mean 15.6 mm at 0.3 × the apparent radius. The seed triangulates the first moments of the
-/// foreground segments (§6.2.1), and those are silhouette centroids, not visible-surface points.
-/// The silhouette of a centrally symmetric body is centred on the projection of its centre (exactly
-/// in orthographic projection, to second order in perspective), so there is no near-surface bias to
-/// correct. The default is therefore no correction.
+/// Why the triangulated centroid is not enough: 93 % of its error lies along the viewing ray. At
+/// 160×120 one pixel of disparity is about 5 cm of range, and the centroid disparity of a small or
+/// tall segment is off by a few tenths of a pixel (edge quantisation; the two cameras see different
+/// faces and perspective magnifies the nearer ones, so the two silhouette-centroid rays do not
+/// pass through one 3-D point). Resolution stops helping beyond 320×240: the remaining error is
+/// geometric. Intersecting the centroid rays with the plane at the true centroid height instead
+/// gives 1.7 mm mean, 6.0 mm max (what is left is the silhouette centroid's sideways bias); the
+/// support-plane estimate measures that height from the images (the step between side and top
+/// face above each bottom-edge point for boxes and cylinders, the apparent radius for round
+/// objects) and takes x, y of a prism from its footprint (the prism hull of both silhouettes):
+/// without the footprint it measured 2.1 / 4.9 / 7.6 mm at 160×120.
+///
+/// Rejected: pushing the point back along the viewing direction (`DepthCorrection::PushBack`,
+/// 0.3 × the apparent radius: mean 15.6 mm, 20/96 within 1 cm); the step heights without the
+/// round/flat-top test (spheres with colour bands show steps at band edges: mean 11.6 mm, max 63 mm).
 #[test]
 fn triangulated_centroid_accuracy() {
     let spec = CameraSpec::default();
-    let trials = single_object_trials(&spec, StereoConfig::default(), 96);
-    let s = report("160×120 hfov 60°, no correction", &centroid_errors(&trials));
-    assert!(s.mean < 0.006, "mean {}", s.mean);
-    assert!(s.within_1cm * 10 >= s.n * 9, "{} of {} within 1 cm", s.within_1cm, s.n);
-    assert!(s.max < 0.03, "max {}", s.max);
+    let trials = single_object_trials(&spec, on_table(), 96);
+    let errors = centroid_errors(&trials);
+    let s = report("160×120 hfov 60°, support plane", &errors);
+    assert!(s.mean < 0.002, "mean {}", s.mean);
+    assert_eq!(s.within_1cm, s.n, "every object within 1 cm: max {}", s.max);
+    // Boxes and cylinders are measured as prisms, spheres as round, all on the table.
+    for t in &trials {
+        let b = t.blobs.iter().find(|b| b.visibility == Visibility::Both).unwrap();
+        let ok = match (t.kind, b.source) {
+            ("sphere", CentroidSource::Round { radius }) => (radius - (t.truth.z - TABLE_TOP)).abs() < 0.005,
+            (_, CentroidSource::Prism { height }) => (0.5 * height - (t.truth.z - TABLE_TOP)).abs() < 0.01,
+            _ => false,
+        };
+        assert!(ok, "{} {:?}: {:?}", t.kind, t.shape, b.source);
+    }
 
     // The comparisons below take a minute unoptimised; the acceptance tests run in release.
     if cfg!(debug_assertions) {
         return;
     }
+    let raw = report(
+        "160×120 hfov 60°, triangulated (no support plane)",
+        &centroid_errors(&single_object_trials(&spec, StereoConfig::default(), 96)),
+    );
+    assert!(raw.mean > s.mean && raw.within_1cm < raw.n);
     let push = StereoConfig {
         depth_correction: DepthCorrection::PushBack { factor: 0.3 },
         ..StereoConfig::default()
@@ -222,34 +253,59 @@ fn triangulated_centroid_accuracy() {
         "160×120 hfov 60°, push back 0.3 r",
         &centroid_errors(&single_object_trials(&spec, push, 96)),
     );
-    assert!(p.mean > s.mean, "push-back should not help silhouette triangulation");
+    assert!(p.mean > raw.mean, "push-back should not help silhouette triangulation");
 
-    let hi = CameraSpec {
-        width: 320,
-        height: 240,
-        ..CameraSpec::default()
-    };
-    let h = report(
-        "320×240 hfov 60°, no correction",
-        &centroid_errors(&single_object_trials(&hi, StereoConfig::default(), 96)),
-    );
-    assert!(
-        h.mean < 0.004 && h.within_1cm * 20 >= h.n * 19,
-        "mean {} within {}",
-        h.mean,
-        h.within_1cm
-    );
+    for (w, h) in [(320, 240), (640, 480)] {
+        let hi = CameraSpec {
+            width: w,
+            height: h,
+            ..CameraSpec::default()
+        };
+        let r = report(
+            &format!("{w}×{h} hfov 60°, support plane"),
+            &centroid_errors(&single_object_trials(&hi, on_table(), 96)),
+        );
+        assert!(r.mean < 0.0015 && r.max < 0.005, "mean {} max {}", r.mean, r.max);
+    }
+}
 
-    let vga = CameraSpec {
-        width: 640,
-        height: 480,
-        ..CameraSpec::default()
+/// The support-plane estimate is not used where its premises fail: an object lifted off the table
+/// (held by the hand) or standing in a bin keeps its triangulated centroid.
+#[test]
+fn support_plane_only_for_objects_on_the_table() {
+    let spec = CameraSpec::default();
+    let cams = default_cams(&spec);
+    let mut sv = StereoVision::new(&spec, &LightSpec::default(), 5).unwrap();
+    sv.set_config(on_table());
+    let shape = Shape::Box {
+        size: [0.06, 0.05, 0.1],
     };
-    let v = report(
-        "640×480 hfov 60°, no correction",
-        &centroid_errors(&single_object_trials(&vga, StereoConfig::default(), 96)),
-    );
-    assert!(v.mean < 0.004, "mean {}", v.mean);
+    let red = dexter_sim::scene::ColorPatch {
+        hsv: [0.0, 0.8, 0.8],
+        fraction: 1.0,
+    };
+    for lift in [0.0, 0.12] {
+        let mut scene = table_and_bins();
+        let mut pose = resting_pose(&shape, 0.6, 0.05, 0.4);
+        pose.translation.vector.z += lift;
+        scene.push(RenderItem::from_catalog(
+            &shape,
+            pose,
+            std::slice::from_ref(&red),
+            ItemLabel::Object(0),
+        ));
+        let blobs = sv.perceive(&cams, &scene).unwrap();
+        assert_eq!(blobs.len(), 1);
+        let b = blobs[0];
+        let e = (b.centroid.unwrap() - pose.translation.vector).norm();
+        eprintln!("lifted {lift} m: {:?}, error {:.1} mm", b.source, 1e3 * e);
+        if lift == 0.0 {
+            assert!(matches!(b.source, CentroidSource::Prism { .. }) && e < 0.01);
+        } else {
+            assert_eq!(b.source, CentroidSource::Triangulated);
+            assert_eq!(b.centroid, b.raw_centroid);
+        }
+    }
 }
 
 /// Left and right segments of one object agree in size and colour.
@@ -383,6 +439,7 @@ fn occluded_from_one_camera_is_one_sided() {
             ItemLabel::Object(0),
         ));
         let mut sv = StereoVision::new(&spec, &LightSpec::default(), 3).unwrap();
+        sv.set_config(on_table());
         let blobs = sv.perceive(&cams, &scene).unwrap();
         let (vl, vr) = (
             count_label(&sv, Side::Left, ItemLabel::Object(0)),
@@ -559,6 +616,7 @@ fn robot_is_never_foreground_and_matches_are_correct() {
     let (scene, truth) = typical_scene(1, 12, true);
     assert_eq!(scene.items.iter().filter(|i| i.label == ItemLabel::Robot).count(), 41);
     let mut sv = StereoVision::new(&spec, &LightSpec::default(), 2).unwrap();
+    sv.set_config(on_table());
     let blobs = sv.perceive(&cams, &scene).unwrap();
     for side in [Side::Left, Side::Right] {
         let labels = sv.renderer(side).labels();
@@ -635,7 +693,7 @@ fn robot_is_never_foreground_and_matches_are_correct() {
     // Objects clear of the arms and of each other triangulate as well as alone; those cut by the
     // hands or merged with a neighbour do not.
     assert!(clear_errors.len() >= 6);
-    assert!(clear_errors.iter().all(|&e| e < 15.0), "{clear_errors:?}");
+    assert!(clear_errors.iter().all(|&e| e <= 10.0), "{clear_errors:?}");
 }
 
 /// Same seed → bit-identical images; another seed → other noise, same scene.
@@ -773,6 +831,7 @@ fn frames_do_not_allocate() {
     let cams = default_cams(&spec);
     let (mut scene, truth) = typical_scene(5, 12, true);
     let mut sv = StereoVision::new(&spec, &LightSpec::default(), 1).unwrap();
+    sv.set_config(on_table());
     let mut blobs = Vec::new();
     sv.perceive_into(&cams, &scene, &mut blobs).unwrap();
     // Two passes over the same motion: the first may grow buffers (more segments, fuller tiles),
@@ -818,8 +877,8 @@ fn ppm_dump() {
     let _ = bounding_radius(&Shape::Sphere { radius: 1.0 });
 }
 
-/// The built-in sorting scene, rendered from its scene file: every object is seen by both cameras
-/// and triangulated near its resting pose.
+/// The built-in sorting scene, rendered from its scene file: every object (upright and lying
+/// cylinders, boxes) is seen by both cameras and located within 1 cm of its resting pose.
 #[test]
 fn builtin_sorting_scene() {
     let scene = dexter_sim::scene::Scene::builtin("sorting").unwrap();
@@ -827,6 +886,10 @@ fn builtin_sorting_scene() {
     let spec = scene.spec.camera.clone();
     let cams = default_cams(&spec);
     let mut sv = StereoVision::new(&spec, &scene.spec.light, scene.spec.seed).unwrap();
+    sv.set_config(StereoConfig {
+        support: Some(SupportPlane::at(scene.spec.table.height)),
+        ..StereoConfig::default()
+    });
     let blobs = sv.perceive(&cams, &render).unwrap();
     let mut errors = Vec::new();
     for (k, r) in scene.resolved.iter().enumerate() {
@@ -851,5 +914,5 @@ fn builtin_sorting_scene() {
         blobs.iter().filter(|b| b.visibility == Visibility::Both).count(),
         scene.resolved.len()
     );
-    assert!(errors.iter().all(|&e| e < 0.02), "{errors:?}");
+    assert!(errors.iter().all(|&e| e < 0.01), "{errors:?}");
 }

@@ -22,6 +22,7 @@ pub mod noise;
 pub mod render;
 pub mod segment;
 pub mod stereo;
+pub mod support;
 
 pub use camera::Camera;
 pub use color::{ColorHistogram, HISTOGRAM_BINS};
@@ -31,3 +32,4 @@ pub use stereo::{
     DepthCorrection, Side, StereoBlob, StereoCameras, StereoConfig, StereoMatcher, StereoVision, Triangulation,
     Visibility, triangulate, triangulate_rays,
 };
+pub use support::{CentroidSource, SupportEstimator, SupportPlane};

@@ -6,6 +6,7 @@ use crate::scene::{CameraSpec, LightSpec};
 use crate::vision::camera::Camera;
 use crate::vision::render::{Image, RenderScene, Renderer};
 use crate::vision::segment::{Segment, SegmentConfig, Segmenter};
+use crate::vision::support::{CentroidSource, SupportEstimator, SupportPlane, View};
 use control_basis::math::Vec3;
 
 /// A calibrated stereo pair.
@@ -137,6 +138,10 @@ pub struct StereoConfig {
     pub max_range: f64,
     /// Correction of the triangulated centroid.
     pub depth_correction: DepthCorrection,
+    /// The known plane objects rest on (the table): when set, [`StereoVision`] measures each
+    /// object's height and places its centroid on the silhouette-centroid rays at half that height
+    /// ([`crate::vision::support`]).
+    pub support: Option<SupportPlane>,
 }
 
 impl Default for StereoConfig {
@@ -149,6 +154,7 @@ impl Default for StereoConfig {
             min_range: 0.05,
             max_range: 5.0,
             depth_correction: DepthCorrection::None,
+            support: None,
         }
     }
 }
@@ -162,8 +168,10 @@ pub struct StereoBlob {
     pub right: Option<Segment>,
     /// Triangulated (and corrected) 3-D centroid, world (m); only when seen by both.
     pub centroid: Option<Vec3>,
-    /// Triangulated point before [`DepthCorrection`].
+    /// Triangulated point before [`DepthCorrection`] and the support-plane estimate.
     pub raw_centroid: Option<Vec3>,
+    /// Which estimate [`StereoBlob::centroid`] is.
+    pub source: CentroidSource,
     /// Gap between the two centroid rays (m), a matching-quality measure.
     pub ray_gap: Option<f64>,
     /// Which cameras saw it.
@@ -289,6 +297,7 @@ impl StereoMatcher {
                     right: Some(r),
                     centroid: Some(correct(cams, &tri, l, &r, config.depth_correction)),
                     raw_centroid: Some(tri.point),
+                    source: CentroidSource::Triangulated,
                     ray_gap: Some(tri.gap),
                     visibility: Visibility::Both,
                 });
@@ -300,6 +309,7 @@ impl StereoMatcher {
                 right: None,
                 centroid: None,
                 raw_centroid: None,
+                source: CentroidSource::Triangulated,
                 ray_gap: None,
                 visibility: Visibility::LeftOnly,
             });
@@ -310,6 +320,7 @@ impl StereoMatcher {
                 right: Some(*r),
                 centroid: None,
                 raw_centroid: None,
+                source: CentroidSource::Triangulated,
                 ray_gap: None,
                 visibility: Visibility::RightOnly,
             });
@@ -350,6 +361,7 @@ pub struct StereoVision {
     matcher: StereoMatcher,
     config: StereoConfig,
     background_cams: Option<StereoCameras>,
+    support: SupportEstimator,
 }
 
 /// Noise seeds of the left and right cameras: streams 0 and 1 of `seed` ([`crate::rng::SplitMix64::stream`]).
@@ -397,6 +409,7 @@ impl StereoVision {
             matcher: StereoMatcher::new(),
             config: stereo,
             background_cams: None,
+            support: SupportEstimator::new(),
         })
     }
 
@@ -478,7 +491,49 @@ impl StereoVision {
         let [sl, sr] = &self.segmenters;
         self.matcher
             .match_segments(cams, sl.segments(), sr.segments(), &self.config, out);
+        if let Some(plane) = self.config.support {
+            for blob in out.iter_mut() {
+                self.refine_on_support(cams, blob, &plane);
+            }
+        }
         Ok(())
+    }
+
+    /// Replaces a matched blob's centroid by the support-plane estimate when it applies.
+    fn refine_on_support(&mut self, cams: &StereoCameras, blob: &mut StereoBlob, plane: &SupportPlane) {
+        let (Some(l), Some(r), Some(tri)) = (blob.left.as_ref(), blob.right.as_ref(), blob.raw_centroid) else {
+            return;
+        };
+        let id = |k: usize, seg: &Segment| {
+            self.segmenters[k]
+                .segments()
+                .iter()
+                .position(|s| s == seg)
+                .map(|i| i as u32 + 1)
+        };
+        let (Some(il), Some(ir)) = (id(0, l), id(1, r)) else {
+            return;
+        };
+        let views = [
+            View {
+                camera: &cams.left,
+                image: self.renderers[0].image(),
+                components: self.segmenters[0].component_map(),
+                segment: l,
+                id: il,
+            },
+            View {
+                camera: &cams.right,
+                image: self.renderers[1].image(),
+                components: self.segmenters[1].component_map(),
+                segment: r,
+                id: ir,
+            },
+        ];
+        if let Some((p, source)) = self.support.estimate(views, &tri, plane) {
+            blob.centroid = Some(p);
+            blob.source = source;
+        }
     }
 
     /// [`StereoVision::perceive_into`] into a new vector.
