@@ -12,6 +12,8 @@
 //!    (§6.2.1), the 64-colour HSV histogram with the 20th-percentile rule (§5.1.2.1), mean colour.
 //! 4. [`StereoMatcher`] pairs left and right segments by colour and epipolar geometry and triangulates
 //!    the centroid rays ([`StereoBlob`]); objects seen by one camera only are reported as such.
+//! 5. With a known table plane ([`StereoConfig::support`]), objects resting on it get a more precise
+//!    centroid from their measured height and footprint ([`support`]).
 //!
 //! [`StereoVision`] runs all of it for a stereo pair with every buffer reused.
 
