@@ -1,0 +1,56 @@
+//! A Gibbs sweep (finite and DP) allocates nothing: counted with a global allocator.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use grasp_topics::synthetic::{SyntheticSpec, sample_dataset, well_separated_prototypes};
+use grasp_topics::{DpState, GibbsState, Hyperparameters};
+use rand::SeedableRng;
+use rand::rngs::Xoshiro256PlusPlus;
+
+struct Counting;
+static ALLOCS: AtomicUsize = AtomicUsize::new(0);
+
+// Forwards to the system allocator and counts (a test-only allocator, hence the allowed unsafe).
+#[allow(unsafe_code)]
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        ALLOCS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        unsafe { System.dealloc(p, l) }
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
+        ALLOCS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.realloc(p, l, n) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn sweeps_do_not_allocate() {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(4);
+    let spec = SyntheticSpec {
+        objects: 10,
+        grasps_per_object: 8,
+        alpha: 0.5,
+        appearance_dof: 20.0,
+        prototypes: well_separated_prototypes(4, 3, 20.0),
+    };
+    let d = sample_dataset(&spec, &mut rng).unwrap().data;
+    let h = Hyperparameters::from_data(&d);
+    let mut g = GibbsState::new(&d, &h, 6).unwrap();
+    g.initialise(&d, &mut rng);
+    let mut dp = DpState::new(&d, &h, 1.0, 3).unwrap();
+    dp.initialise(&d, &mut rng);
+    let before = ALLOCS.load(Ordering::Relaxed);
+    for _ in 0..5 {
+        g.sweep(&d, &mut rng);
+        dp.sweep(&d, &mut rng);
+    }
+    let _ = g.log_joint();
+    assert_eq!(ALLOCS.load(Ordering::Relaxed) - before, 0);
+}
