@@ -53,7 +53,7 @@ pub struct PositionPrior {
     pub kappa: f64,
     /// ν > 2: degrees of freedom of Σ_j's inverse-Wishart prior (> 4 for the moment-matched normal).
     pub dof: f64,
-    /// Ξ (m², SPD): scale of Σ_j's inverse-Wishart prior; E[Σ_j] = Ξ/(ν − 4).
+    /// Ξ (m², SPD): scale of Σ_j's inverse-Wishart prior; E(Σ_j) = Ξ/(ν − 4).
     pub scale: [[f64; 3]; 3],
 }
 
@@ -66,7 +66,7 @@ pub struct AppearancePrior {
     pub dof: f64,
     /// ν_ψ > 1: degrees of freedom of ψ_j's Wishart prior.
     pub scale_dof: f64,
-    /// S₀ (SPD): scale of ψ_j's Wishart prior; E[ψ_j] = ν_ψ S₀ and E[b] = E[ψ_j]/(u − 3).
+    /// S₀ (SPD): scale of ψ_j's Wishart prior; E(ψ_j) = ν_ψ S₀ and E(b) = E(ψ_j)/(u − 3).
     pub scale: [[f64; 2]; 2],
 }
 
@@ -91,7 +91,7 @@ impl Hyperparameters {
     /// α = β = 0.5; μ₀ = 0 (the centroid), κ₀ = 1/16, ν = 6 and Ξ = 2·diag(s²)/16 where s² is the
     /// per-axis second moment of the positions about the centroid (floored at (1 cm)²), so a
     /// prototype's spread is a quarter of the data's and prototype means spread like the data;
-    /// u = 20, ν_ψ = 4 and S₀ = b̄ (u − 3)/ν_ψ, so E[b] is the mean appearance b̄.
+    /// u = 20, ν_ψ = 4 and S₀ = b̄ (u − 3)/ν_ψ, so E(b) is the mean appearance b̄.
     pub fn from_data(data: &Dataset) -> Self {
         let n = data.len().max(1) as f64;
         let mut s2 = Vector3::zeros();
