@@ -16,10 +16,12 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 #[allow(dead_code)]
+mod grasp;
 mod mcap_log;
 mod output;
 #[allow(dead_code)]
 mod progress;
+mod record;
 mod robot;
 mod sim;
 
@@ -39,6 +41,11 @@ enum Command {
     /// Run Dexter in simulation (Rapier physics, control-basis controllers).
     #[command(subcommand)]
     Sim(sim::SimCommand),
+    /// Visual grasp prototypes: record grasps, learn prototypes, generate pre-grasps, evaluate.
+    #[command(subcommand)]
+    Grasp(grasp::GraspCommand),
+    /// Record a teleoperated demonstration in the simulator (scripted teacher or a glove/mocap file).
+    Record(record::RecordArgs),
 }
 
 fn main() -> ExitCode {
@@ -55,6 +62,8 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Robot(cmd) => robot::main(cmd, &mut out),
         Command::Sim(cmd) => sim::main(cmd, &mut out),
+        Command::Record(args) => record::main(args, &mut out),
+        Command::Grasp(cmd) => grasp::main(cmd, &mut out),
     };
     let result = result.and_then(|()| out.flush().map_err(anyhow::Error::from));
     match result {

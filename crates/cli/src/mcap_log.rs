@@ -146,6 +146,8 @@ pub struct McapLog {
     channels: Channels,
     image_schema: u16,
     cameras: HashMap<String, u16>,
+    /// Channels of [`McapLog::log_json`], by topic.
+    json_channels: HashMap<String, u16>,
     /// Resolved from the last snapshot header.
     frame_tree: Option<FrameTree>,
     last_activity: Option<String>,
@@ -231,6 +233,7 @@ impl McapLog {
             channels,
             image_schema,
             cameras: HashMap::new(),
+            json_channels: HashMap::new(),
             frame_tree: None,
             last_activity: None,
             json: Vec::with_capacity(1 << 14),
@@ -391,6 +394,33 @@ impl McapLog {
         };
         encode(&mut self.json, &msg)?;
         self.write_buffer(channel, log_time)
+    }
+
+    /// Logs any serialisable message as JSON on `topic`, whose channel (with schema `schema_name` and
+    /// the JSON Schema `schema`) is created on first use.
+    pub fn log_json<T: Serialize>(
+        &mut self,
+        topic: &str,
+        schema_name: &str,
+        schema: &serde_json::Value,
+        time_secs: f64,
+        msg: &T,
+    ) -> Result<()> {
+        let channel = match self.json_channels.get(topic) {
+            Some(&c) => c,
+            None => {
+                let writer = self.writer.as_mut().context("the MCAP log is finished")?;
+                let data = serde_json::to_vec(schema)?;
+                let c = writer
+                    .add_schema(schema_name, "jsonschema", &data)
+                    .and_then(|id| writer.add_channel(id, topic, "json", &BTreeMap::new()))
+                    .with_context(|| write_context(&self.path))?;
+                self.json_channels.insert(topic.to_owned(), c);
+                c
+            }
+        };
+        encode(&mut self.json, msg)?;
+        self.write_buffer(channel, time_ns(time_secs))
     }
 
     /// Stores a file in the log (e.g. the URDF as `dexter.urdf`, `application/xml`). Closes the open
@@ -574,22 +604,12 @@ const READ_RECORD_LIMIT: usize = 1 << 30;
 /// cannot be opened or read, or are not MCAP at all.
 pub fn read_summary(path: impl AsRef<Path>) -> Result<Summary> {
     let path = path.as_ref();
-    let context = || format!("cannot read MCAP log {}", path.display());
-    let mut file = File::open(path).with_context(context)?;
-    let file_bytes = file.metadata().with_context(context)?.len();
-
-    let options = LinearReaderOptions::default()
-        .with_prevalidate_chunk_crcs(true)
-        .with_validate_data_section_crc(true)
-        .with_validate_summary_section_crc(true)
-        .with_record_length_limit(READ_RECORD_LIMIT);
-    let mut reader = LinearReader::new_with_options(options);
     let mut schemas: HashMap<u16, String> = HashMap::new();
     // channel id -> index into `channels`
     let mut channel_index: HashMap<u16, usize> = HashMap::new();
     let mut channels: Vec<ChannelSummary> = Vec::new();
     let mut summary = Summary {
-        file_bytes,
+        file_bytes: 0,
         status: FileStatus::Complete,
         channels: Vec::new(),
         message_count: 0,
@@ -599,89 +619,55 @@ pub fn read_summary(path: impl AsRef<Path>) -> Result<Summary> {
         issues: Vec::new(),
     };
     let mut stats = None;
-    let mut records_read = 0_u64;
-    let mut stop = None;
-
-    while let Some(event) = reader.next_event() {
-        let record = match event {
-            Ok(LinearReadEvent::ReadRequest(need)) => {
-                let n = file.read(reader.insert(need)).with_context(context)?;
-                reader.notify_read(n);
-                continue;
-            }
-            Ok(LinearReadEvent::Record { opcode, data }) => mcap::parse_record(opcode, data),
-            Err(e) => Err(e),
-        };
-        let record = match record {
-            Ok(record) => record,
-            Err(e) => {
-                stop = Some(e);
-                break;
-            }
-        };
-        records_read += 1;
-        match record {
-            Record::Schema { header, .. } => {
-                schemas.insert(header.id, header.name);
-            }
-            Record::Channel(c) => {
-                let schema_name = schemas.get(&c.schema_id).cloned().unwrap_or_default();
-                match channel_index.get(&c.id) {
-                    // Channels are repeated in the summary section.
-                    Some(_) => {}
-                    None => {
-                        channel_index.insert(c.id, channels.len());
-                        channels.push(ChannelSummary {
-                            topic: c.topic,
-                            schema_name,
-                            message_encoding: c.message_encoding,
-                            message_count: 0,
-                            time_range_ns: None,
-                        });
-                    }
-                }
-            }
-            Record::Message { header, .. } => {
-                let i = *channel_index.entry(header.channel_id).or_insert_with(|| {
-                    channels.push(ChannelSummary {
-                        topic: format!("<unknown channel {}>", header.channel_id),
-                        schema_name: String::new(),
-                        message_encoding: String::new(),
-                        message_count: 0,
-                        time_range_ns: None,
-                    });
-                    channels.len() - 1
-                });
-                let t = header.log_time;
-                let c = &mut channels[i];
-                c.message_count += 1;
-                c.time_range_ns = Some(c.time_range_ns.map_or((t, t), |(a, b)| (a.min(t), b.max(t))));
-                summary.message_count += 1;
-                summary.time_range_ns = Some(summary.time_range_ns.map_or((t, t), |(a, b)| (a.min(t), b.max(t))));
-            }
-            Record::Attachment { header, .. } => summary.attachments.push(header.name),
-            Record::Metadata(m) => summary.metadata.push(m.name),
-            Record::Statistics(s) => stats = Some(s),
-            _ => {}
+    let (file_bytes, status) = scan(path, &mut |record| match record {
+        Record::Schema { header, .. } => {
+            schemas.insert(header.id, header.name);
         }
-    }
-
-    if records_read == 0
-        && let Some(e) = &stop
-    {
-        return Err(anyhow::anyhow!("{e}")).with_context(|| format!("{} is not an MCAP file", path.display()));
-    }
-    if let Some(e) = stop {
-        let reason = match e {
-            // Also reported at a record boundary: the reader wants a footer.
-            mcap::McapError::UnexpectedEof => "the file ends before its footer (the writer did not finish)".to_owned(),
-            e => e.to_string(),
-        };
-        summary.status = FileStatus::Recovered {
+        Record::Channel(c) => {
+            let schema_name = schemas.get(&c.schema_id).cloned().unwrap_or_default();
+            // Channels are repeated in the summary section.
+            if let std::collections::hash_map::Entry::Vacant(e) = channel_index.entry(c.id) {
+                e.insert(channels.len());
+                channels.push(ChannelSummary {
+                    topic: c.topic,
+                    schema_name,
+                    message_encoding: c.message_encoding,
+                    message_count: 0,
+                    time_range_ns: None,
+                });
+            }
+        }
+        Record::Message { header, .. } => {
+            let i = *channel_index.entry(header.channel_id).or_insert_with(|| {
+                channels.push(ChannelSummary {
+                    topic: format!("<unknown channel {}>", header.channel_id),
+                    schema_name: String::new(),
+                    message_encoding: String::new(),
+                    message_count: 0,
+                    time_range_ns: None,
+                });
+                channels.len() - 1
+            });
+            let t = header.log_time;
+            let c = &mut channels[i];
+            c.message_count += 1;
+            c.time_range_ns = Some(c.time_range_ns.map_or((t, t), |(a, b)| (a.min(t), b.max(t))));
+            summary.message_count += 1;
+            summary.time_range_ns = Some(summary.time_range_ns.map_or((t, t), |(a, b)| (a.min(t), b.max(t))));
+        }
+        Record::Attachment { header, .. } => summary.attachments.push(header.name),
+        Record::Metadata(m) => summary.metadata.push(m.name),
+        Record::Statistics(s) => stats = Some(s),
+        _ => {}
+    })?;
+    summary.file_bytes = file_bytes;
+    summary.status = match status {
+        FileStatus::Recovered { reason, .. } => FileStatus::Recovered {
             messages: summary.message_count,
             reason,
-        };
-    }
+        },
+        s => s,
+    };
     if let Some(stats) = stats {
         if stats.message_count != summary.message_count {
             summary.issues.push(format!(
@@ -702,6 +688,118 @@ pub fn read_summary(path: impl AsRef<Path>) -> Result<Summary> {
     channels.sort_by(|a, b| a.topic.cmp(&b.topic));
     summary.channels = channels;
     Ok(summary)
+}
+
+/// Reads every record of the MCAP file at `path` in file order, validating chunk CRCs, and hands each
+/// to `visit`. Returns the file size and how the file ended (`Recovered` carries 0 messages; callers
+/// count their own). Errors: the file cannot be read, or not one record could be parsed (not MCAP).
+fn scan(path: &Path, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStatus)> {
+    let context = || format!("cannot read MCAP log {}", path.display());
+    let mut file = File::open(path).with_context(context)?;
+    let file_bytes = file.metadata().with_context(context)?.len();
+    let options = LinearReaderOptions::default()
+        .with_prevalidate_chunk_crcs(true)
+        .with_validate_data_section_crc(true)
+        .with_validate_summary_section_crc(true)
+        .with_record_length_limit(READ_RECORD_LIMIT);
+    let mut reader = LinearReader::new_with_options(options);
+    let mut records_read = 0_u64;
+    let mut stop = None;
+    while let Some(event) = reader.next_event() {
+        let record = match event {
+            Ok(LinearReadEvent::ReadRequest(need)) => {
+                let n = file.read(reader.insert(need)).with_context(context)?;
+                reader.notify_read(n);
+                continue;
+            }
+            Ok(LinearReadEvent::Record { opcode, data }) => mcap::parse_record(opcode, data),
+            Err(e) => Err(e),
+        };
+        match record {
+            Ok(record) => {
+                records_read += 1;
+                visit(record);
+            }
+            Err(e) => {
+                stop = Some(e);
+                break;
+            }
+        }
+    }
+    if records_read == 0
+        && let Some(e) = &stop
+    {
+        return Err(anyhow::anyhow!("{e}")).with_context(|| format!("{} is not an MCAP file", path.display()));
+    }
+    let status = match stop {
+        None => FileStatus::Complete,
+        Some(e) => FileStatus::Recovered {
+            messages: 0,
+            reason: match e {
+                // Also reported at a record boundary: the reader wants a footer.
+                mcap::McapError::UnexpectedEof => "the file ends before its footer (the writer did not finish)".to_owned(),
+                e => e.to_string(),
+            },
+        },
+    };
+    Ok((file_bytes, status))
+}
+
+/// Messages of some topics read back from a log, with its metadata and attachments.
+#[derive(Debug, Clone, Default)]
+pub struct Recording {
+    /// (topic, log time ns, payload) in file order.
+    pub messages: Vec<(String, u64, Vec<u8>)>,
+    /// Metadata records by name.
+    pub metadata: BTreeMap<String, BTreeMap<String, String>>,
+    /// Attachments by name.
+    pub attachments: BTreeMap<String, Vec<u8>>,
+    /// How the file ended.
+    pub status: Option<FileStatus>,
+}
+
+impl Recording {
+    /// Payloads on `topic`, with their log times (ns).
+    pub fn topic<'a>(&'a self, topic: &'a str) -> impl Iterator<Item = (u64, &'a [u8])> + 'a {
+        self.messages
+            .iter()
+            .filter(move |(t, _, _)| t == topic)
+            .map(|(_, time, data)| (*time, data.as_slice()))
+    }
+}
+
+/// Reads the messages on `topics` (all topics if empty), the metadata and the attachments of the
+/// MCAP file at `path`. A file cut short keeps everything up to its last complete chunk;
+/// [`Recording::status`] says so.
+pub fn read_recording(path: impl AsRef<Path>, topics: &[&str]) -> Result<Recording> {
+    let path = path.as_ref();
+    let mut wanted: HashMap<u16, String> = HashMap::new();
+    let mut rec = Recording::default();
+    let (_, status) = scan(path, &mut |record| match record {
+        Record::Channel(c) => {
+            if topics.is_empty() || topics.contains(&c.topic.as_str()) {
+                wanted.insert(c.id, c.topic);
+            }
+        }
+        Record::Message { header, data } => {
+            if let Some(topic) = wanted.get(&header.channel_id) {
+                rec.messages.push((topic.clone(), header.log_time, data.into_owned()));
+            }
+        }
+        Record::Metadata(m) => {
+            rec.metadata.insert(m.name, m.metadata);
+        }
+        Record::Attachment { header, data, .. } => {
+            rec.attachments.insert(header.name, data.into_owned());
+        }
+        _ => {}
+    })?;
+    let count = rec.messages.len() as u64;
+    rec.status = Some(match status {
+        FileStatus::Recovered { reason, .. } => FileStatus::Recovered { messages: count, reason },
+        s => s,
+    });
+    Ok(rec)
 }
 
 #[cfg(test)]

@@ -5,6 +5,7 @@ pub mod control;
 pub mod convert;
 pub mod error;
 pub mod geometry;
+pub mod grasp_trial;
 pub mod perception;
 pub mod physics;
 pub mod rng;

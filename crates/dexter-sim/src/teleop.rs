@@ -401,6 +401,7 @@ enum Step {
     Park,
     TouchTop { object: usize },
     TouchDown { to: Iso3 },
+    SwitchArm(Arm),
     WanderTo { target: Vec3 },
     Reopen,
 }
@@ -420,7 +421,7 @@ pub struct Teacher {
     tremor: [(f64, f64, f64); 3],
     glove_period: f64,
     next_sample: f64,
-    held: Option<HandCommand>,
+    held: [Option<HandCommand>; 2],
     /// Grasp plan of the current object.
     plan: Option<GraspPlan>,
     /// Object carried: palm-to-object-bottom height (m).
@@ -443,7 +444,8 @@ impl Teacher {
         Self::with_tasks(sim, scene, std::slice::from_ref(task), seed)
     }
 
-    /// A teacher that does `tasks` one after the other (with one arm per task; a sorting demo).
+    /// A teacher that does `tasks` one after the other (a sorting demo), each with its own arm; the
+    /// teacher parks one hand before using the other.
     pub fn with_tasks(sim: &DexterSim, scene: &Scene, tasks: &[TeachTask], seed: u64) -> Result<Teacher, SimError> {
         let mut rng = SplitMix64::new(seed ^ 0x7e4c_11e5);
         let table_z = scene.spec.table.height;
@@ -458,9 +460,9 @@ impl Teacher {
                 | TeachTask::Wander { arm, .. } => *arm,
             };
             if first_arm.is_some_and(|a| a != arm) {
-                return Err(SimError::Task("the scripted teacher uses one arm per demonstration".into()));
+                steps.push(Step::SwitchArm(arm));
             }
-            first_arm = Some(arm);
+            first_arm = first_arm.or(Some(arm));
             let hesitate = |rng: &mut SplitMix64| Step::Pause(0.2 + 0.6 * rng.next_f64());
             match task {
                 TeachTask::PickPlace {
@@ -567,7 +569,7 @@ impl Teacher {
             tremor,
             glove_period: 1.0 / GLOVE_HZ,
             next_sample: 0.0,
-            held: None,
+            held: [None, None],
             plan: None,
             carry_depth: 0.1,
             table_z,
@@ -578,7 +580,7 @@ impl Teacher {
         })
     }
 
-    /// The arm the teacher uses.
+    /// The arm the teacher uses now.
     pub fn arm(&self) -> Arm {
         self.arm
     }
@@ -604,11 +606,9 @@ impl Teacher {
             pose.rotation = Rot3::from_scaled_axis(w) * pose.rotation;
             let c = HandCommand::new(t, self.arm, &pose, self.flex.clamp(0.0, FLEX_CLOSED));
             self.log.samples.push(c);
-            self.held = Some(c);
+            self.held[hand_index(self.arm)] = Some(c);
         }
-        let mut out = [None, None];
-        out[hand_index(self.arm)] = self.held;
-        Ok(out)
+        Ok(self.held)
     }
 
     fn begin(&mut self, t: f64, to: Iso3, flex_to: f64, speed: f64) {
@@ -749,6 +749,14 @@ impl Teacher {
                 self.begin(t, above, 0.3, 0.2);
             }
             Step::TouchDown { to } => self.begin(t, to, 0.3, 0.05),
+            Step::SwitchArm(arm) => {
+                // The teacher puts the other glove on: that hand starts from where it is parked.
+                self.arm = arm;
+                self.pose = park_pose(arm, self.table_z);
+                self.flex = 0.3;
+                self.plan = None;
+                self.begin_pause(t, 0.3);
+            }
             Step::WanderTo { target } => {
                 let to = Iso3::from_parts(Translation3::from(target), here.rotation);
                 let flex = 0.3 + 0.3 * self.rng.next_f64();

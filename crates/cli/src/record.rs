@@ -1,0 +1,557 @@
+//! `pbd record`: a teleoperated demonstration in the Dexter simulator, recorded to MCAP.
+//!
+//! The teacher's hand poses come from the scripted, human-like teacher (`--script TASK`, the default)
+//! or from a glove/mocap file (`--teleop FILE`, CSV or JSON lines, format in the README). Recorded:
+//! Foxglove's `/tf`, `/scene`, `/log`, joint states and fingertip wrenches at `--log-hz`, the
+//! teacher's commands on `/teleop/command`, what the robot perceives on `/pbd/percept` (hands,
+//! tracked segments with their features, places, gaze — what `pbd infer` reads), the objects' true
+//! poses on `/pbd/truth` (for evaluation only), optional head camera images, the task metadata and
+//! the URDF. Ctrl-C or SIGTERM ends the recording cleanly with everything captured so far.
+
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, ValueEnum};
+use dexter_sim::Arm;
+use dexter_sim::perception::Eyes;
+use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
+use dexter_sim::scene::Scene;
+use dexter_sim::teleop::{HandCommand, Replay, TeachTask, Teacher, TeleopStream};
+use dexter_sim::watch::{DemoReport, DemoSettings, DemoSink, TeleopSource, run_demonstration};
+use schema::Percept;
+use serde::Serialize;
+
+use crate::mcap_log::{LogLevel, McapLog};
+use crate::sim::ArmChoice;
+
+/// Topic of the robot's percepts.
+pub const TOPIC_PERCEPT: &str = "/pbd/percept";
+/// Topic of the teacher's hand commands.
+pub const TOPIC_TELEOP: &str = "/teleop/command";
+/// Topic of the objects' true poses (evaluation only; inference never reads it).
+pub const TOPIC_TRUTH: &str = "/pbd/truth";
+
+/// What the scripted teacher demonstrates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Script {
+    /// Pick an object and place it in a bin.
+    PickPlace,
+    /// Sort every object of the scene into the bins (one pick-and-place each).
+    Sort,
+    /// Pick an object up and hold it (a rival schema).
+    PickHold,
+    /// Pick an object up and hand it to the teacher (a rival schema).
+    HandOver,
+    /// Reach to an object and touch it (a rival schema).
+    Touch,
+    /// Move a hand about without touching anything (no schema explains it).
+    Wander,
+}
+
+/// Arguments of `pbd record`.
+#[derive(Debug, Args)]
+pub struct RecordArgs {
+    /// Scene: a built-in name (pick-place, sorting, sorting-new) or a TOML file.
+    #[arg(long, default_value = "pick-place")]
+    pub scene: String,
+    /// The scripted teacher's task (ignored with --teleop).
+    #[arg(long, value_enum, default_value_t = Script::PickPlace)]
+    pub script: Script,
+    /// Replay a glove/mocap stream instead (CSV or JSON lines; see the README).
+    #[arg(long, conflicts_with = "script")]
+    pub teleop: Option<PathBuf>,
+    /// Object (scene label; default: the scene's first object).
+    #[arg(long)]
+    pub object: Option<String>,
+    /// Place (default: a place the chosen arm reaches).
+    #[arg(long)]
+    pub place: Option<String>,
+    /// For `--script sort`: OBJECT=PLACE pairs, comma-separated (default: by colour class, the classes
+    /// in alphabetical order to the places in scene order).
+    #[arg(long)]
+    pub assign: Option<String>,
+    /// The teacher's arm.
+    #[arg(long, value_enum, default_value_t = ArmChoice::Auto)]
+    pub arm: ArmChoice,
+    /// The first grasp closes too early and is retried.
+    #[arg(long)]
+    pub retry: bool,
+    /// Seed of every random choice (teacher, sensor noise); default: the scene's seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Output MCAP file.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Also write the teacher's hand commands as a teleop file (CSV if it ends in .csv, else JSON lines).
+    #[arg(long)]
+    pub save_teleop: Option<PathBuf>,
+    /// Log the head cameras' images too (large files).
+    #[arg(long)]
+    pub images: bool,
+    /// Rate of /tf, joint states and fingertips (Hz of simulated time).
+    #[arg(long, default_value_t = 30.0)]
+    pub log_hz: f64,
+    /// Rate of the robot's percepts (Hz).
+    #[arg(long, default_value_t = 10.0)]
+    pub percept_hz: f64,
+    /// Longest recording (s of simulated time).
+    #[arg(long, default_value_t = 600.0)]
+    pub max_seconds: f64,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Serialize)]
+struct RecordReport {
+    output: String,
+    scene: String,
+    source: String,
+    tasks: Vec<TeachTask>,
+    #[serde(flatten)]
+    demo: DemoReport,
+    wall_time: f64,
+    real_time_factor: f64,
+    messages: u64,
+    bytes: u64,
+}
+
+/// Objects' true positions, for evaluation.
+#[derive(Debug, Serialize)]
+struct Truth<'a> {
+    t: f64,
+    objects: Vec<(&'a str, [f64; 3])>,
+}
+
+fn arm_of(choice: ArmChoice) -> Option<Arm> {
+    match choice {
+        ArmChoice::Left => Some(Arm::Left),
+        ArmChoice::Right => Some(Arm::Right),
+        ArmChoice::Auto => None,
+    }
+}
+
+/// Which arm can take `object` to `place` (the requested one if it can).
+fn choose_arm(sim: &DexterSim, scene: &Scene, object: &str, place: Option<&str>, want: Option<Arm>) -> Result<Arm> {
+    let i = sim.object(object)?;
+    let op = sim.object_state(i).pose;
+    let pp = place.map(|p| scene.place(p)).transpose()?;
+    let table_z = scene.spec.table.height;
+    let ok = |arm: Arm| -> Result<bool> {
+        let mut over = dexter_sim::task::park_pose(arm, table_z);
+        over.translation.vector.x = op.translation.x;
+        over.translation.vector.y = op.translation.y;
+        over.translation.vector.z = op.translation.z + 0.15;
+        if !dexter_sim::task::reachable(sim, arm, &over, 5)? {
+            return Ok(false);
+        }
+        if let Some(p) = pp {
+            over.translation.vector.x = p.center[0];
+            over.translation.vector.y = p.center[1];
+            over.translation.vector.z = table_z + p.wall_height + 0.15;
+            return Ok(dexter_sim::task::reachable(sim, arm, &over, 6)?);
+        }
+        Ok(true)
+    };
+    let candidates: Vec<Arm> = match want {
+        Some(a) => vec![a],
+        None => Arm::BOTH.to_vec(),
+    };
+    for arm in candidates {
+        if ok(arm)? {
+            return Ok(arm);
+        }
+    }
+    match want {
+        Some(a) => bail!(
+            "the {a} arm cannot reach `{object}`{}",
+            place.map(|p| format!(" and `{p}`")).unwrap_or_default()
+        ),
+        None => bail!(
+            "no arm reaches `{object}`{}",
+            place.map(|p| format!(" and `{p}`")).unwrap_or_default()
+        ),
+    }
+}
+
+fn tasks(args: &RecordArgs, sim: &DexterSim, scene: &Scene) -> Result<Vec<TeachTask>> {
+    let first_object = || {
+        scene
+            .resolved
+            .first()
+            .map(|o| o.label.clone())
+            .context("the scene has no objects; pass --object")
+    };
+    let want = arm_of(args.arm);
+    let object = match &args.object {
+        Some(o) => {
+            sim.object(o)?;
+            o.clone()
+        }
+        None => first_object()?,
+    };
+    Ok(match args.script {
+        Script::PickPlace => {
+            let place = match &args.place {
+                Some(p) => {
+                    scene.place(p)?;
+                    p.clone()
+                }
+                None => {
+                    // A place the arm reaches.
+                    let mut found = None;
+                    for p in &scene.spec.places {
+                        if choose_arm(sim, scene, &object, Some(&p.name), want).is_ok() {
+                            found = Some(p.name.clone());
+                            break;
+                        }
+                    }
+                    found.with_context(|| format!("no place is reachable with `{object}`; pass --place"))?
+                }
+            };
+            let arm = choose_arm(sim, scene, &object, Some(&place), want)?;
+            vec![TeachTask::PickPlace {
+                object,
+                place,
+                arm,
+                retry: args.retry,
+            }]
+        }
+        Script::Sort => {
+            let pairs: Vec<(String, String)> = match &args.assign {
+                Some(text) => text
+                    .split(',')
+                    .filter(|s| !s.trim().is_empty())
+                    .map(|pair| {
+                        let (o, p) = pair
+                            .split_once('=')
+                            .with_context(|| format!("--assign: `{pair}` is not OBJECT=PLACE"))?;
+                        sim.object(o.trim())?;
+                        scene.place(p.trim())?;
+                        Ok((o.trim().to_string(), p.trim().to_string()))
+                    })
+                    .collect::<Result<_>>()?,
+                None => {
+                    let class = |label: &str| -> Option<String> {
+                        let i = scene.resolved.iter().position(|r| r.label == label)?;
+                        scene.catalog.objects[scene.resolved[i].object].color_class.clone()
+                    };
+                    let mut classes: Vec<String> = scene.resolved.iter().filter_map(|r| class(&r.label)).collect();
+                    classes.sort();
+                    classes.dedup();
+                    scene
+                        .resolved
+                        .iter()
+                        .filter_map(|r| {
+                            let c = class(&r.label)?;
+                            let k = classes.iter().position(|x| *x == c)?;
+                            let place = scene.spec.places.get(k % scene.spec.places.len().max(1))?;
+                            Some((r.label.clone(), place.name.clone()))
+                        })
+                        .collect()
+                }
+            };
+            if pairs.is_empty() {
+                bail!("nothing to sort: pass --assign OBJECT=PLACE,…");
+            }
+            let mut out = Vec::new();
+            for (object, place) in pairs {
+                let arm = choose_arm(sim, scene, &object, Some(&place), want)
+                    .with_context(|| format!("sorting `{object}` into `{place}`"))?;
+                out.push(TeachTask::PickPlace {
+                    object,
+                    place,
+                    arm,
+                    retry: false,
+                });
+            }
+            out
+        }
+        Script::PickHold => vec![TeachTask::PickHold {
+            arm: choose_arm(sim, scene, &object, None, want)?,
+            object,
+        }],
+        Script::HandOver => vec![TeachTask::HandOver {
+            arm: choose_arm(sim, scene, &object, None, want)?,
+            object,
+        }],
+        Script::Touch => vec![TeachTask::Touch {
+            arm: choose_arm(sim, scene, &object, None, want)?,
+            object,
+        }],
+        Script::Wander => vec![TeachTask::Wander {
+            arm: want.unwrap_or(Arm::Left),
+            seconds: 12.0,
+        }],
+    })
+}
+
+struct Sink<'a> {
+    log: McapLog,
+    header: dexter_sim::snapshot::SnapshotHeader,
+    names: Vec<String>,
+    log_period: f64,
+    next_log: f64,
+    images: bool,
+    stop: Arc<AtomicBool>,
+    error: Option<anyhow::Error>,
+    progress: &'a indicatif::ProgressBar,
+    percepts: usize,
+}
+
+impl Sink<'_> {
+    fn keep(&mut self, r: Result<()>) {
+        if let Err(e) = r {
+            self.error.get_or_insert(e);
+            // A log that cannot be written ends the recording.
+            self.stop.store(true, Ordering::SeqCst);
+        }
+    }
+}
+
+fn any_schema() -> serde_json::Value {
+    serde_json::json!({ "type": "object" })
+}
+
+impl DemoSink for Sink<'_> {
+    fn tick(&mut self, sim: &DexterSim, t: f64) {
+        if t + 1e-9 >= self.next_log {
+            self.next_log += self.log_period;
+            let r = self.log.log_snapshot(&self.header, &sim.snapshot("demonstration"));
+            self.keep(r);
+            self.progress.set_position((t * 10.0) as u64);
+        }
+    }
+
+    fn command(&mut self, command: &HandCommand) {
+        let r = self
+            .log
+            .log_json(TOPIC_TELEOP, "pbd.HandCommand", &any_schema(), command.t, command);
+        self.keep(r);
+    }
+
+    fn percept(&mut self, sim: &DexterSim, eyes: &Eyes, p: &Percept) {
+        let r = self.log.log_json(TOPIC_PERCEPT, "pbd.Percept", &any_schema(), p.t, p);
+        self.keep(r);
+        let truth = Truth {
+            t: p.t,
+            objects: self
+                .names
+                .iter()
+                .enumerate()
+                .map(|(i, n)| {
+                    let v = sim.object_state(i).pose.translation.vector;
+                    (n.as_str(), [v.x, v.y, v.z])
+                })
+                .collect(),
+        };
+        let r = self.log.log_json(TOPIC_TRUTH, "pbd.Truth", &any_schema(), p.t, &truth);
+        self.keep(r);
+        if self.images {
+            let (l, rt) = eyes.images(dexter_sim::perception::Pair::Head);
+            for (name, img) in [("head_left", l), ("head_right", rt)] {
+                let r = self.log.log_image(p.t, name, img.width, img.height, &img.rgb);
+                self.keep(r);
+            }
+        }
+        self.percepts += 1;
+    }
+
+    fn should_stop(&mut self) -> bool {
+        self.stop.load(Ordering::SeqCst)
+    }
+}
+
+/// Runs `pbd record`.
+pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
+    // Config.
+    for (name, v) in [
+        ("--log-hz", args.log_hz),
+        ("--percept-hz", args.percept_hz),
+        ("--max-seconds", args.max_seconds),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            bail!("{name} must be a positive number (got {v})");
+        }
+    }
+    let scene = Scene::open(&args.scene)?;
+    let seed = args.seed.unwrap_or(scene.spec.seed);
+    let mut sim = DexterSim::new(
+        &scene,
+        SimSettings {
+            seed,
+            ..SimSettings::default()
+        },
+    )?;
+    let table_z = scene.spec.table.height;
+    dexter_sim::task::park_robot(&mut sim, table_z)?;
+    for _ in 0..200 {
+        sim.step();
+    }
+    let (source, task_list, source_name) = match &args.teleop {
+        Some(path) => {
+            let stream = TeleopStream::load(path)?;
+            (TeleopSource::Replay(Replay::new(stream)), Vec::new(), format!("teleop file {}", path.display()))
+        }
+        None => {
+            let t = tasks(&args, &sim, &scene)?;
+            let teacher = Teacher::with_tasks(&sim, &scene, &t, seed)?;
+            (TeleopSource::Script(Box::new(teacher)), t, format!("scripted teacher ({:?})", args.script))
+        }
+    };
+    if let Some(dir) = args.output.parent()
+        && !dir.as_os_str().is_empty()
+        && !dir.is_dir()
+    {
+        bail!("cannot write {}: directory {} does not exist", args.output.display(), dir.display());
+    }
+    let mut log = McapLog::create(&args.output)?;
+    log.attach("dexter.urdf", "application/xml", DEXTER_URDF.as_bytes())?;
+    let mut meta: BTreeMap<String, String> = BTreeMap::new();
+    meta.insert("command".into(), "record".into());
+    meta.insert("scene".into(), args.scene.clone());
+    meta.insert("seed".into(), seed.to_string());
+    meta.insert("source".into(), source_name.clone());
+    meta.insert("tasks".into(), serde_json::to_string(&task_list)?);
+    meta.insert("percept_version".into(), schema::percept::PERCEPT_VERSION.to_string());
+    meta.insert("percept_hz".into(), args.percept_hz.to_string());
+    // The scene file itself, so that `pbd infer` and `pbd execute` know the places and catalog.
+    log.metadata("pbd", meta)?;
+    log.log_scene(&scene, sim.header(), 0.0)?;
+
+    // Ctrl-C and SIGTERM end the recording; the file is finished with what was captured.
+    let stop = Arc::new(AtomicBool::new(false));
+    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(sig, Arc::clone(&stop)).context("cannot install the signal handler")?;
+    }
+    let max = match &source {
+        TeleopSource::Replay(r) => (r.duration() + 2.0).min(args.max_seconds),
+        TeleopSource::Script(_) => args.max_seconds,
+    };
+    let progress = crate::progress::bar(args.json, (max * 10.0) as u64, "record");
+    progress.set_message("simulated s ×10");
+    let wall = std::time::Instant::now();
+    let mut sink = Sink {
+        log,
+        header: sim.header().clone(),
+        names: sim.header().object_names.clone(),
+        log_period: 1.0 / args.log_hz,
+        next_log: 0.0,
+        images: args.images,
+        stop: Arc::clone(&stop),
+        error: None,
+        progress: &progress,
+        percepts: 0,
+    };
+    let settings = DemoSettings {
+        percept_hz: args.percept_hz,
+        max_seconds: max,
+        tail_seconds: 1.0,
+        seed,
+    };
+    let (source_for_run, teleop_log) = (source, args.save_teleop.clone());
+    let run = run_demonstration(&mut sim, &scene, source_for_run, &settings, &mut sink);
+    progress.finish_and_clear();
+    let Sink { mut log, error, .. } = sink;
+    let demo = match run {
+        Ok(d) => d,
+        Err(e) => {
+            let _ = log.log_text(sim.time(), LogLevel::Error, &format!("{e}"));
+            let _ = log.finish();
+            return Err(anyhow::Error::from(e).context("the demonstration failed"));
+        }
+    };
+    if let Some(e) = error {
+        let _ = log.finish();
+        return Err(e.context(format!("writing {}", args.output.display())));
+    }
+    for note in &demo.notes {
+        log.log_text(demo.sim_time, LogLevel::Info, note)?;
+    }
+    if demo.interrupted {
+        log.log_text(demo.sim_time, LogLevel::Warning, "recording interrupted; finished with what was captured")?;
+    }
+    let stats = log.finish()?;
+    let wall_time = wall.elapsed().as_secs_f64();
+    if let Some(path) = teleop_log {
+        // Rebuild the stream from the recording we just wrote (all that was commanded).
+        let rec = crate::mcap_log::read_recording(&args.output, &[TOPIC_TELEOP])?;
+        let samples = rec
+            .topic(TOPIC_TELEOP)
+            .map(|(_, d)| serde_json::from_slice::<HandCommand>(d))
+            .collect::<Result<Vec<_>, _>>()?;
+        let stream = TeleopStream { samples };
+        let text = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")) {
+            stream.to_csv()
+        } else {
+            stream.to_jsonl()
+        };
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    let report = RecordReport {
+        output: args.output.display().to_string(),
+        scene: args.scene.clone(),
+        source: source_name,
+        tasks: task_list,
+        real_time_factor: if wall_time > 0.0 { demo.sim_time / wall_time } else { 0.0 },
+        demo,
+        wall_time,
+        messages: stats.messages,
+        bytes: stats.bytes,
+    };
+    if args.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
+    } else {
+        writeln!(
+            out,
+            "recorded {:.1} s of demonstration ({}) in {:.1} s wall (real-time factor {:.2}){}",
+            report.demo.sim_time,
+            report.source,
+            report.wall_time,
+            report.real_time_factor,
+            if report.demo.interrupted { " — INTERRUPTED, kept what was captured" } else { "" }
+        )?;
+        for t in &report.tasks {
+            writeln!(out, "  task      {}", describe(t))?;
+        }
+        for n in &report.demo.notes {
+            writeln!(out, "  note      {n}")?;
+        }
+        writeln!(
+            out,
+            "  file      {} ({} messages, {:.1} MB; {} percepts) — open in Foxglove, or `pbd infer {}`",
+            report.output,
+            report.messages,
+            report.bytes as f64 / 1e6,
+            report.demo.percepts,
+            report.output
+        )?;
+    }
+    if report.demo.interrupted {
+        // Interrupted: the file is complete, but say so in the exit status.
+        bail!("interrupted after {:.1} s; {} holds what was captured", report.demo.sim_time, report.output);
+    }
+    Ok(())
+}
+
+fn describe(t: &TeachTask) -> String {
+    match t {
+        TeachTask::PickPlace {
+            object,
+            place,
+            arm,
+            retry,
+        } => format!(
+            "pick-place `{object}` → `{place}` with the {arm} arm{}",
+            if *retry { " (first grasp retried)" } else { "" }
+        ),
+        TeachTask::PickHold { object, arm } => format!("pick-hold `{object}` with the {arm} arm"),
+        TeachTask::HandOver { object, arm } => format!("hand-over `{object}` with the {arm} arm"),
+        TeachTask::Touch { object, arm } => format!("touch `{object}` with the {arm} arm"),
+        TeachTask::Wander { arm, seconds } => format!("wander for {seconds:.0} s with the {arm} arm"),
+    }
+}
