@@ -15,8 +15,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-#[allow(dead_code)]
 mod grasp;
+#[allow(dead_code)]
 mod mcap_log;
 mod output;
 #[allow(dead_code)]
