@@ -1,0 +1,2 @@
+//! Plots for procedural models and experiments (plotters): colour swatches, size densities, success
+//! curves and ROC curves.
