@@ -28,6 +28,10 @@
 //! (whose sideways bias reaches 5–13 mm for tall objects): the cells of the table whose bottom and
 //! top points (at the measured height) project into both silhouettes.
 //!
+//! A top too dark for its shading step to stand out of the pixel noise (black lids: RGB norm below
+//! `step_threshold / top_contrast`) gives no estimate: a dark top above a dark side band would
+//! pass for a lower prism (a black-lidded mug measured 5 cm instead of 9.5 cm).
+//!
 //! The result is checked against the triangulated point: if they disagree by more than
 //! [`SupportPlane::max_disagreement`] (the object is not on the table, lies in a bin, is held, is
 //! partly hidden, …), the triangulated point is kept.
@@ -51,6 +55,10 @@ pub struct SupportPlane {
     /// Smallest RGB distance (channels in [0, 1]) between neighbouring pixels that counts as the
     /// edge between a side and the top face.
     pub step_threshold: f64,
+    /// Shading contrast assumed between the top face and the sides (share of the top's colour):
+    /// a top darker than `step_threshold / top_contrast` (RGB norm) cannot show its edge, so its
+    /// height is not measured and the triangulated point is kept.
+    pub top_contrast: f64,
     /// Share of the walked image columns (both images) that must show a step for the prism model.
     pub min_step_share: f64,
     /// A top-face pixel is uniform when its RGB distance to the top face's mean colour is below this.
@@ -67,6 +75,7 @@ impl SupportPlane {
             max_disagreement: 0.02,
             disagreement_per_height: 0.4,
             step_threshold: 0.12,
+            top_contrast: 0.3,
             min_step_share: 0.5,
             uniform_tolerance: 0.06,
             min_uniform_share: 0.9,
@@ -148,7 +157,7 @@ impl SupportEstimator {
             stats.columns += s.columns;
             stats.steps += s.steps;
         }
-        let prism = self.prism_height(&stats, plane);
+        let prism = self.prism_height(&stats, plane)?;
         let (zc, source) = match prism {
             Some(h) => (plane.height + 0.5 * h, CentroidSource::Prism { height: h }),
             None => {
@@ -176,27 +185,32 @@ impl SupportEstimator {
         ((p - triangulated).norm() <= tolerance).then_some((p, source))
     }
 
-    /// The prism height if the prism model applies: most columns show a step, the top face above
-    /// the steps is uniform, and there are at least three height samples.
-    fn prism_height(&mut self, stats: &ColumnStats, plane: &SupportPlane) -> Option<f64> {
+    /// `Some(Some(h))` if the prism model applies: most columns show a step, the top face above
+    /// the steps is uniform, and there are at least three height samples; `Some(None)` if it does
+    /// not; `None` if the top is too dark for its edge to be seen (no estimate at all: a dark top
+    /// above a dark side band would pass for a lower prism).
+    fn prism_height(&mut self, stats: &ColumnStats, plane: &SupportPlane) -> Option<Option<f64>> {
         if self.heights.len() < 3 || (stats.steps as f64) < plane.min_step_share * stats.columns as f64 {
-            return None;
+            return Some(None);
         }
         let n = self.top.len() as f64;
         let mean = self.top.iter().fold([0.0f64; 3], |a, p| {
             [a[0] + p[0] as f64, a[1] + p[1] as f64, a[2] + p[2] as f64]
         });
         let mean = mean.map(|x| x / n);
+        if rgb_dist(&mean, &[0.0; 3]) * plane.top_contrast < plane.step_threshold {
+            return None;
+        }
         let uniform = self
             .top
             .iter()
             .filter(|p| rgb_dist(&[p[0] as f64, p[1] as f64, p[2] as f64], &mean) < plane.uniform_tolerance)
             .count();
         if (uniform as f64) < plane.min_uniform_share * n {
-            return None;
+            return Some(None);
         }
         self.heights.sort_unstable_by(f64::total_cmp);
-        Some(self.heights[self.heights.len() / 2])
+        Some(Some(self.heights[self.heights.len() / 2]))
     }
 
     /// Walks the image of the vertical line over each bottom-edge point of `view`'s segment (all
