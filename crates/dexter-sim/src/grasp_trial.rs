@@ -1,2 +1,603 @@
 //! Grasp trials in the simulator: reach a given pre-grasp, close, lift, and judge the grasp by the
 //! seed's criterion (§6.5): the hand rises 10 cm and the object is still held.
+//!
+//! A trial is one fresh simulation of a scene with a single presented object, so every trial starts
+//! from the same state for a given seed and trials can run in any order or in parallel:
+//!
+//! 1. [`perceive`]: park the arms, Search-Track the object with the head and read off what the
+//!    robot sees — the triangulated centroid and the appearance feature b of §6.2.1 (the 2×2 second
+//!    moment of the segment averaged over the stereo pair), both averaged over the last tracked
+//!    frames.
+//! 2. [`execute`]: in a fresh simulation with the same seed (so the object rests where it was seen),
+//!    pre-shape the hand, move high above an approach pose 10 cm behind the pre-grasp along the palm
+//!    normal, descend to it, move along the palm normal to the pre-grasp, flex the fingers until they
+//!    hold (or 3 s pass), lift the hand 10 cm and hold it still for 1 s. Success: the object rose
+//!    ≥ 8 cm and at least two hand parts still touch it.
+//!
+//! Pre-grasps are palm-surface poses (`bhand/palm_surface_link`: +z = palm normal = approach, finger
+//! 3 on +y) in the world frame.
+
+use std::time::Instant;
+
+use control_basis::math::{Iso3, Vec3};
+use serde::Serialize;
+
+use crate::control::{FLEX_CLOSED, HandControl, ReachControl};
+use crate::error::SimError;
+use crate::perception::{Eyes, Pair, SearchTrack};
+use crate::physics::{DexterSim, SimSettings};
+use crate::scene::{ObjectPlacement, Scene, Shape};
+use crate::snapshot::{Arm, FingertipWrench};
+use crate::task::{CONTROL_HZ, park_robot};
+
+/// Distance (m) of the approach pose behind the pre-grasp, along the palm normal.
+pub const APPROACH_DISTANCE: f64 = 0.10;
+/// How far (m) the hand is lifted after closing (§6.5).
+pub const LIFT_HEIGHT: f64 = 0.10;
+/// The object must rise at least this much (m) with the hand for a success.
+pub const LIFT_SUCCESS: f64 = 0.08;
+
+/// The scene of `base` with only `presentation` on the table, at `xy` (m, world) and `yaw_deg`.
+pub fn present(base: &Scene, presentation: &str, xy: [f64; 2], yaw_deg: f64) -> Result<Scene, SimError> {
+    base.with_objects(vec![ObjectPlacement {
+        presentation: presentation.to_string(),
+        xy,
+        yaw_deg,
+        z: None,
+    }])
+}
+
+/// What the robot saw of the presented object (and, for reports only, where it really was).
+#[derive(Debug, Clone, Serialize)]
+pub struct Percept {
+    /// The presentation name.
+    pub presentation: String,
+    /// Triangulated centroid (m, world): the origin of the pre-grasp frame.
+    pub centroid: [f64; 3],
+    /// b: the 2×2 second-moment matrix of the segment averaged over the stereo pair (px²).
+    pub appearance: [[f64; 2]; 2],
+    /// The object's true pose after settling (m, world; translation and quaternion `[w, x, y, z]`),
+    /// not used by the robot.
+    pub true_position: [f64; 3],
+    /// Horizontal distance (m) between the seen and the true centroid.
+    pub vision_error: f64,
+    /// Frames averaged.
+    pub frames: usize,
+}
+
+impl Percept {
+    /// The centroid as a vector.
+    pub fn centroid(&self) -> Vec3 {
+        Vec3::from(self.centroid)
+    }
+}
+
+fn settle(sim: &mut DexterSim, table_z: f64) -> Result<(), SimError> {
+    park_robot(sim, table_z)?;
+    for _ in 0..200 {
+        sim.step();
+    }
+    Ok(())
+}
+
+/// Looks at the single object of `scene` (fresh simulation with `settings`) and returns what the
+/// robot sees, or `Ok(Err(why))` if Search-Track finds no stereo blob near where it was presented.
+pub fn perceive(scene: &Scene, settings: &SimSettings) -> Result<Result<Percept, String>, SimError> {
+    let mut sim = DexterSim::new(scene, settings.clone())?;
+    let table_z = scene.spec.table.height;
+    settle(&mut sim, table_z)?;
+    let name = scene
+        .resolved
+        .first()
+        .map(|r| r.presentation.clone())
+        .ok_or_else(|| SimError::Task("the scene has no object to perceive".into()))?;
+    let nominal = scene.resolved[0].pose.translation.vector;
+    let mut eyes = Eyes::new(&sim, scene, settings.seed ^ 0xE7E5)?;
+    let mut track = SearchTrack::new(&sim)?;
+    track.look_at(&mut sim, &nominal)?;
+    let steps_per_frame = ((1.0 / scene.spec.camera.rate_hz) / settings.dt).round().max(1.0) as usize;
+    for _ in 0..(0.4 / settings.dt) as usize {
+        sim.step();
+    }
+    let frame_dt = steps_per_frame as f64 * settings.dt;
+    let mut estimate = nominal;
+    let mut recent: Vec<(Vec3, [[f64; 2]; 2])> = Vec::new();
+    for _frame in 0..40 {
+        let cams = eyes.cameras(&sim, Pair::Head)?;
+        eyes.perceive(&sim, Pair::Head)?;
+        let nearest = eyes
+            .blobs()
+            .iter()
+            .filter(|b| b.left.is_some() && b.right.is_some())
+            .filter_map(|b| b.centroid.map(|c| (b, (c - estimate).xy().norm())))
+            .filter(|(_, d)| *d < 0.12)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(b, _)| *b);
+        if let Some(blob) = nearest {
+            let o = track.track(&mut sim, &cams, &blob, frame_dt);
+            if let Some(c) = o.centroid {
+                estimate = c;
+                if o.error < 4e-4 && !blob.truncated() {
+                    recent.push((c, blob.mean_covariance()));
+                } else {
+                    recent.clear();
+                }
+            }
+        } else {
+            recent.clear();
+        }
+        if recent.len() >= 3 {
+            let n = recent.len() as f64;
+            let c = recent.iter().fold(Vec3::zeros(), |a, r| a + r.0) / n;
+            let mut b = [[0.0; 2]; 2];
+            for (_, m) in &recent {
+                for i in 0..2 {
+                    for j in 0..2 {
+                        b[i][j] += m[i][j] / n;
+                    }
+                }
+            }
+            // Exactly symmetric (the two cameras' matrices are, up to rounding).
+            let off = 0.5 * (b[0][1] + b[1][0]);
+            b[0][1] = off;
+            b[1][0] = off;
+            let truth = sim.object_state(0).pose.translation.vector;
+            return Ok(Ok(Percept {
+                presentation: name,
+                centroid: [c.x, c.y, c.z],
+                appearance: b,
+                true_position: [truth.x, truth.y, truth.z],
+                vision_error: (c.xy() - truth.xy()).norm(),
+                frames: recent.len(),
+            }));
+        }
+        for _ in 0..steps_per_frame {
+            sim.step();
+        }
+    }
+    Ok(Err(format!(
+        "search-track: no stereo blob foveated near ({:.2}, {:.2}, {:.2})",
+        nominal.x, nominal.y, nominal.z
+    )))
+}
+
+/// A pre-grasp to execute: palm pose, hand pre-shape and spread.
+#[derive(Debug, Clone, Copy)]
+pub struct PreGraspCommand {
+    /// Palm-surface pose in the world at which the fingers start to close.
+    pub world_from_palm: Iso3,
+    /// Flexion of the pre-shape (rad, 0 = fingers straight out).
+    pub preshape: f64,
+    /// Spread of fingers 1 and 2 (rad): 0 opposes them to finger 3, π/3 spaces all three equally.
+    pub spread: f64,
+}
+
+/// How a grasp trial went.
+#[derive(Debug, Clone, Serialize)]
+pub struct TrialOutcome {
+    /// The §6.5 criterion: the object rose ≥ 8 cm with the hand and ≥ 2 hand parts still touch it.
+    pub success: bool,
+    /// What happened (`lifted`, or why not).
+    pub outcome: String,
+    /// How far the object rose (m).
+    pub rose: f64,
+    /// Distance (m) between the palm and the pre-grasp when the fingers started closing.
+    pub pregrasp_error: f64,
+    /// The palm pose when the fingers started closing (world; position and quaternion `[w, x, y, z]`):
+    /// the pre-grasp the robot actually achieved.
+    pub achieved_position: [f64; 3],
+    /// Orientation part of the achieved pre-grasp.
+    pub achieved_orientation: [f64; 4],
+    /// Whether the fingers converged on opposing contacts before the lift.
+    pub closed_on_object: bool,
+    /// Simulated time (s).
+    pub sim_time: f64,
+    /// Wall-clock time (s).
+    pub wall_time: f64,
+}
+
+/// Runs the simulation for up to `seconds`, ticking `reach` at the control rate; stops early when
+/// `until` returns true. Returns whether it did.
+fn run_until(
+    sim: &mut DexterSim,
+    reach: &mut ReachControl,
+    seconds: f64,
+    mut until: impl FnMut(&mut DexterSim, &mut ReachControl) -> bool,
+) -> bool {
+    let dt_c = 1.0 / CONTROL_HZ;
+    let per = ((dt_c / sim.settings().dt).round() as usize).max(1);
+    let n = (seconds * CONTROL_HZ).ceil() as usize;
+    for _ in 0..n {
+        reach.tick(sim, dt_c);
+        for _ in 0..per {
+            sim.step();
+        }
+        if until(sim, reach) {
+            return true;
+        }
+    }
+    false
+}
+
+/// Whether `arm` can put its palm at `pose` (IK within the joint limits, from the parked posture).
+pub fn pose_reachable(sim: &DexterSim, arm: Arm, pose: &Iso3) -> Result<bool, SimError> {
+    crate::task::reachable(sim, arm, pose, 5)
+}
+
+/// The waypoints before a pre-grasp `pre` (world palm pose): a hover pose and the approach pose
+/// [`APPROACH_DISTANCE`] behind `pre` along the palm normal, both with `pre`'s orientation. The hand
+/// reaches the hover pose first, then moves in straight lines to the approach pose and the
+/// pre-grasp. When the approach pose lies on the arm's side of the object and outside its footprint,
+/// the hover pose is the approach pose itself (a side approach from the robot); otherwise it is
+/// high above it (12 cm above the object's top), so the arm cannot sweep through the object.
+pub fn approach_waypoints(sim: &DexterSim, scene: &Scene, arm: Arm, pre: &Iso3) -> Result<(Iso3, Iso3), SimError> {
+    let approach_dir = pre.rotation * Vec3::z();
+    let mut back = *pre;
+    back.translation.vector -= approach_dir * APPROACH_DISTANCE;
+    let shoulder = sim
+        .link_pose_by_name(&format!("{}/shoulder_yaw_link", arm.prefix()))?
+        .translation
+        .vector;
+    let (centre, radius) = scene
+        .resolved
+        .first()
+        .map(|r| {
+            (
+                r.pose.translation.vector,
+                crate::geometry::bounding_radius(&scene.catalog.objects[r.object].shape),
+            )
+        })
+        .unwrap_or((back.translation.vector, 0.0));
+    let rel = (back.translation.vector - centre).xy();
+    let towards_arm = (shoulder - centre).xy();
+    let near_side = rel.dot(&towards_arm) > 0.0 && rel.norm() > radius + 0.06;
+    let mut hover = back;
+    if !near_side {
+        hover.translation.vector.z = back.translation.z.max(object_top(scene) + 0.12);
+    }
+    Ok((hover, back))
+}
+
+/// Height (m, world) of the top of the scene's single object as presented.
+fn object_top(scene: &Scene) -> f64 {
+    scene
+        .resolved
+        .first()
+        .map(|r| {
+            let shape: &Shape = &scene.catalog.objects[r.object].shape;
+            r.pose.translation.z + crate::geometry::support_half_extent(shape, &(r.pose.rotation.inverse() * Vec3::z()))
+        })
+        .unwrap_or(scene.spec.table.height)
+}
+
+fn quat(q: &control_basis::math::Rot3) -> [f64; 4] {
+    let c = q.quaternion();
+    [c.w, c.i, c.j, c.k]
+}
+
+/// Executes one pre-grasp with `arm` on the single object of `scene` in a fresh simulation with
+/// `settings` (see the module docs for the phases). Errors only for an unusable scene or robot; a
+/// failed grasp is an outcome.
+pub fn execute(
+    scene: &Scene,
+    settings: &SimSettings,
+    arm: Arm,
+    cmd: &PreGraspCommand,
+) -> Result<TrialOutcome, SimError> {
+    let wall = Instant::now();
+    let mut sim = DexterSim::new(scene, settings.clone())?;
+    let table_z = scene.spec.table.height;
+    settle(&mut sim, table_z)?;
+    let t0 = sim.time();
+    let obj = 0;
+    let mut reach = ReachControl::new(&sim, arm)?;
+    let hand = HandControl::new(&sim, arm)?;
+    let mut out = TrialOutcome {
+        success: false,
+        outcome: String::new(),
+        rose: 0.0,
+        pregrasp_error: f64::NAN,
+        achieved_position: [f64::NAN; 3],
+        achieved_orientation: [f64::NAN; 4],
+        closed_on_object: false,
+        sim_time: 0.0,
+        wall_time: 0.0,
+    };
+    let finish = |mut o: TrialOutcome, sim: &DexterSim, why: String| {
+        o.outcome = why;
+        o.sim_time = sim.time() - t0;
+        o.wall_time = wall.elapsed().as_secs_f64();
+        o
+    };
+    let pre = cmd.world_from_palm;
+    let (hover, back) = approach_waypoints(&sim, scene, arm, &pre)?;
+    hand.set(&mut sim, cmd.preshape, cmd.spread);
+    reach.max_speed = 0.3;
+    reach.set_goal(&sim, hover);
+    if !run_until(&mut sim, &mut reach, 5.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
+        match reach.set_goal_via_ik(&sim, hover, 17) {
+            Ok(true) => {}
+            _ => return Ok(finish(out, &sim, "approach out of reach (no IK solution)".into())),
+        }
+        if !run_until(&mut sim, &mut reach, 8.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
+            let (d, _) = reach.goal_error(&sim);
+            return Ok(finish(
+                out,
+                &sim,
+                format!("approach not reached ({:.1} cm away)", d * 100.0),
+            ));
+        }
+    }
+    reach.max_speed = 0.2;
+    reach.set_goal(&sim, back);
+    if !run_until(&mut sim, &mut reach, 4.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
+        let (d, _) = reach.goal_error(&sim);
+        return Ok(finish(
+            out,
+            &sim,
+            format!("approach pose not reached ({:.1} cm away)", d * 100.0),
+        ));
+    }
+    // Along the palm normal to the pre-grasp. If the hand meets the object first it pushes it; after
+    // 3 s the fingers close wherever the hand is (the robot "achieved the pre-grasp" as well as it could).
+    reach.max_speed = 0.12;
+    reach.set_goal(&sim, pre);
+    run_until(&mut sim, &mut reach, 3.0, |s, r| r.at_goal(s, 0.004, 0.03));
+    let achieved = reach.tool_pose(&sim);
+    out.pregrasp_error = (achieved.translation.vector - pre.translation.vector).norm();
+    let a = achieved.translation.vector;
+    out.achieved_position = [a.x, a.y, a.z];
+    out.achieved_orientation = quat(&achieved.rotation);
+    // Close: flex until opposing fingers touch and the fingers are still.
+    hand.set(&mut sim, FLEX_CLOSED, cmd.spread);
+    let k = if arm == Arm::Left { 0 } else { 3 };
+    let mut tips = [FingertipWrench {
+        arm,
+        finger: 0,
+        force: [0.0; 3],
+        torque: [0.0; 3],
+        in_contact: false,
+    }; 6];
+    let mut still = 0;
+    out.closed_on_object = run_until(&mut sim, &mut reach, 3.0, |s, _| {
+        let (_, _, parts) = s.hand_wrench_on_object(arm, obj);
+        s.fingertip_wrenches(&mut tips);
+        let touching = tips[k..k + 3].iter().filter(|t| t.in_contact).count();
+        if touching >= 2 && parts >= 2 && hand.max_flex_speed(s) < 0.1 {
+            still += 1;
+        } else {
+            still = 0;
+        }
+        still >= 30
+    });
+    // Lift 10 cm straight up, then hold still.
+    let z_before = sim.object_state(obj).pose.translation.z;
+    let mut lift = reach.tool_pose(&sim);
+    lift.translation.vector.z += LIFT_HEIGHT;
+    reach.max_speed = 0.10;
+    reach.set_goal(&sim, lift);
+    run_until(&mut sim, &mut reach, 3.0, |s, r| r.at_goal(s, 0.005, 0.03));
+    run_until(&mut sim, &mut reach, 1.0, |_, _| false);
+    let rose = sim.object_state(obj).pose.translation.z - z_before;
+    let (_, _, parts) = sim.hand_wrench_on_object(arm, obj);
+    out.rose = rose;
+    out.success = rose > LIFT_SUCCESS && parts >= 2;
+    let why = if out.success {
+        "lifted".to_string()
+    } else if !out.closed_on_object && parts < 2 {
+        format!(
+            "fingers closed without holding the object (rose {:.1} cm, {parts} contacts)",
+            rose * 100.0
+        )
+    } else {
+        format!(
+            "object not held after lift (rose {:.1} cm, {parts} contacts)",
+            rose * 100.0
+        )
+    };
+    Ok(finish(out, &sim, why))
+}
+
+/// The world pose of link `name` after parking the arms of a fresh simulation of `scene` (e.g. the
+/// shoulder that candidate pre-grasps are ranked from).
+pub fn parked_link_pose(scene: &Scene, settings: &SimSettings, name: &str) -> Result<Iso3, SimError> {
+    let mut sim = DexterSim::new(scene, settings.clone())?;
+    park_robot(&mut sim, scene.spec.table.height)?;
+    sim.link_pose_by_name(name)
+}
+
+/// A robot to test reachability with (parked, no stepping).
+pub fn parked_sim(scene: &Scene, settings: &SimSettings) -> Result<DexterSim, SimError> {
+    let mut sim = DexterSim::new(scene, settings.clone())?;
+    park_robot(&mut sim, scene.spec.table.height)?;
+    Ok(sim)
+}
+
+/// The kind of grasp the scripted teacher demonstrates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DemoKind {
+    /// Palm down over the object, fingers closing across its narrow horizontal axis.
+    Top,
+    /// Palm facing the object from the robot's side, fingers closing horizontally around it.
+    Side,
+}
+
+/// Flexion (rad) of the pre-shape used for every executed pre-grasp: wide open, so the hand can
+/// approach any catalog object.
+pub const PRESHAPE: f64 = 0.3;
+
+/// The scripted, human-like grasp teacher (§6.5: grasps demonstrated by teleoperation). It sees
+/// the object as a person does (its true shape and pose) and demonstrates what a person would: a
+/// side grasp at mid-height for tall objects (height ≥ 13 cm and ≥ 1.4 × the wider horizontal
+/// extent), otherwise a top-down grasp across the narrow horizontal axis with the palm just above
+/// the object, deep enough for the fingertips to close at mid-height (as in
+/// [`crate::task::plan_top_grasp`]). Each demonstration jitters the hand like a person does: position
+/// σ 6 mm horizontally and 4 mm vertically, yaw σ 5°.
+#[derive(Debug, Clone)]
+pub struct GraspTeacher {
+    arm: Arm,
+    arc: Vec<(f64, f64, f64)>,
+    shoulder: Vec3,
+    park: Iso3,
+    rng: crate::rng::SplitMix64,
+}
+
+impl GraspTeacher {
+    /// A teacher demonstrating with `arm` of a parked `sim` over a table at `table_z`; noise from
+    /// `seed`.
+    pub fn new(sim: &DexterSim, arm: Arm, table_z: f64, seed: u64) -> Result<Self, SimError> {
+        Ok(GraspTeacher {
+            arm,
+            arc: crate::task::finger_arc(sim, arm)?,
+            shoulder: sim
+                .link_pose_by_name(&format!("{}/shoulder_yaw_link", arm.prefix()))?
+                .translation
+                .vector,
+            park: crate::task::park_pose(arm, table_z),
+            rng: crate::rng::SplitMix64::new(seed ^ 0x7EAC_4E55),
+        })
+    }
+
+    /// The kind of grasp this teacher demonstrates on the single object of `scene`.
+    pub fn kind(scene: &Scene) -> DemoKind {
+        let Some(r) = scene.resolved.first() else {
+            return DemoKind::Top;
+        };
+        let shape = &scene.catalog.objects[r.object].shape;
+        let inv = r.pose.rotation.inverse();
+        let h = 2.0 * crate::geometry::support_half_extent(shape, &(inv * Vec3::z()));
+        let wx = 2.0 * crate::geometry::support_half_extent(shape, &(inv * Vec3::x()));
+        let wy = 2.0 * crate::geometry::support_half_extent(shape, &(inv * Vec3::y()));
+        if h >= 0.13 && h >= 1.4 * wx.max(wy) {
+            DemoKind::Side
+        } else {
+            DemoKind::Top
+        }
+    }
+
+    /// One demonstrated pre-grasp on the single object of `scene` (without noise if `exact`).
+    pub fn demonstrate(&mut self, scene: &Scene, exact: bool) -> Result<(DemoKind, PreGraspCommand), SimError> {
+        let r = scene
+            .resolved
+            .first()
+            .ok_or_else(|| SimError::Task("the scene has no object to grasp".into()))?;
+        let shape = scene.catalog.objects[r.object].shape.clone();
+        let pose = r.pose;
+        let table_z = scene.spec.table.height;
+        let kind = Self::kind(scene);
+        let mut noise = [0.0; 4];
+        if !exact {
+            for n in noise.iter_mut() {
+                *n = self.rng.normal();
+            }
+        }
+        let (dx, dy, dz, dyaw) = (
+            0.006 * noise[0],
+            0.006 * noise[1],
+            0.004 * noise[2],
+            5f64.to_radians() * noise[3],
+        );
+        let mut palm = match kind {
+            DemoKind::Top => {
+                let plan = crate::task::plan_top_grasp(&self.arc, &shape, &pose, table_z, &self.park);
+                let mut g = plan.grasp;
+                g.translation.vector.z += dz.abs();
+                g
+            }
+            DemoKind::Side => self.side_grasp(&shape, &pose, table_z, dz),
+        };
+        palm.translation.vector.x += dx;
+        palm.translation.vector.y += dy;
+        palm.rotation = control_basis::math::Rot3::from_axis_angle(&Vec3::z_axis(), dyaw) * palm.rotation;
+        Ok((
+            kind,
+            PreGraspCommand {
+                world_from_palm: palm,
+                preshape: PRESHAPE,
+                spread: 0.0,
+            },
+        ))
+    }
+
+    fn side_grasp(&self, shape: &Shape, pose: &Iso3, table_z: f64, dz: f64) -> Iso3 {
+        const TIP_RADIUS: f64 = 0.01;
+        let c = pose.translation.vector;
+        // Approach horizontally from the shoulder's side.
+        let mut a = c - self.shoulder;
+        a.z = 0.0;
+        let a = a.try_normalize(1e-9).unwrap_or_else(Vec3::x);
+        let h = Vec3::z().cross(&a);
+        let inv = pose.rotation.inverse();
+        let half_width = crate::geometry::support_half_extent(shape, &(inv * h));
+        let half_depth = crate::geometry::support_half_extent(shape, &(inv * a));
+        let half_height = crate::geometry::support_half_extent(shape, &(inv * Vec3::z()));
+        let target_lateral = half_width + TIP_RADIUS - 0.004;
+        let max_depth = self.arc.iter().map(|p| p.2).fold(f64::NEG_INFINITY, f64::max);
+        let contact_depth = self
+            .arc
+            .iter()
+            .find(|p| p.1 <= target_lateral)
+            .map(|p| p.2)
+            .unwrap_or(max_depth);
+        let d = contact_depth.max(half_depth + 0.008);
+        // Palm at mid-height, a little above for short ones so the palm box clears the table.
+        let bottom = c.z - half_height;
+        let z = (bottom + half_height + dz).max(table_z + 0.055);
+        let p = c - a * d;
+        // Finger 3 on ±h, whichever turns the hand less from the parked pose.
+        let mut best = (f64::INFINITY, control_basis::math::Rot3::identity());
+        for s in [1.0, -1.0] {
+            let y = h * s;
+            let x = y.cross(&a);
+            let r = control_basis::math::Rot3::from_matrix(&nalgebra::Matrix3::from_columns(&[x, y, a]));
+            let ang = r.angle_to(&self.park.rotation);
+            if ang < best.0 {
+                best = (ang, r);
+            }
+        }
+        Iso3::from_parts(nalgebra::Translation3::new(p.x, p.y, z), best.1)
+    }
+
+    /// The arm.
+    pub fn arm(&self) -> Arm {
+        self.arm
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Probe (release, by hand): teacher demonstrations on a few presentations.
+    #[test]
+    #[ignore]
+    fn probe_teacher() {
+        let base = Scene::builtin("pick-place").unwrap();
+        let settings = SimSettings {
+            seed: 1,
+            ..SimSettings::default()
+        };
+        let names: Vec<String> = std::env::var("PROBE")
+            .unwrap_or_else(|_| "jif,black_thermos,pink_drano,blue_ball,blue_cereal,cucumber".into())
+            .split(',')
+            .map(String::from)
+            .collect();
+        for name in names {
+            let scene = present(&base, &name, [0.55, 0.0], 0.0).unwrap();
+            let t = Instant::now();
+            let p = perceive(&scene, &settings).unwrap().unwrap();
+            let tp = t.elapsed().as_secs_f64();
+            let sim = parked_sim(&scene, &settings).unwrap();
+            let mut teacher = GraspTeacher::new(&sim, Arm::Right, 0.75, 3).unwrap();
+            for k in 0..2 {
+                let (kind, cmd) = teacher.demonstrate(&scene, k == 0).unwrap();
+                let o = execute(&scene, &settings, Arm::Right, &cmd).unwrap();
+                println!(
+                    "{name}: b {:?} err {:.4} perceive {tp:.1}s | {kind:?} {} rose {:.3} pre-err {:.3} sim {:.1}s wall {:.1}s",
+                    p.appearance, p.vision_error, o.outcome, o.rose, o.pregrasp_error, o.sim_time, o.wall_time
+                );
+            }
+        }
+    }
+}
