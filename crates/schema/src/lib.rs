@@ -13,6 +13,7 @@ pub mod infer;
 pub mod library;
 pub mod monitor;
 pub mod percept;
+pub mod procedural;
 
 pub use error::SchemaError;
 pub use infer::{Engine, Inference, InferenceConfig, Instance, Posterior};

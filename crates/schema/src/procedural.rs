@@ -1,0 +1,976 @@
+//! The procedural policy ψ of Sweeney (2011), ch. 5: which place (task-dependent reference) an
+//! object goes to, learned from a few demonstrations as a generative Bayesian feature model, and
+//! which arm(s) carry it there.
+//!
+//! # The model (§5.1.1 and its general form §5.3, Fig. 5.16)
+//!
+//! The task-dependent reference of Pick-And-Place is the place r_P. It gets a latent category
+//! q ∈ {1..K}, one value per demonstrated place (5.5)–(5.6). Each feature type has a *feature unit*
+//! (§5.3.4):
+//!
+//! * **colour** — the kept bins of the object's 64-bin HSV histogram (the 20th-percentile rule of
+//!   §5.1.2.1) are exchangeable categorical draws õ₁..õₙ; per place a symmetric Dirichlet(γ) prior,
+//!   counts as sufficient statistics, predictive (5.18) and the product (5.16)–(5.17) for a new object;
+//! * **size** — the segment size in deci-pixels (§5.1.2.2), one observation per object (the mean of
+//!   the left and right cameras, whose sizes are highly correlated, Fig. 5.4); per place a
+//!   Normal–Inverse-Gamma prior with a Student-t predictive.
+//!
+//! The *connectivity* (Fig. 5.16) says which feature types hang off q. A feature type that is not
+//! connected is still modelled, with one distribution shared by all places (the pooled statistics),
+//! so that every structure explains all the data and their marginal likelihoods compare.
+//!
+//! # Feature selection (left open in §5.3.3)
+//!
+//! The four structures S ∈ {neither, colour, size, colour+size} are scored by their closed-form
+//! marginal likelihood of the demonstrations, `ln p(D | S) = Σ_f [S connects f ? Σₖ ln p(D_f,k) :
+//! ln p(D_f)]`, and a prior over structures (uniform by default) gives the posterior p(S | D)
+//! ([`ProceduralModel::structure_posterior`]). The Bayesian Occam factor of the marginal likelihood
+//! prefers the shared model unless the places really differ in that feature. Predictions average
+//! over the structures (so a clear-cut structure behaves as if it were fixed, and an unsure one
+//! hedges); [`Hyper::structure`] can also fix the structure, as the seed does.
+//!
+//! # Prediction
+//!
+//! For a new object õ the joint weight of structure S and place k is
+//! `p(S | D) ψ(k) p(õ | k, S, D)`; summed over S it gives the posterior over places (5.10) and the
+//! MAP place q* (5.9); summed over both it is the task model's marginal p₁(õ) (5.22)–(5.23).
+//! ψ is uniform (the seed's choice: a teacher picks exemplars, not frequencies) or the
+//! Dirichlet–multinomial (5.14).
+//!
+//! # Task relevance (§5.1.3)
+//!
+//! ln B₁₀ = ln p₁(õ) − ln p₀(õ) (5.19) against a background model M₀ of "any object": colour uniform
+//! over the 64 bins, p₀ = 64⁻ⁿ (5.20)–(5.21), and size from the NIG prior predictive (the size prior
+//! describes objects the robot may meet, Fig. 5.7). The object is *relevant* when
+//! ln B₁₀ > [`Hyper::relevance_log_threshold`], by default 0 (B₁₀ > 1, the seed's rule).
+//!
+//! # Incremental learning (§5.2)
+//!
+//! Every statistic is an integer (colour counts, demonstrations, and the size sums Σx and Σx² in
+//! half-pixels), so [`ProceduralModel::update`] one demonstration at a time gives *exactly* the
+//! model [`ProceduralModel::learn`] builds from all of them, in any order, and
+//! [`ProceduralModel::merge`] adds two models.
+//!
+//! # Effector assignment (5.31)–(5.32)
+//!
+//! [`assign_effectors`]: the arm whose workspace holds both the object and the place, else a
+//! hand-to-hand transfer at a hand-off location both arms reach, else "unreachable".
+//!
+//! The model file format is documented at [`ProceduralModel::to_json`].
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use bayes::bayes_factor::{BayesFactor, log_mixture_marginal, log_place_weights, uniform_background_log_likelihood};
+use bayes::dirichlet::{CategoryCounts, SymmetricDirichlet};
+use bayes::special::log_sum_exp;
+use bayes::univariate::{GaussianStats, NormalInverseGamma, StudentT};
+use serde::{Deserialize, Serialize};
+
+use crate::error::SchemaError;
+use crate::percept::SegmentPercept;
+
+pub mod effector;
+pub mod explain;
+mod format;
+
+pub use effector::{ArmReach, EffectorAssignment, Handoff, Unreachable, assign_effectors};
+pub use explain::{ColorMass, Explanation, PlaceExplanation, SyntheticInstance, bin_center_hsv, color_name};
+
+/// The `format` field of a model file.
+pub const MODEL_FORMAT: &str = "pbd-procedural-model";
+/// The model format version this crate reads and writes.
+pub const MODEL_VERSION: u32 = 1;
+/// Number of colours L of the HSV histogram (4 hue × 4 saturation × 4 value bins, §5.1.2.1).
+pub const COLOR_BINS: usize = 64;
+
+/// Where errors about in-memory input are reported (no file).
+const INPUT: &str = "<input>";
+
+// ---------------------------------------------------------------------------------------------
+// Input
+// ---------------------------------------------------------------------------------------------
+
+/// The observed features of one object (mirrors [`SegmentPercept`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Features {
+    /// The kept bins of the 64-bin HSV histogram as (bin, weight); each kept bin is one colour
+    /// observation õᵢ (the weights are informative only and not used by the model).
+    pub histogram: Vec<(u8, f64)>,
+    /// Segment size in pixels in the left and right camera; 0 = not seen by that camera.
+    pub pixels: [u32; 2],
+}
+
+impl From<&SegmentPercept> for Features {
+    fn from(s: &SegmentPercept) -> Self {
+        Features {
+            histogram: s.histogram.clone(),
+            pixels: s.pixels,
+        }
+    }
+}
+
+impl Features {
+    /// Checks bins (< 64, no duplicates) and weights (finite, ≥ 0); `field` prefixes error fields.
+    pub fn validate(&self, field: &str) -> Result<(), SchemaError> {
+        let mut seen = 0u64;
+        for (i, &(bin, w)) in self.histogram.iter().enumerate() {
+            if usize::from(bin) >= COLOR_BINS {
+                return Err(SchemaError::invalid(
+                    INPUT,
+                    format!("{field}histogram[{i}]"),
+                    format!("bin {bin} out of range 0..{COLOR_BINS}"),
+                ));
+            }
+            if seen & (1u64 << bin) != 0 {
+                return Err(SchemaError::invalid(
+                    INPUT,
+                    format!("{field}histogram[{i}]"),
+                    format!("bin {bin} appears twice"),
+                ));
+            }
+            seen |= 1u64 << bin;
+            if !(w.is_finite() && w >= 0.0) {
+                return Err(SchemaError::invalid(
+                    INPUT,
+                    format!("{field}histogram[{i}]"),
+                    format!("weight {w} is not a finite number >= 0"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The colour observations: kept bins, ascending.
+    pub fn color_bins(&self) -> Vec<usize> {
+        let mut v: Vec<usize> = self.histogram.iter().map(|&(b, _)| usize::from(b)).collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
+
+    /// The size observation in half-pixels: left + right when both cameras saw the object, twice
+    /// the one count otherwise, `None` when neither did.
+    pub fn size_half_pixels(&self) -> Option<u64> {
+        match self.pixels {
+            [0, 0] => None,
+            [l, 0] => Some(2 * u64::from(l)),
+            [0, r] => Some(2 * u64::from(r)),
+            [l, r] => Some(u64::from(l) + u64::from(r)),
+        }
+    }
+
+    /// The size observation in deci-pixels (§5.1.2.2): mean pixel count over the cameras / 10.
+    pub fn deci_pixels(&self) -> Option<f64> {
+        self.size_half_pixels().map(|h| h as f64 / 20.0)
+    }
+}
+
+/// One demonstrated Pick-And-Place: the features of the object and the place it was put.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Example {
+    /// What the robot saw of the object.
+    pub features: Features,
+    /// The place (task-dependent reference) the teacher put it, e.g. `bin_left`.
+    pub reference: String,
+}
+
+// ---------------------------------------------------------------------------------------------
+// Structures and hyper-parameters
+// ---------------------------------------------------------------------------------------------
+
+/// A feature type of the feature unit (§5.3.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FeatureType {
+    /// The HSV colour histogram's kept bins.
+    Color,
+    /// The segment size in deci-pixels.
+    Size,
+}
+
+impl FeatureType {
+    /// Both feature types.
+    pub const ALL: [FeatureType; 2] = [FeatureType::Color, FeatureType::Size];
+
+    /// `color` or `size`.
+    pub fn name(self) -> &'static str {
+        match self {
+            FeatureType::Color => "color",
+            FeatureType::Size => "size",
+        }
+    }
+}
+
+/// Which feature types connect to the place category q (Fig. 5.16).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+pub struct Connectivity {
+    /// Colour depends on the place.
+    pub color: bool,
+    /// Size depends on the place.
+    pub size: bool,
+}
+
+impl Connectivity {
+    /// The four structures, in the order `neither`, `color`, `size`, `color+size`.
+    pub const ALL: [Connectivity; 4] = [
+        Connectivity {
+            color: false,
+            size: false,
+        },
+        Connectivity {
+            color: true,
+            size: false,
+        },
+        Connectivity {
+            color: false,
+            size: true,
+        },
+        Connectivity {
+            color: true,
+            size: true,
+        },
+    ];
+
+    /// `neither`, `color`, `size` or `color+size`.
+    pub fn name(self) -> &'static str {
+        match (self.color, self.size) {
+            (false, false) => "neither",
+            (true, false) => "color",
+            (false, true) => "size",
+            (true, true) => "color+size",
+        }
+    }
+
+    /// Parses [`Connectivity::name`] (also `both`, `none`, `colour`).
+    pub fn parse(s: &str) -> Option<Connectivity> {
+        Some(match s {
+            "neither" | "none" => Connectivity::ALL[0],
+            "color" | "colour" => Connectivity::ALL[1],
+            "size" => Connectivity::ALL[2],
+            "color+size" | "both" | "colour+size" => Connectivity::ALL[3],
+            _ => return None,
+        })
+    }
+
+    /// Whether feature type `f` connects to the place.
+    pub fn connects(self, f: FeatureType) -> bool {
+        match f {
+            FeatureType::Color => self.color,
+            FeatureType::Size => self.size,
+        }
+    }
+
+    fn index(self) -> usize {
+        usize::from(self.color) + 2 * usize::from(self.size)
+    }
+}
+
+/// The prior ψ over place categories (5.5).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum PlacePrior {
+    /// Every demonstrated place equally likely (the seed's choice, §5.1.1).
+    Uniform,
+    /// The Dirichlet–multinomial (5.14) over the demonstration counts with concentration β.
+    Dirichlet {
+        /// β > 0.
+        beta: f64,
+    },
+}
+
+/// Whether the connectivity is inferred (feature selection) or given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StructureChoice {
+    /// Average over the four structures with their posterior p(S | D).
+    #[default]
+    Inferred,
+    /// Use this structure only (the seed's experiments fix it).
+    Fixed(Connectivity),
+}
+
+impl StructureChoice {
+    /// `inferred` or a structure name.
+    pub fn name(self) -> &'static str {
+        match self {
+            StructureChoice::Inferred => "inferred",
+            StructureChoice::Fixed(c) => c.name(),
+        }
+    }
+
+    /// Parses [`StructureChoice::name`].
+    pub fn parse(s: &str) -> Option<StructureChoice> {
+        if s == "inferred" {
+            Some(StructureChoice::Inferred)
+        } else {
+            Connectivity::parse(s).map(StructureChoice::Fixed)
+        }
+    }
+}
+
+/// Hyper-parameters of the procedural model (all validated by [`Hyper::validate`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Hyper {
+    /// The place prior ψ.
+    pub place_prior: PlacePrior,
+    /// Symmetric Dirichlet concentration γ of each place's colour distribution (5.18).
+    pub color_gamma: f64,
+    /// NIG prior of each place's size distribution, in deci-pixels; its prior predictive is also
+    /// the background size model of M₀.
+    pub size_prior: NormalInverseGamma,
+    /// Prior probabilities of the structures, indexed like [`Connectivity::ALL`].
+    pub structure_prior: [f64; 4],
+    /// Inferred or fixed connectivity.
+    pub structure: StructureChoice,
+    /// An object is task-relevant when ln B₁₀ exceeds this (0: B₁₀ > 1, §5.1.3).
+    pub relevance_log_threshold: f64,
+}
+
+/// Default γ: a weak smoothing, so that one demonstration already concentrates a place's colour
+/// distribution on the colours it showed (chosen on the household catalog: γ from 0.1 to 1 all
+/// sort ≥ 0.9 with one example; smaller γ makes feature selection more eager to connect colour).
+pub const DEFAULT_COLOR_GAMMA: f64 = 0.5;
+
+impl Default for Hyper {
+    /// Defaults for Dexter's head cameras at 160×120 (the built-in scenes): sizes around 150
+    /// deci-pixels, a prior mean worth 0.05 observations, and σ² ~ InvGamma(2, 2·40²) (a typical
+    /// within-class spread of about 40 deci-pixels, broad: the prior predictive spans ~0–400).
+    fn default() -> Self {
+        Hyper {
+            place_prior: PlacePrior::Uniform,
+            color_gamma: DEFAULT_COLOR_GAMMA,
+            size_prior: default_size_prior(),
+            structure_prior: [0.25; 4],
+            structure: StructureChoice::Inferred,
+            relevance_log_threshold: 0.0,
+        }
+    }
+}
+
+/// Default prior mean object size (deci-pixels) at the default camera.
+pub const DEFAULT_SIZE_MU: f64 = 150.0;
+
+/// The default size prior (see [`Hyper::default`]).
+fn default_size_prior() -> NormalInverseGamma {
+    NormalInverseGamma::new(DEFAULT_SIZE_MU, 0.05, 2.0, 2.0 * 40.0 * 40.0).expect("constant NIG parameters are valid")
+}
+
+impl Hyper {
+    /// Checks every hyper-parameter; errors name the field.
+    pub fn validate(&self) -> Result<(), SchemaError> {
+        let bad = |field: &str, msg: String| Err(SchemaError::invalid(INPUT, format!("hyper.{field}"), msg));
+        if let PlacePrior::Dirichlet { beta } = self.place_prior
+            && !(beta.is_finite() && beta > 0.0)
+        {
+            return bad("place_prior.beta", format!("{beta} must be finite and > 0"));
+        }
+        if !(self.color_gamma.is_finite() && self.color_gamma > 0.0) {
+            return bad("color.gamma", format!("{} must be finite and > 0", self.color_gamma));
+        }
+        for (i, &p) in self.structure_prior.iter().enumerate() {
+            if !(p.is_finite() && p >= 0.0) {
+                return bad(
+                    &format!("structure_prior.{}", Connectivity::ALL[i].name()),
+                    format!("{p} must be finite and >= 0"),
+                );
+            }
+        }
+        if self.structure_prior.iter().sum::<f64>() <= 0.0 {
+            return bad("structure_prior", "all structures have prior 0".into());
+        }
+        if let StructureChoice::Fixed(c) = self.structure
+            && self.structure_prior[c.index()] <= 0.0
+        {
+            return bad(
+                "structure",
+                format!("fixed structure {} has prior probability 0", c.name()),
+            );
+        }
+        if self.relevance_log_threshold.is_nan() {
+            return bad("relevance_log_threshold", "NaN".into());
+        }
+        Ok(())
+    }
+
+    fn color_dirichlet(&self) -> Result<SymmetricDirichlet, SchemaError> {
+        Ok(SymmetricDirichlet::new(COLOR_BINS, self.color_gamma)?)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sufficient statistics
+// ---------------------------------------------------------------------------------------------
+
+/// Exact sufficient statistics of the size observations, in half-pixels (integers, so any order of
+/// updates gives the same bits).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SizeStats {
+    /// Number of observations.
+    pub n: u64,
+    /// Σ x (half-pixels).
+    pub sum_half_pixels: u64,
+    /// Σ x² (half-pixels²).
+    pub sum_sq_half_pixels: u64,
+}
+
+impl SizeStats {
+    fn add(&mut self, x: u64) -> Result<(), SchemaError> {
+        let overflow = || SchemaError::invalid(INPUT, "size", "size statistics overflow u64");
+        let sq = x.checked_mul(x).ok_or_else(overflow)?;
+        let new = SizeStats {
+            n: self.n.checked_add(1).ok_or_else(overflow)?,
+            sum_half_pixels: self.sum_half_pixels.checked_add(x).ok_or_else(overflow)?,
+            sum_sq_half_pixels: self.sum_sq_half_pixels.checked_add(sq).ok_or_else(overflow)?,
+        };
+        *self = new;
+        Ok(())
+    }
+
+    fn merged(&self, o: &SizeStats) -> Result<SizeStats, SchemaError> {
+        let overflow = || SchemaError::invalid(INPUT, "size", "size statistics overflow u64");
+        Ok(SizeStats {
+            n: self.n.checked_add(o.n).ok_or_else(overflow)?,
+            sum_half_pixels: self
+                .sum_half_pixels
+                .checked_add(o.sum_half_pixels)
+                .ok_or_else(overflow)?,
+            sum_sq_half_pixels: self
+                .sum_sq_half_pixels
+                .checked_add(o.sum_sq_half_pixels)
+                .ok_or_else(overflow)?,
+        })
+    }
+
+    /// Checks consistency (n = 0 ⇒ sums 0; Cauchy–Schwarz n·Σx² ≥ (Σx)²).
+    fn check(&self) -> Result<(), String> {
+        if self.n == 0 && (self.sum_half_pixels != 0 || self.sum_sq_half_pixels != 0) {
+            return Err("sums must be 0 when n = 0".into());
+        }
+        let lhs = u128::from(self.n) * u128::from(self.sum_sq_half_pixels);
+        let rhs = u128::from(self.sum_half_pixels) * u128::from(self.sum_half_pixels);
+        if lhs < rhs {
+            return Err("inconsistent: n * sum_sq_half_pixels < sum_half_pixels^2".into());
+        }
+        Ok(())
+    }
+
+    /// The statistics (n, x̄, M2) in deci-pixels (x / 20), M2 computed exactly in integers.
+    pub fn gaussian(&self) -> GaussianStats {
+        if self.n == 0 {
+            return GaussianStats::new();
+        }
+        let n = u128::from(self.n);
+        let s = u128::from(self.sum_half_pixels);
+        let m2_times_n = n * u128::from(self.sum_sq_half_pixels) - s * s;
+        let mean = self.sum_half_pixels as f64 / (20.0 * self.n as f64);
+        let m2 = m2_times_n as f64 / (self.n as f64 * 400.0);
+        GaussianStats::from_parts(self.n, mean, m2).unwrap_or_default()
+    }
+}
+
+/// One place's statistics: demonstrations, colour counts, size sums.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PlaceStats {
+    /// Number of demonstrations that used this place.
+    pub demonstrations: u64,
+    /// Colour counts over the 64 bins.
+    pub color: CategoryCounts,
+    /// Size statistics.
+    pub size: SizeStats,
+}
+
+impl PlaceStats {
+    fn empty() -> Self {
+        PlaceStats {
+            demonstrations: 0,
+            color: CategoryCounts::new(COLOR_BINS).unwrap_or_else(|_| unreachable_counts()),
+            size: SizeStats::default(),
+        }
+    }
+}
+
+fn unreachable_counts() -> CategoryCounts {
+    CategoryCounts::from_counts(vec![0; COLOR_BINS]).expect("64 categories is a valid category set")
+}
+
+// ---------------------------------------------------------------------------------------------
+// Results
+// ---------------------------------------------------------------------------------------------
+
+/// The posterior over connectivity structures p(S | D).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StructurePosterior {
+    /// (structure, ln p(D | S), posterior probability), in [`Connectivity::ALL`] order.
+    pub structures: Vec<StructureScore>,
+}
+
+/// One structure's evidence.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct StructureScore {
+    /// The structure.
+    pub connectivity: Connectivity,
+    /// ln p(D | S): the marginal likelihood of the demonstrations' features.
+    pub log_evidence: f64,
+    /// p(S | D).
+    pub probability: f64,
+}
+
+impl StructurePosterior {
+    /// The most probable structure (the first on ties).
+    pub fn map(&self) -> Connectivity {
+        self.structures
+            .iter()
+            .fold(None::<&StructureScore>, |best, s| match best {
+                Some(b) if b.probability >= s.probability => Some(b),
+                _ => Some(s),
+            })
+            .map_or(Connectivity::ALL[0], |s| s.connectivity)
+    }
+
+    /// p(feature type connects to the place | D): the sum over structures that connect it.
+    pub fn feature_probability(&self, f: FeatureType) -> f64 {
+        self.structures
+            .iter()
+            .filter(|s| s.connectivity.connects(f))
+            .map(|s| s.probability)
+            .sum()
+    }
+
+    /// The probability of the MAP structure.
+    pub fn map_probability(&self) -> f64 {
+        let m = self.map();
+        self.structures
+            .iter()
+            .find(|s| s.connectivity == m)
+            .map_or(0.0, |s| s.probability)
+    }
+}
+
+/// The task-relevance decision for one object (§5.1.3).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Relevance {
+    /// ln p₁(õ), ln p₀(õ) and ln B₁₀ (5.19).
+    pub bayes_factor: BayesFactor,
+    /// The decision threshold on ln B₁₀.
+    pub log_threshold: f64,
+    /// ln B₁₀ > threshold.
+    pub relevant: bool,
+}
+
+/// What the model says about one presented object.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Prediction {
+    /// Posterior over places p(q | õ, D) (5.10), in place-name order.
+    pub places: Vec<(String, f64)>,
+    /// The MAP place q* (5.9).
+    pub map_place: String,
+    /// Its posterior probability.
+    pub map_probability: f64,
+    /// Task relevance by B₁₀.
+    pub relevance: Relevance,
+    /// Which of the object's features were available: (colour, size).
+    pub observed: Connectivity,
+}
+
+// ---------------------------------------------------------------------------------------------
+// The model
+// ---------------------------------------------------------------------------------------------
+
+/// The procedural feature model: hyper-parameters plus per-place sufficient statistics. Places
+/// are kept in name order, so the model does not depend on the order of the demonstrations.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProceduralModel {
+    hyper: Hyper,
+    places: BTreeMap<String, PlaceStats>,
+}
+
+impl ProceduralModel {
+    /// An empty model (no places yet). Errors: invalid hyper-parameters.
+    pub fn new(hyper: Hyper) -> Result<Self, SchemaError> {
+        hyper.validate()?;
+        Ok(ProceduralModel {
+            hyper,
+            places: BTreeMap::new(),
+        })
+    }
+
+    /// Learns from a batch of demonstrations. Errors: an empty set, invalid hyper-parameters or an
+    /// invalid example (named by index).
+    pub fn learn(hyper: Hyper, examples: &[Example]) -> Result<Self, SchemaError> {
+        if examples.is_empty() {
+            return Err(SchemaError::Empty("no demonstrations to learn from".into()));
+        }
+        let mut m = Self::new(hyper)?;
+        for (i, e) in examples.iter().enumerate() {
+            m.update_field(e, &format!("examples[{i}]."))?;
+        }
+        Ok(m)
+    }
+
+    /// Adds one demonstration (§5.2). On error the model is unchanged.
+    pub fn update(&mut self, example: &Example) -> Result<(), SchemaError> {
+        self.update_field(example, "example.")
+    }
+
+    fn update_field(&mut self, e: &Example, field: &str) -> Result<(), SchemaError> {
+        if e.reference.trim().is_empty() {
+            return Err(SchemaError::invalid(
+                INPUT,
+                format!("{field}reference"),
+                "empty place name",
+            ));
+        }
+        e.features.validate(&format!("{field}features."))?;
+        let bins = e.features.color_bins();
+        if bins.is_empty() {
+            return Err(SchemaError::invalid(
+                INPUT,
+                format!("{field}features.histogram"),
+                "missing colour feature (no kept bins)",
+            ));
+        }
+        let Some(x) = e.features.size_half_pixels() else {
+            return Err(SchemaError::invalid(
+                INPUT,
+                format!("{field}features.pixels"),
+                "missing size feature (0 pixels in both cameras)",
+            ));
+        };
+        let mut stats = self.places.get(&e.reference).cloned().unwrap_or_else(PlaceStats::empty);
+        for b in bins {
+            stats.color.update(b)?;
+        }
+        stats.size.add(x)?;
+        stats.demonstrations += 1;
+        self.places.insert(e.reference.clone(), stats);
+        Ok(())
+    }
+
+    /// Adds another model's statistics (same hyper-parameters required).
+    pub fn merge(&mut self, other: &ProceduralModel) -> Result<(), SchemaError> {
+        if self.hyper != other.hyper {
+            return Err(SchemaError::invalid(
+                INPUT,
+                "hyper",
+                "models with different hyper-parameters cannot be merged",
+            ));
+        }
+        let mut places = self.places.clone();
+        for (name, o) in &other.places {
+            let p = places.entry(name.clone()).or_insert_with(PlaceStats::empty);
+            p.color.merge(&o.color)?;
+            p.size = p.size.merged(&o.size)?;
+            p.demonstrations += o.demonstrations;
+        }
+        self.places = places;
+        Ok(())
+    }
+
+    /// The hyper-parameters.
+    pub fn hyper(&self) -> &Hyper {
+        &self.hyper
+    }
+
+    /// Replaces the structure choice (inferred or fixed); statistics are kept.
+    pub fn set_structure(&mut self, structure: StructureChoice) -> Result<(), SchemaError> {
+        let mut h = self.hyper.clone();
+        h.structure = structure;
+        h.validate()?;
+        self.hyper = h;
+        Ok(())
+    }
+
+    /// Place names, in order.
+    pub fn place_names(&self) -> Vec<&str> {
+        self.places.keys().map(String::as_str).collect()
+    }
+
+    /// One place's statistics.
+    pub fn place(&self, name: &str) -> Option<&PlaceStats> {
+        self.places.get(name)
+    }
+
+    /// Total number of demonstrations.
+    pub fn num_demonstrations(&self) -> u64 {
+        self.places.values().map(|p| p.demonstrations).sum()
+    }
+
+    fn check_nonempty(&self) -> Result<(), SchemaError> {
+        if self.places.is_empty() {
+            Err(SchemaError::Empty("the procedural model has no demonstrations".into()))
+        } else {
+            Ok(())
+        }
+    }
+
+    fn pooled(&self) -> Result<PlaceStats, SchemaError> {
+        let mut all = PlaceStats::empty();
+        for p in self.places.values() {
+            all.color.merge(&p.color)?;
+            all.size = all.size.merged(&p.size)?;
+            all.demonstrations += p.demonstrations;
+        }
+        Ok(all)
+    }
+
+    /// ln p(D_f | one shared distribution) and Σₖ ln p(D_f,k) for both feature types:
+    /// `[[color pooled, color split], [size pooled, size split]]`.
+    fn feature_evidence(&self) -> Result<[[f64; 2]; 2], SchemaError> {
+        let dir = self.hyper.color_dirichlet()?;
+        let nig = &self.hyper.size_prior;
+        let pooled = self.pooled()?;
+        let mut color_split = 0.0;
+        let mut size_split = 0.0;
+        for p in self.places.values() {
+            color_split += dir.log_marginal_likelihood(&p.color)?;
+            size_split += nig.log_marginal_likelihood(&p.size.gaussian());
+        }
+        Ok([
+            [dir.log_marginal_likelihood(&pooled.color)?, color_split],
+            [nig.log_marginal_likelihood(&pooled.size.gaussian()), size_split],
+        ])
+    }
+
+    /// Feature selection: the posterior over the four connectivity structures (module docs). With
+    /// a fixed structure the posterior is 1 on it. Errors: an empty model.
+    pub fn structure_posterior(&self) -> Result<StructurePosterior, SchemaError> {
+        self.check_nonempty()?;
+        let ev = self.feature_evidence()?;
+        let log_evidence: Vec<f64> = Connectivity::ALL
+            .iter()
+            .map(|c| ev[0][usize::from(c.color)] + ev[1][usize::from(c.size)])
+            .collect();
+        let prior: [f64; 4] = match self.hyper.structure {
+            StructureChoice::Inferred => self.hyper.structure_prior,
+            StructureChoice::Fixed(c) => {
+                let mut p = [0.0; 4];
+                p[c.index()] = 1.0;
+                p
+            }
+        };
+        let log_joint: Vec<f64> = log_evidence.iter().zip(prior).map(|(l, p)| l + p.ln()).collect();
+        let z = log_sum_exp(&log_joint);
+        Ok(StructurePosterior {
+            structures: Connectivity::ALL
+                .iter()
+                .enumerate()
+                .map(|(i, &connectivity)| StructureScore {
+                    connectivity,
+                    log_evidence: log_evidence[i],
+                    probability: if log_joint[i] == f64::NEG_INFINITY {
+                        0.0
+                    } else {
+                        (log_joint[i] - z).exp()
+                    },
+                })
+                .collect(),
+        })
+    }
+
+    /// ln ψ(k) for the places in order.
+    fn log_place_prior(&self) -> Result<Vec<f64>, SchemaError> {
+        let k = self.places.len();
+        match self.hyper.place_prior {
+            PlacePrior::Uniform => Ok(vec![-(k as f64).ln(); k]),
+            PlacePrior::Dirichlet { beta } => {
+                let prior = SymmetricDirichlet::new(k, beta)?;
+                let counts = CategoryCounts::from_counts(self.places.values().map(|p| p.demonstrations).collect())?;
+                Ok(log_place_weights(&prior, &counts)?)
+            }
+        }
+    }
+
+    /// Size predictive (Student-t) of a place's statistics.
+    fn size_predictive(&self, s: &SizeStats) -> StudentT {
+        self.hyper.size_prior.posterior_predictive(&s.gaussian())
+    }
+
+    /// Per feature type, ln p(õ_f | place k) for every place and ln p(õ_f | pooled):
+    /// `(color_per_place, color_pooled, size_per_place, size_pooled)`; a missing feature scores 0.
+    fn feature_scores(&self, f: &Features) -> Result<(Vec<f64>, f64, Vec<f64>, f64), SchemaError> {
+        let dir = self.hyper.color_dirichlet()?;
+        let bins = f.color_bins();
+        let pooled = self.pooled()?;
+        let size = f.deci_pixels();
+        let color_k = self
+            .places
+            .values()
+            .map(|p| dir.log_predictive_product(&p.color, &bins))
+            .collect::<Result<Vec<_>, _>>()?;
+        let color_all = dir.log_predictive_product(&pooled.color, &bins)?;
+        let size_score = |s: &SizeStats| size.map_or(0.0, |x| self.size_predictive(s).log_pdf(x));
+        let size_k = self.places.values().map(|p| size_score(&p.size)).collect();
+        let size_all = size_score(&pooled.size);
+        Ok((color_k, color_all, size_k, size_all))
+    }
+
+    /// Posterior over places, MAP place (5.9)–(5.10) and task relevance (5.19)–(5.23) for the
+    /// features of a new object, averaged over structures (module docs). Errors: an empty model,
+    /// invalid features, or an object with neither feature.
+    pub fn predict(&self, features: &Features) -> Result<Prediction, SchemaError> {
+        self.check_nonempty()?;
+        features.validate("features.")?;
+        let bins = features.color_bins();
+        let size = features.deci_pixels();
+        if bins.is_empty() && size.is_none() {
+            return Err(SchemaError::invalid(
+                INPUT,
+                "features",
+                "no colour bins and no pixels: nothing to predict from",
+            ));
+        }
+        let structures = self.structure_posterior()?;
+        let log_psi = self.log_place_prior()?;
+        let (color_k, color_all, size_k, size_all) = self.feature_scores(features)?;
+        let k = log_psi.len();
+        // Joint log weights over (structure, place).
+        let mut log_place = vec![Vec::with_capacity(structures.structures.len()); k];
+        let mut log_task_terms = Vec::with_capacity(4);
+        for s in &structures.structures {
+            if s.probability <= 0.0 {
+                continue;
+            }
+            let c = s.connectivity;
+            let lik: Vec<f64> = (0..k)
+                .map(|i| (if c.color { color_k[i] } else { color_all }) + (if c.size { size_k[i] } else { size_all }))
+                .collect();
+            let log_ps = s.probability.ln();
+            let marg = log_mixture_marginal(&log_psi, &lik)?;
+            log_task_terms.push(log_ps + marg);
+            for i in 0..k {
+                log_place[i].push(log_ps + log_psi[i] + lik[i]);
+            }
+        }
+        let log_p1 = log_sum_exp(&log_task_terms);
+        let per_place: Vec<f64> = log_place.iter().map(|v| log_sum_exp(v)).collect();
+        let z = log_sum_exp(&per_place);
+        let places: Vec<(String, f64)> = self
+            .places
+            .keys()
+            .zip(&per_place)
+            .map(|(n, &l)| (n.clone(), if z.is_finite() { (l - z).exp() } else { 1.0 / k as f64 }))
+            .collect();
+        let (map_place, map_probability) = places
+            .iter()
+            .fold(None::<&(String, f64)>, |best, p| match best {
+                Some(b) if b.1 >= p.1 => Some(b),
+                _ => Some(p),
+            })
+            .map(|(n, p)| (n.clone(), *p))
+            .unwrap_or_default();
+        let log_p0 = uniform_background_log_likelihood(bins.len(), COLOR_BINS)?
+            + size.map_or(0.0, |x| self.hyper.size_prior.predictive().log_pdf(x));
+        let bayes_factor = BayesFactor::new(log_p1, log_p0)?;
+        let t = self.hyper.relevance_log_threshold;
+        Ok(Prediction {
+            places,
+            map_place,
+            map_probability,
+            relevance: Relevance {
+                bayes_factor,
+                log_threshold: t,
+                relevant: bayes_factor.log_b10 > t,
+            },
+            observed: Connectivity {
+                color: !bins.is_empty(),
+                size: size.is_some(),
+            },
+        })
+    }
+
+    /// The posterior-predictive colour pmf (5.18) of a place over the 64 bins.
+    pub fn color_pmf(&self, place: &str) -> Result<Vec<f64>, SchemaError> {
+        let p = self.place_or_err(place)?;
+        Ok(self.hyper.color_dirichlet()?.predictive_probs(&p.color)?)
+    }
+
+    /// The posterior-predictive size density (Student-t, deci-pixels) of a place.
+    pub fn size_density(&self, place: &str) -> Result<StudentT, SchemaError> {
+        let p = self.place_or_err(place)?;
+        Ok(self.size_predictive(&p.size))
+    }
+
+    fn place_or_err(&self, place: &str) -> Result<&PlaceStats, SchemaError> {
+        self.places
+            .get(place)
+            .ok_or_else(|| SchemaError::unknown("place", place, self.places.keys().map(String::as_str)))
+    }
+
+    /// Writes the model as JSON (see [`ProceduralModel::to_json`]).
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<(), SchemaError> {
+        let path = path.as_ref();
+        std::fs::write(path, self.to_json()).map_err(|source| SchemaError::Io {
+            path: path.display().to_string(),
+            source,
+        })
+    }
+
+    /// Reads and validates a model file.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, SchemaError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| SchemaError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_json(&text, &path.display().to_string())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ex(bins: &[u8], px: [u32; 2], place: &str) -> Example {
+        Example {
+            features: Features {
+                histogram: bins.iter().map(|&b| (b, 1.0 / bins.len() as f64)).collect(),
+                pixels: px,
+            },
+            reference: place.into(),
+        }
+    }
+
+    #[test]
+    fn colour_task_picks_colour_and_sorts() {
+        let demos = vec![
+            ex(&[3, 7], [1500, 1480], "a"),
+            ex(&[3, 7, 2], [3000, 3100], "a"),
+            ex(&[40, 41], [1400, 1500], "b"),
+            ex(&[40, 44], [2900, 3000], "b"),
+        ];
+        let m = ProceduralModel::learn(Hyper::default(), &demos).unwrap();
+        let s = m.structure_posterior().unwrap();
+        assert_eq!(s.map(), Connectivity::ALL[1], "{s:?}");
+        let p = m.predict(&ex(&[3, 2], [2000, 2000], "?").features).unwrap();
+        assert_eq!(p.map_place, "a");
+        assert!(p.relevance.relevant);
+        let q = m.predict(&ex(&[60, 61, 62], [9000, 9000], "?").features).unwrap();
+        assert!(!q.relevance.relevant, "{q:?}");
+    }
+
+    #[test]
+    fn size_stats_are_exact() {
+        let mut s = SizeStats::default();
+        for x in [3000u64, 2990, 1000] {
+            s.add(x).unwrap();
+        }
+        let g = s.gaussian();
+        let want = GaussianStats::from_slice(&[150.0, 149.5, 50.0]).unwrap();
+        assert!((g.mean() - want.mean()).abs() < 1e-12);
+        assert!((g.m2() - want.m2()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn bad_examples_are_errors() {
+        let mut m = ProceduralModel::new(Hyper::default()).unwrap();
+        assert!(m.update(&ex(&[64], [10, 10], "a")).is_err());
+        assert!(m.update(&ex(&[], [10, 10], "a")).is_err());
+        assert!(m.update(&ex(&[1], [0, 0], "a")).is_err());
+        assert!(m.update(&ex(&[1, 1], [5, 5], "a")).is_err());
+        assert!(m.update(&ex(&[1], [5, 5], "")).is_err());
+        assert_eq!(m.num_demonstrations(), 0);
+        assert!(ProceduralModel::learn(Hyper::default(), &[]).is_err());
+        assert!(m.predict(&ex(&[1], [5, 5], "").features).is_err());
+    }
+}

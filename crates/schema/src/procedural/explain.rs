@@ -1,0 +1,321 @@
+//! What the robot tells the teacher (§5.2): per place, the predictive colour pmf and size density
+//! in plain words, which features matter and how sure it is; and synthetic task instances drawn
+//! from the posterior predictive p(D̃ | D) so that the teacher can judge whether to demonstrate more.
+
+use rand::Rng;
+use rand::SeedableRng;
+use rand::rngs::StdRng;
+use serde::Serialize;
+
+use super::{COLOR_BINS, Connectivity, FeatureType, Features, PlacePrior, ProceduralModel, StructurePosterior};
+use crate::error::SchemaError;
+
+/// HSV centre of a histogram bin (`16·h + 4·s + v`, each axis in 4 equal intervals; hue in degrees).
+pub fn bin_center_hsv(bin: usize) -> [f64; 3] {
+    let c = |i: usize| (i as f64 + 0.5) / 4.0;
+    [360.0 * c((bin / 16) % 4), c((bin / 4) % 4), c(bin % 4)]
+}
+
+/// A plain-words name of a histogram bin, e.g. `bright vivid red–yellow`, `dark grey`, `black`.
+pub fn color_name(bin: usize) -> String {
+    let (h, s, v) = ((bin / 16) % 4, (bin / 4) % 4, bin % 4);
+    if v == 0 {
+        return "black".into();
+    }
+    if s == 0 {
+        return ["black", "dark grey", "grey", "white"][v].into();
+    }
+    let hue = ["red–yellow", "green", "cyan–blue", "purple–pink"][h];
+    let sat = ["", "greyish ", "", "vivid "][s];
+    let val = ["", "dark ", "", "bright "][v];
+    format!("{val}{sat}{hue}")
+}
+
+/// One colour bin's predictive probability.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ColorMass {
+    /// Bin index 0..64.
+    pub bin: u8,
+    /// Its name ([`color_name`]).
+    pub name: String,
+    /// HSV of its centre (hue in degrees, s and v in [0, 1]).
+    pub hsv: [f64; 3],
+    /// Predictive probability (5.18).
+    pub probability: f64,
+}
+
+/// What was learned about one place.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlaceExplanation {
+    /// Place name.
+    pub name: String,
+    /// Demonstrations seen.
+    pub demonstrations: u64,
+    /// The most probable colours of its predictive pmf (up to 5, those above uniform).
+    pub top_colors: Vec<ColorMass>,
+    /// The whole predictive colour pmf over the 64 bins.
+    pub color_pmf: Vec<f64>,
+    /// Predictive size location (deci-pixels).
+    pub size_mean: f64,
+    /// Predictive size standard deviation (deci-pixels; the Student-t scale when ν ≤ 2).
+    pub size_sd: f64,
+    /// Degrees of freedom ν of the Student-t size predictive.
+    pub size_df: f64,
+    /// Probability that a new object drawn from this place's predictive is put back here.
+    pub consistency: f64,
+    /// One sentence.
+    pub sentence: String,
+}
+
+/// The model in plain words.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Explanation {
+    /// The posterior over structures (feature selection).
+    pub structure: StructurePosterior,
+    /// Name of the MAP structure.
+    pub map_structure: String,
+    /// p(colour decides the place | D).
+    pub color_matters: f64,
+    /// p(size decides the place | D).
+    pub size_matters: f64,
+    /// Per place.
+    pub places: Vec<PlaceExplanation>,
+    /// Mean of the places' consistencies: how sure the model is of its own sorting.
+    pub consistency: f64,
+    /// The whole story, several lines.
+    pub text: String,
+}
+
+/// A synthetic task instance drawn from the posterior predictive.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SyntheticInstance {
+    /// The place it belongs to.
+    pub place: String,
+    /// The structure it was drawn under.
+    pub structure: Connectivity,
+    /// Its features (colour bins with their drawn weights, equal pixels in both cameras).
+    pub features: Features,
+}
+
+/// Monte-Carlo draws per place for the consistency figure.
+const CONSISTENCY_DRAWS: usize = 200;
+
+fn sureness(p: f64) -> &'static str {
+    if p >= 0.95 {
+        "very sure"
+    } else if p >= 0.8 {
+        "fairly sure"
+    } else if p >= 0.6 {
+        "unsure — more demonstrations would help"
+    } else {
+        "guessing — please demonstrate more"
+    }
+}
+
+fn categorical<R: Rng + ?Sized>(rng: &mut R, w: &[f64]) -> usize {
+    use rand::RngExt;
+    let total: f64 = w.iter().sum();
+    let u = rng.random::<f64>() * total;
+    let mut acc = 0.0;
+    for (i, &x) in w.iter().enumerate() {
+        acc += x;
+        if u < acc {
+            return i;
+        }
+    }
+    w.len().saturating_sub(1)
+}
+
+impl ProceduralModel {
+    /// Draws `n` synthetic task instances from the posterior predictive (§5.2): a structure from
+    /// p(S | D), a place from ψ, then colour bins (as many as the place's demonstrations kept on
+    /// average, drawn without replacement from a posterior draw of θ) and a size from the Student-t
+    /// predictive — connected features from the place's statistics, the others from all places'.
+    pub fn sample_instances<R: Rng + ?Sized>(
+        &self,
+        rng: &mut R,
+        n: usize,
+    ) -> Result<Vec<SyntheticInstance>, SchemaError> {
+        let structures = self.structure_posterior()?;
+        let psi: Vec<f64> = self.log_place_prior()?.iter().map(|l| l.exp()).collect();
+        let names: Vec<&String> = self.places.keys().collect();
+        let mut out = Vec::with_capacity(n);
+        for _ in 0..n {
+            let k = categorical(rng, &psi);
+            out.push(self.sample_instance_at(rng, names[k], &structures)?);
+        }
+        Ok(out)
+    }
+
+    fn sample_instance_at<R: Rng + ?Sized>(
+        &self,
+        rng: &mut R,
+        place: &str,
+        structures: &StructurePosterior,
+    ) -> Result<SyntheticInstance, SchemaError> {
+        let probs: Vec<f64> = structures.structures.iter().map(|s| s.probability).collect();
+        let structure = structures.structures[categorical(rng, &probs)].connectivity;
+        let own = self.place_or_err(place)?;
+        let pooled = self.pooled()?;
+        let color_src = if structure.color { own } else { &pooled };
+        let size_src = if structure.size { own } else { &pooled };
+        let dir = self.hyper.color_dirichlet()?;
+        let mut theta = dir.sample_posterior(rng, &color_src.color)?;
+        let per_demo = color_src.color.total() as f64 / color_src.demonstrations.max(1) as f64;
+        let m = (per_demo.round() as usize).clamp(1, COLOR_BINS);
+        let mut histogram = Vec::with_capacity(m);
+        for _ in 0..m {
+            let b = categorical(rng, &theta);
+            histogram.push((b as u8, theta[b]));
+            theta[b] = 0.0;
+            if theta.iter().sum::<f64>() <= 0.0 {
+                break;
+            }
+        }
+        let wsum: f64 = histogram.iter().map(|h| h.1).sum();
+        if wsum > 0.0 {
+            histogram.iter_mut().for_each(|h| h.1 /= wsum);
+        }
+        histogram.sort_by_key(|h| h.0);
+        let x = self
+            .hyper
+            .size_prior
+            .posterior(&size_src.size.gaussian())
+            .sample_predictive(rng)
+            .max(0.1);
+        let px = (x * 10.0).round().clamp(1.0, f64::from(u32::MAX)) as u32;
+        Ok(SyntheticInstance {
+            place: place.to_string(),
+            structure,
+            features: Features {
+                histogram,
+                pixels: [px, px],
+            },
+        })
+    }
+
+    /// What the model has learned, in plain words (see [`Explanation`]). Deterministic (its
+    /// Monte-Carlo consistency figure uses a fixed seed). Errors: an empty model.
+    pub fn explain(&self) -> Result<Explanation, SchemaError> {
+        let structure = self.structure_posterior()?;
+        let map = structure.map();
+        let color_matters = structure.feature_probability(FeatureType::Color);
+        let size_matters = structure.feature_probability(FeatureType::Size);
+        let mut rng = StdRng::seed_from_u64(0x5EED_5_1_2);
+        let mut places = Vec::new();
+        for (name, p) in &self.places {
+            let pmf = self.color_pmf(name)?;
+            let mut order: Vec<usize> = (0..COLOR_BINS).collect();
+            order.sort_by(|&a, &b| pmf[b].total_cmp(&pmf[a]).then(a.cmp(&b)));
+            let top_colors: Vec<ColorMass> = order
+                .iter()
+                .take(5)
+                .filter(|&&b| pmf[b] > 1.0 / COLOR_BINS as f64)
+                .map(|&b| ColorMass {
+                    bin: b as u8,
+                    name: color_name(b),
+                    hsv: bin_center_hsv(b),
+                    probability: pmf[b],
+                })
+                .collect();
+            let t = self.size_density(name)?;
+            let size_sd = if t.df() > 2.0 {
+                t.scale() * (t.df() / (t.df() - 2.0)).sqrt()
+            } else {
+                t.scale()
+            };
+            let mut hits = 0usize;
+            for _ in 0..CONSISTENCY_DRAWS {
+                let inst = self.sample_instance_at(&mut rng, name, &structure)?;
+                if self.predict(&inst.features)?.map_place == *name {
+                    hits += 1;
+                }
+            }
+            let consistency = hits as f64 / CONSISTENCY_DRAWS as f64;
+            let colors = if top_colors.is_empty() {
+                "no particular colour".to_string()
+            } else {
+                top_colors
+                    .iter()
+                    .map(|c| format!("{} ({:.2})", c.name, c.probability))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            let sentence = format!(
+                "{name} ({} demonstration{}): colours mostly {colors}; size {:.0} ± {:.0} deci-pixels; \
+                 a new object like these goes here with probability {consistency:.2} ({}).",
+                p.demonstrations,
+                if p.demonstrations == 1 { "" } else { "s" },
+                t.loc(),
+                size_sd,
+                sureness(consistency),
+            );
+            places.push(PlaceExplanation {
+                name: name.clone(),
+                demonstrations: p.demonstrations,
+                top_colors,
+                color_pmf: pmf,
+                size_mean: t.loc(),
+                size_sd,
+                size_df: t.df(),
+                consistency,
+                sentence,
+            });
+        }
+        let consistency = places.iter().map(|p| p.consistency).sum::<f64>() / places.len().max(1) as f64;
+        let matters = |what: &str, p: f64| {
+            if p >= 0.5 {
+                format!("{what} decides the place (p = {p:.2})")
+            } else {
+                format!("{what} does not matter (p = {:.2} that it does)", p)
+            }
+        };
+        let mut text = format!(
+            "Learned from {} demonstration{} at {} place{}. {}; {}. Most likely structure: {} ({:.2}).\n",
+            self.num_demonstrations(),
+            if self.num_demonstrations() == 1 { "" } else { "s" },
+            self.places.len(),
+            if self.places.len() == 1 { "" } else { "s" },
+            matters("Colour", color_matters),
+            matters("size", size_matters),
+            map.name(),
+            structure.map_probability(),
+        );
+        if matches!(self.hyper.place_prior, PlacePrior::Uniform) {
+            text.push_str("Every place is equally likely a priori.\n");
+        }
+        for p in &places {
+            text.push_str("  ");
+            text.push_str(&p.sentence);
+            text.push('\n');
+        }
+        text.push_str(&format!(
+            "Overall {} of its own sorting (consistency {consistency:.2}).\n",
+            sureness(consistency)
+        ));
+        Ok(Explanation {
+            map_structure: map.name().to_string(),
+            structure,
+            color_matters,
+            size_matters,
+            places,
+            consistency,
+            text,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn colour_names() {
+        assert_eq!(color_name(0), "black");
+        assert_eq!(color_name(3), "white");
+        assert_eq!(color_name(15), "bright vivid red–yellow");
+        assert_eq!(color_name(16 * 2 + 4 * 2 + 2), "cyan–blue");
+        let hsv = bin_center_hsv(63);
+        assert!((hsv[0] - 315.0).abs() < 1e-12 && (hsv[1] - 0.875).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,276 @@
+//! The model file: versioned JSON with the hyper-parameters and every place's sufficient statistics.
+
+use bayes::dirichlet::CategoryCounts;
+use bayes::univariate::NormalInverseGamma;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use super::{
+    COLOR_BINS, Connectivity, Hyper, MODEL_FORMAT, MODEL_VERSION, PlacePrior, PlaceStats, ProceduralModel, SizeStats,
+    StructureChoice,
+};
+use crate::error::SchemaError;
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HyperFile {
+    place_prior: PlacePrior,
+    color: ColorHyper,
+    size: SizeHyper,
+    structure_prior: StructurePriorFile,
+    structure: String,
+    relevance_log_threshold: f64,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ColorHyper {
+    bins: usize,
+    gamma: f64,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SizeHyper {
+    unit: String,
+    mu: f64,
+    kappa: f64,
+    alpha: f64,
+    beta: f64,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StructurePriorFile {
+    neither: f64,
+    color: f64,
+    size: f64,
+    #[serde(rename = "color+size")]
+    color_size: f64,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlaceFile {
+    name: String,
+    demonstrations: u64,
+    color_counts: Vec<u64>,
+    size: SizeStats,
+}
+
+#[derive(Serialize)]
+struct FileV1<'a> {
+    format: &'a str,
+    version: u32,
+    hyper: HyperFile,
+    places: Vec<PlaceFile>,
+}
+
+const SIZE_UNIT: &str = "deci-pixels";
+
+impl ProceduralModel {
+    /// The model as pretty JSON:
+    ///
+    /// ```json
+    /// {
+    ///   "format": "pbd-procedural-model",
+    ///   "version": 1,
+    ///   "hyper": {
+    ///     "place_prior": { "kind": "uniform" },            // or { "kind": "dirichlet", "beta": 1.0 }
+    ///     "color": { "bins": 64, "gamma": 0.5 },            // symmetric Dirichlet per place (5.18)
+    ///     "size": { "unit": "deci-pixels", "mu": 150.0, "kappa": 0.05, "alpha": 2.0, "beta": 3200.0 },
+    ///     "structure_prior": { "neither": 0.25, "color": 0.25, "size": 0.25, "color+size": 0.25 },
+    ///     "structure": "inferred",                         // or a fixed structure name
+    ///     "relevance_log_threshold": 0.0                   // relevant when ln B10 > this
+    ///   },
+    ///   "places": [                                        // sorted by name
+    ///     { "name": "bin_left", "demonstrations": 3,
+    ///       "color_counts": [0, 2, …],                     // 64 counts of kept bins
+    ///       "size": { "n": 3, "sum_half_pixels": 9001, "sum_sq_half_pixels": 27012345 } }
+    ///   ]
+    /// }
+    /// ```
+    ///
+    /// Size statistics are in half-pixels (left + right pixel counts), exact integers; the size
+    /// observation in deci-pixels is x / 20.
+    pub fn to_json(&self) -> String {
+        let h = &self.hyper;
+        let file = FileV1 {
+            format: MODEL_FORMAT,
+            version: MODEL_VERSION,
+            hyper: HyperFile {
+                place_prior: h.place_prior,
+                color: ColorHyper {
+                    bins: COLOR_BINS,
+                    gamma: h.color_gamma,
+                },
+                size: SizeHyper {
+                    unit: SIZE_UNIT.into(),
+                    mu: h.size_prior.mu(),
+                    kappa: h.size_prior.kappa(),
+                    alpha: h.size_prior.alpha(),
+                    beta: h.size_prior.beta(),
+                },
+                structure_prior: StructurePriorFile {
+                    neither: h.structure_prior[0],
+                    color: h.structure_prior[1],
+                    size: h.structure_prior[2],
+                    color_size: h.structure_prior[3],
+                },
+                structure: h.structure.name().into(),
+                relevance_log_threshold: h.relevance_log_threshold,
+            },
+            places: self
+                .places
+                .iter()
+                .map(|(name, p)| PlaceFile {
+                    name: name.clone(),
+                    demonstrations: p.demonstrations,
+                    color_counts: p.color.counts().to_vec(),
+                    size: p.size,
+                })
+                .collect(),
+        };
+        let mut s = serde_json::to_string_pretty(&file).unwrap_or_default();
+        s.push('\n');
+        s
+    }
+
+    /// Parses and validates a model; `origin` (a path) names the source in errors. Errors name the
+    /// offending field: another `format` or `version`, a missing or unknown field, a wrong number of
+    /// colour counts, inconsistent statistics, invalid hyper-parameters.
+    pub fn from_json(text: &str, origin: &str) -> Result<Self, SchemaError> {
+        let parse = |message: String| SchemaError::Parse {
+            path: origin.to_string(),
+            message,
+        };
+        let invalid = |field: &str, message: String| SchemaError::Invalid {
+            path: origin.to_string(),
+            field: field.to_string(),
+            message,
+        };
+        let v: Value = serde_json::from_str(text).map_err(|e| parse(e.to_string()))?;
+        let Value::Object(obj) = &v else {
+            return Err(parse("a procedural model must be a JSON object".into()));
+        };
+        match obj.get("format") {
+            Some(Value::String(f)) if f == MODEL_FORMAT => {}
+            Some(other) => {
+                return Err(invalid("format", format!("{other} is not {MODEL_FORMAT:?}")));
+            }
+            None => return Err(invalid("format", format!("missing (expected {MODEL_FORMAT:?})"))),
+        }
+        match obj.get("version") {
+            Some(Value::Number(n)) if n.as_u64() == Some(u64::from(MODEL_VERSION)) => {}
+            Some(other) => {
+                return Err(invalid(
+                    "version",
+                    format!("model version {other} is not supported (this build reads version {MODEL_VERSION})"),
+                ));
+            }
+            None => return Err(invalid("version", "missing".into())),
+        }
+        for key in obj.keys() {
+            if !matches!(key.as_str(), "format" | "version" | "hyper" | "places") {
+                return Err(invalid(key, "unknown field".into()));
+            }
+        }
+        let hyper_v = obj.get("hyper").ok_or_else(|| invalid("hyper", "missing".into()))?;
+        let hf: HyperFile = serde_json::from_value(hyper_v.clone()).map_err(|e| invalid("hyper", e.to_string()))?;
+        if hf.color.bins != COLOR_BINS {
+            return Err(invalid(
+                "hyper.color.bins",
+                format!("{} colour bins; this build uses {COLOR_BINS}", hf.color.bins),
+            ));
+        }
+        if hf.size.unit != SIZE_UNIT {
+            return Err(invalid(
+                "hyper.size.unit",
+                format!("{:?} is not {SIZE_UNIT:?}", hf.size.unit),
+            ));
+        }
+        let size_prior = NormalInverseGamma::new(hf.size.mu, hf.size.kappa, hf.size.alpha, hf.size.beta)
+            .map_err(|e| invalid("hyper.size", e.to_string()))?;
+        let structure = StructureChoice::parse(&hf.structure).ok_or_else(|| {
+            invalid(
+                "hyper.structure",
+                format!(
+                    "{:?} is not one of inferred, {}",
+                    hf.structure,
+                    Connectivity::ALL.map(Connectivity::name).join(", ")
+                ),
+            )
+        })?;
+        let sp = &hf.structure_prior;
+        let hyper = Hyper {
+            place_prior: hf.place_prior,
+            color_gamma: hf.color.gamma,
+            size_prior,
+            structure_prior: [sp.neither, sp.color, sp.size, sp.color_size],
+            structure,
+            relevance_log_threshold: hf.relevance_log_threshold,
+        };
+        hyper.validate().map_err(|e| match e {
+            SchemaError::Invalid { field, message, .. } => invalid(&field, message),
+            other => other,
+        })?;
+        let places_v = obj.get("places").ok_or_else(|| invalid("places", "missing".into()))?;
+        let Value::Array(places_v) = places_v else {
+            return Err(invalid("places", "must be an array".into()));
+        };
+        let mut model = ProceduralModel::new(hyper)?;
+        for (i, pv) in places_v.iter().enumerate() {
+            let field = format!("places[{i}]");
+            let pf: PlaceFile = serde_json::from_value(pv.clone()).map_err(|e| invalid(&field, e.to_string()))?;
+            if pf.name.trim().is_empty() {
+                return Err(invalid(&format!("{field}.name"), "empty place name".into()));
+            }
+            if model.places.contains_key(&pf.name) {
+                return Err(invalid(
+                    &format!("{field}.name"),
+                    format!("duplicate place {:?}", pf.name),
+                ));
+            }
+            if pf.color_counts.len() != COLOR_BINS {
+                return Err(invalid(
+                    &format!("{field}.color_counts"),
+                    format!("{} counts, expected {COLOR_BINS}", pf.color_counts.len()),
+                ));
+            }
+            if pf.demonstrations == 0 {
+                return Err(invalid(&format!("{field}.demonstrations"), "must be >= 1".into()));
+            }
+            if pf.size.n != pf.demonstrations {
+                return Err(invalid(
+                    &format!("{field}.size.n"),
+                    format!(
+                        "{} size observations for {} demonstrations",
+                        pf.size.n, pf.demonstrations
+                    ),
+                ));
+            }
+            pf.size.check().map_err(|m| invalid(&format!("{field}.size"), m))?;
+            let color = CategoryCounts::from_counts(pf.color_counts)
+                .map_err(|e| invalid(&format!("{field}.color_counts"), e.to_string()))?;
+            if color.total() < pf.demonstrations {
+                return Err(invalid(
+                    &format!("{field}.color_counts"),
+                    format!(
+                        "{} colour observations for {} demonstrations (each has at least one)",
+                        color.total(),
+                        pf.demonstrations
+                    ),
+                ));
+            }
+            model.places.insert(
+                pf.name,
+                PlaceStats {
+                    demonstrations: pf.demonstrations,
+                    color,
+                    size: pf.size,
+                },
+            );
+        }
+        Ok(model)
+    }
+}
