@@ -15,10 +15,15 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod doctor;
+mod experiment;
 mod grasp;
+mod infer;
 #[allow(dead_code)]
 mod mcap_log;
 mod output;
+#[allow(dead_code)]
+mod plots;
 #[allow(dead_code)]
 mod progress;
 mod record;
@@ -44,6 +49,13 @@ enum Command {
     /// Visual grasp prototypes: record grasps, learn prototypes, generate pre-grasps, evaluate.
     #[command(subcommand)]
     Grasp(grasp::GraspCommand),
+    /// Infer which schema explains a recorded demonstration, and its instances.
+    Infer(infer::InferArgs),
+    /// Check an MCAP file (and repair one that was cut short).
+    Doctor(doctor::DoctorArgs),
+    /// The seed's procedural-learning experiments on features rendered from an object catalog.
+    #[command(subcommand)]
+    Experiment(experiment::ExperimentCommand),
     /// Record a teleoperated demonstration in the simulator (scripted teacher or a glove/mocap file).
     Record(record::RecordArgs),
 }
@@ -64,6 +76,9 @@ fn main() -> ExitCode {
         Command::Sim(cmd) => sim::main(cmd, &mut out),
         Command::Record(args) => record::main(args, &mut out),
         Command::Grasp(cmd) => grasp::main(cmd, &mut out),
+        Command::Infer(args) => infer::main(args, &mut out),
+        Command::Doctor(args) => doctor::main(args, &mut out),
+        Command::Experiment(cmd) => experiment::main(cmd, &mut out),
     };
     let result = result.and_then(|()| out.flush().map_err(anyhow::Error::from));
     match result {

@@ -745,6 +745,68 @@ fn scan(path: &Path, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStat
     Ok((file_bytes, status))
 }
 
+/// Rewrites every readable record of `path` (schemas, channels, messages, attachments, metadata) into
+/// a new, complete MCAP file at `out`; returns the number of messages written. For a file cut short.
+pub fn repair(path: impl AsRef<Path>, out: impl AsRef<Path>) -> Result<u64> {
+    let (path, out) = (path.as_ref(), out.as_ref());
+    ensure!(path != out, "--repair must name a new file, not {}", path.display());
+    let file = File::create(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let mut writer = Writer::with_options(
+        BufWriter::new(file),
+        WriteOptions::new().compression(Some(Compression::Zstd)).profile(""),
+    )?;
+    let mut schema_ids: HashMap<u16, u16> = HashMap::new();
+    let mut channel_ids: HashMap<u16, u16> = HashMap::new();
+    let mut count = 0u64;
+    let mut failure: Option<anyhow::Error> = None;
+    scan(path, &mut |record| {
+        if failure.is_some() {
+            return;
+        }
+        let r: Result<()> = (|| {
+            match record {
+                Record::Schema { header, data } => {
+                    if let std::collections::hash_map::Entry::Vacant(e) = schema_ids.entry(header.id) {
+                        e.insert(writer.add_schema(&header.name, &header.encoding, &data)?);
+                    }
+                }
+                Record::Channel(c) => {
+                    if let std::collections::hash_map::Entry::Vacant(e) = channel_ids.entry(c.id) {
+                        let schema = schema_ids.get(&c.schema_id).copied().unwrap_or(0);
+                        e.insert(writer.add_channel(schema, &c.topic, &c.message_encoding, &c.metadata)?);
+                    }
+                }
+                Record::Message { header, data } => {
+                    if let Some(&channel_id) = channel_ids.get(&header.channel_id) {
+                        writer.write_to_known_channel(&MessageHeader { channel_id, ..header }, &data)?;
+                        count += 1;
+                    }
+                }
+                Record::Attachment { header, data, .. } => {
+                    writer.attach(&Attachment {
+                        log_time: header.log_time,
+                        create_time: header.create_time,
+                        name: header.name,
+                        media_type: header.media_type,
+                        data,
+                    })?;
+                }
+                Record::Metadata(m) => writer.write_metadata(&m)?,
+                _ => {}
+            }
+            Ok(())
+        })();
+        if let Err(e) = r {
+            failure = Some(e);
+        }
+    })?;
+    if let Some(e) = failure {
+        return Err(e.context(format!("cannot write {}", out.display())));
+    }
+    writer.finish().with_context(|| format!("cannot write {}", out.display()))?;
+    Ok(count)
+}
+
 /// Messages of some topics read back from a log, with its metadata and attachments.
 #[derive(Debug, Clone, Default)]
 pub struct Recording {

@@ -42,7 +42,7 @@ impl DemoSink for Sink {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let kind = args.get(1).map(String::as_str).unwrap_or("pickplace");
-    let scene = Scene::builtin("pick-place").unwrap();
+    let scene = Scene::builtin(&std::env::var("SCENE").unwrap_or_else(|_| "pick-place".into())).unwrap();
     let object = args.get(2).cloned().unwrap_or_else(|| scene.resolved[0].label.clone());
     let place = args.get(3).cloned().unwrap_or_else(|| scene.spec.places[0].name.clone());
     let arm = match args.get(4).map(String::as_str) {

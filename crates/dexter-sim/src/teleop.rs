@@ -451,6 +451,7 @@ impl Teacher {
         let table_z = scene.spec.table.height;
         let mut steps = Vec::new();
         let mut first_arm = None;
+        let mut last_arm: Option<Arm> = None;
         for task in tasks {
             let arm = match task {
                 TeachTask::PickPlace { arm, .. }
@@ -459,10 +460,11 @@ impl Teacher {
                 | TeachTask::Touch { arm, .. }
                 | TeachTask::Wander { arm, .. } => *arm,
             };
-            if first_arm.is_some_and(|a| a != arm) {
+            if last_arm.is_some_and(|a| a != arm) {
                 steps.push(Step::SwitchArm(arm));
             }
             first_arm = first_arm.or(Some(arm));
+            last_arm = Some(arm);
             let hesitate = |rng: &mut SplitMix64| Step::Pause(0.2 + 0.6 * rng.next_f64());
             match task {
                 TeachTask::PickPlace {
@@ -486,6 +488,8 @@ impl Teacher {
                     }
                     steps.push(Step::Descend { object: o, early: false });
                     steps.push(Step::Close);
+                    // Wait until the grasp feels firm.
+                    steps.push(Step::Pause(0.5));
                     steps.push(Step::Lift { rise: 0.12 });
                     steps.push(Step::Pause(0.6));
                     steps.push(Step::CheckHeld { object: o });
@@ -634,6 +638,14 @@ impl Teacher {
             if t < m.end() {
                 return Ok(());
             }
+            // A teacher watches the robot: the next move waits until the robot's hand has caught up
+            // with the glove (within 1.5 cm and 0.06 rad), or for at most 3 s.
+            let palm = sim.link_pose_by_name(&format!("{}/bhand/palm_surface_link", self.arm.prefix()))?;
+            let behind = (palm.translation.vector - self.pose.translation.vector).norm() > 0.015
+                || palm.rotation.angle_to(&self.pose.rotation) > 0.06;
+            if behind && t < m.end() + 3.0 {
+                return Ok(());
+            }
             self.current = None;
         }
         let Some(step) = self.steps.get(self.index).cloned() else {
@@ -681,9 +693,13 @@ impl Teacher {
                 let z = sim.object_state(object).pose.translation.z;
                 let rest = scene.resolved[sim.objects()[object].scene_index].pose.translation.z;
                 if z < rest + 0.05 {
-                    self.notes.push(format!("t={t:.1}s: the object was not lifted; the teacher gives up"));
-                    self.steps.truncate(self.index);
-                    self.steps.extend([Step::Open, Step::Retreat { rise: 0.1 }, Step::Park]);
+                    self.notes.push(format!("t={t:.1}s: the object was not lifted; the teacher gives up on it"));
+                    // Skip the rest of this task: open, back off, and go on with the next task.
+                    let end = self.steps[self.index..]
+                        .iter()
+                        .position(|s| *s == Step::Park)
+                        .map_or(self.steps.len(), |k| self.index + k);
+                    self.steps.splice(self.index..end, [Step::Open, Step::Retreat { rise: 0.1 }]);
                 } else {
                     let palm = self.pose.translation.z;
                     let op = sim.object_state(object).pose;
@@ -785,7 +801,14 @@ impl Teacher {
             self.pose.translation,
             top_down_orientation(&Vec3::x(), &self.pose.rotation),
         );
-        Ok(plan_top_grasp(&arc, shape, &pose, self.table_z, &current))
+        let mut plan = plan_top_grasp(&arc, shape, &pose, self.table_z, &current);
+        // F1 and F2 (palm −y) spread wider than F3: put them on the side towards the middle of the
+        // table, away from the bins at its sides.
+        let f12 = plan.grasp.rotation * -Vec3::y();
+        if f12.y * pose.translation.y > 0.0 {
+            plan.grasp.rotation *= Rot3::from_axis_angle(&Vec3::z_axis(), std::f64::consts::PI);
+        }
+        Ok(plan)
     }
 }
 

@@ -1,0 +1,331 @@
+//! `pbd infer`: which schema of the library explains a recorded demonstration (§4.2).
+//!
+//! Reads the robot's percepts from the recording (`/pbd/percept`), evaluates every monitor on them,
+//! and runs schema inference (`schema::infer`): the posterior over the library and "none", the MAP
+//! schema's state path, and the schema instances with their procedural facts. Writes the result as
+//! JSON (`demo.infer.json`, format `pbd-inference` v1) and a companion MCAP (`demo.infer.mcap`) with
+//! the inferred state on `/pbd/schema_state` — open it in Foxglove together with the demonstration
+//! to scrub through and watch the schema state change.
+
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use schema::{Engine, Inference, InferenceConfig, Library, MonitorBank, MonitorConfig, Observation, Percept};
+use serde::{Deserialize, Serialize};
+
+use crate::mcap_log::{FileStatus, LogLevel, McapLog, read_recording};
+use crate::record::{TOPIC_PERCEPT, TOPIC_TRUTH};
+
+/// Format name and version of the inference file.
+pub const INFER_FORMAT: &str = "pbd-inference";
+/// Version of the inference file.
+pub const INFER_VERSION: u32 = 1;
+
+/// Arguments of `pbd infer`.
+#[derive(Debug, Args)]
+pub struct InferArgs {
+    /// The demonstration (MCAP from `pbd record`).
+    pub demo: PathBuf,
+    /// Output JSON (default: next to the demo, `NAME.infer.json`; the companion MCAP is `NAME.infer.mcap`).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Schema library (TOML; default: the built-in library).
+    #[arg(long)]
+    pub library: Option<PathBuf>,
+    /// Print the result as JSON instead of a summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The true object near an instance's object when it was grasped (from `/pbd/truth`; evaluation only).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TruthNote {
+    /// Object label in the scene.
+    pub object: String,
+    /// Distance between the perceived centroid and the true position (m).
+    pub distance: f64,
+}
+
+/// The inference file.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct InferFile {
+    /// `pbd-inference`.
+    pub format: String,
+    /// 1.
+    pub version: u32,
+    /// The demonstration file.
+    pub demo: String,
+    /// The recording's metadata (scene, seed, tasks, …).
+    pub metadata: BTreeMap<String, String>,
+    /// The library used.
+    pub library: String,
+    /// Warnings (a recovered file, …).
+    pub warnings: Vec<String>,
+    /// The inference.
+    pub inference: Inference,
+    /// Per instance, the true object (if the recording has ground truth).
+    pub truth: Vec<Option<TruthNote>>,
+}
+
+#[derive(Debug, Deserialize)]
+struct Truth {
+    t: f64,
+    objects: Vec<(String, [f64; 3])>,
+}
+
+/// Reads percepts (and ground truth, if present) from a recording.
+pub fn read_percepts(path: &Path) -> Result<(Vec<Percept>, Vec<(f64, Vec<(String, [f64; 3])>)>, BTreeMap<String, String>, Vec<String>)> {
+    let rec = read_recording(path, &[TOPIC_PERCEPT, TOPIC_TRUTH])?;
+    let mut warnings = Vec::new();
+    if let Some(FileStatus::Recovered { messages, reason }) = &rec.status {
+        warnings.push(format!(
+            "{} was cut short ({reason}); recovered {messages} messages up to its last complete chunk",
+            path.display()
+        ));
+    }
+    let metadata = rec.metadata.get("pbd").cloned().unwrap_or_default();
+    if let Some(v) = metadata.get("percept_version")
+        && v != &schema::percept::PERCEPT_VERSION.to_string()
+    {
+        bail!(
+            "{}: percept format version {v} is not supported (this build reads {})",
+            path.display(),
+            schema::percept::PERCEPT_VERSION
+        );
+    }
+    let mut percepts = Vec::new();
+    for (i, (_, data)) in rec.topic(TOPIC_PERCEPT).enumerate() {
+        let p: Percept = serde_json::from_slice(data)
+            .with_context(|| format!("{}: {TOPIC_PERCEPT} message {i} is not a percept", path.display()))?;
+        percepts.push(p);
+    }
+    if percepts.is_empty() {
+        bail!(
+            "{}: empty demonstration: no {TOPIC_PERCEPT} messages (was it recorded by `pbd record`?)",
+            path.display()
+        );
+    }
+    schema::percept::validate_stream(&percepts, &path.display().to_string())?;
+    let mut truth = Vec::new();
+    for (_, data) in rec.topic(TOPIC_TRUTH) {
+        if let Ok(t) = serde_json::from_slice::<Truth>(data) {
+            truth.push((t.t, t.objects));
+        }
+    }
+    Ok((percepts, truth, metadata, warnings))
+}
+
+/// The observation rate of a percept stream (Hz), from the median step.
+fn rate_of(percepts: &[Percept]) -> f64 {
+    let mut dt: Vec<f64> = percepts.windows(2).map(|w| w[1].t - w[0].t).collect();
+    if dt.is_empty() {
+        return 10.0;
+    }
+    dt.sort_by(f64::total_cmp);
+    let m = dt[dt.len() / 2];
+    if m > 0.0 { 1.0 / m } else { 10.0 }
+}
+
+/// Runs inference on a percept stream.
+pub fn infer_percepts(library: &Library, percepts: &[Percept]) -> Result<(Inference, Vec<Observation>, Engine)> {
+    let mut bank = MonitorBank::new(library, MonitorConfig::default());
+    let obs = bank.observe_all(percepts);
+    let engine = Engine::new(
+        library,
+        InferenceConfig {
+            rate_hz: rate_of(percepts),
+            ..InferenceConfig::default()
+        },
+    )?;
+    let inference = engine.infer(&obs, percepts)?;
+    Ok((inference, obs, engine))
+}
+
+fn truth_for(inf: &Inference, percepts: &[Percept], truth: &[(f64, Vec<(String, [f64; 3])>)]) -> Vec<Option<TruthNote>> {
+    inf.instances
+        .iter()
+        .map(|inst| {
+            let seg = inst.object?;
+            let t = inst.facts.iter().find(|f| f.action == "grasp").map_or(inst.t_start, |f| f.first);
+            let p = percepts.iter().rev().find(|p| p.t <= t + 1e-9)?;
+            let c = p.segments.iter().find(|s| s.id == seg)?.centroid;
+            let (_, objects) = truth.iter().min_by(|a, b| (a.0 - t).abs().total_cmp(&(b.0 - t).abs()))?;
+            objects
+                .iter()
+                .map(|(name, pos)| {
+                    let d = ((pos[0] - c[0]).powi(2) + (pos[1] - c[1]).powi(2) + (pos[2] - c[2]).powi(2)).sqrt();
+                    TruthNote {
+                        object: name.clone(),
+                        distance: d,
+                    }
+                })
+                .min_by(|a, b| a.distance.total_cmp(&b.distance))
+        })
+        .collect()
+}
+
+fn default_output(demo: &Path, ext: &str) -> PathBuf {
+    let stem = demo.file_stem().map_or_else(|| "demo".into(), |s| s.to_string_lossy().to_string());
+    demo.with_file_name(format!("{stem}.{ext}"))
+}
+
+/// Runs `pbd infer`.
+pub fn main(args: InferArgs, out: &mut dyn Write) -> Result<()> {
+    let library = match &args.library {
+        Some(p) => Library::open(p)?,
+        None => Library::builtin(),
+    };
+    let (percepts, truth, metadata, warnings) = read_percepts(&args.demo)?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    let progress = crate::progress::spinner(args.json, "infer");
+    progress.set_message(format!("{} percepts", percepts.len()));
+    let (inference, obs, engine) = infer_percepts(&library, &percepts)?;
+    let file = InferFile {
+        format: INFER_FORMAT.into(),
+        version: INFER_VERSION,
+        demo: args.demo.display().to_string(),
+        metadata,
+        library: library.origin.clone(),
+        warnings,
+        truth: truth_for(&inference, &percepts, &truth),
+        inference,
+    };
+    let json_path = args.output.clone().unwrap_or_else(|| default_output(&args.demo, "infer.json"));
+    let mcap_path = json_path.with_extension("mcap");
+    write_companion(&mcap_path, &engine, &obs, &file)?;
+    let text = serde_json::to_string_pretty(&file)?;
+    // Write to a temporary file and rename: never a half-written result.
+    let tmp = json_path.with_extension("json.tmp");
+    std::fs::write(&tmp, &text).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, &json_path).with_context(|| format!("cannot write {}", json_path.display()))?;
+    progress.finish_and_clear();
+    if args.json {
+        writeln!(out, "{text}")?;
+        return Ok(());
+    }
+    summary(&file, &library, &json_path, &mcap_path, out)
+}
+
+/// The companion MCAP: the inferred state per observation step, and instance events.
+fn write_companion(path: &Path, engine: &Engine, obs: &[Observation], file: &InferFile) -> Result<()> {
+    let visits = engine.composite_path(obs)?;
+    let names = engine.library().action_names();
+    let mut log = McapLog::create(path)?;
+    let schema = serde_json::json!({
+        "type": "object",
+        "properties": {
+            "schema": {"type": "string"}, "state": {"type": "string"},
+            "state_index": {"type": "integer"}, "x": {"type": "object"}, "converged": {"type": "array"}
+        }
+    });
+    let mut v = 0;
+    for o in obs {
+        while v + 1 < visits.len() && visits[v].t_end < o.t {
+            v += 1;
+        }
+        let (sch, st) = visits.get(v).map_or(("gap", "before"), |x| (x.schema.as_str(), x.state.as_str()));
+        let state_index = engine
+            .library()
+            .schema(sch)
+            .ok()
+            .and_then(|s| s.state(st))
+            .map_or(-1, |i| i as i64);
+        let x: BTreeMap<&str, bool> = names.iter().zip(&o.x).map(|(n, b)| (*n, *b)).collect();
+        let converged: Vec<String> = o
+            .hits
+            .iter()
+            .map(|h| {
+                let mut s = names[h.action].to_string();
+                for part in [h.arm.clone(), h.segment.map(|x| format!("segment {x}")), h.place.clone()].into_iter().flatten() {
+                    s.push(' ');
+                    s.push_str(&part);
+                }
+                s
+            })
+            .collect();
+        log.log_json(
+            "/pbd/schema_state",
+            "pbd.SchemaState",
+            &schema,
+            o.t,
+            &serde_json::json!({"schema": sch, "state": st, "state_index": state_index, "x": x, "converged": converged}),
+        )?;
+    }
+    for (i, inst) in file.inference.instances.iter().enumerate() {
+        log.log_text(
+            inst.t_start,
+            LogLevel::Info,
+            &format!(
+                "instance {}: {} begins (object {:?}, place {:?}, arm {:?})",
+                i + 1,
+                inst.schema,
+                inst.object,
+                inst.place,
+                inst.arm
+            ),
+        )?;
+        log.log_text(inst.t_end, LogLevel::Info, &format!("instance {}: {} reaches its goal", i + 1, inst.schema))?;
+    }
+    log.finish()?;
+    Ok(())
+}
+
+fn summary(file: &InferFile, library: &Library, json: &Path, mcap: &Path, out: &mut dyn Write) -> Result<()> {
+    let inf = &file.inference;
+    writeln!(
+        out,
+        "{}: {:.1} s, {} observation steps, {} schemas in the library",
+        file.demo,
+        inf.duration,
+        inf.steps,
+        library.schemas.len()
+    )?;
+    writeln!(out, "posterior over the library (each schema as one or more instances; uniform prior):")?;
+    let mut hyps = inf.posterior.hypotheses.clone();
+    hyps.sort_by(|a, b| b.posterior.total_cmp(&a.posterior));
+    for h in &hyps {
+        let bar = "#".repeat((h.posterior * 30.0).round() as usize);
+        let ev = h.log_evidence.map_or("impossible".to_string(), |l| format!("log p(x|S) = {l:9.2}"));
+        writeln!(out, "  {:<16} {:>7.4}  {:<30} {ev}", h.schema, h.posterior, bar)?;
+    }
+    writeln!(
+        out,
+        "MAP: {} (p = {:.4}){}",
+        inf.posterior.map,
+        inf.posterior.map_posterior,
+        if inf.posterior.map == "none" { " — no schema of the library explains this demonstration" } else { "" }
+    )?;
+    if !inf.state_path.is_empty() {
+        let path: Vec<String> = inf
+            .state_path
+            .iter()
+            .filter(|v| v.schema != "gap")
+            .map(|v| format!("{}@{:.1}s", v.state, v.t_start))
+            .collect();
+        writeln!(out, "state path: {}", path.join(" → "))?;
+    }
+    writeln!(out, "instances: {}", inf.instances.len())?;
+    for (i, inst) in inf.instances.iter().enumerate() {
+        let truth = file.truth.get(i).cloned().flatten();
+        writeln!(
+            out,
+            "  {}. {:<15} {:>6.1}–{:<6.1} s  p = {:.3}  object {}{}  place {}  arm {}",
+            i + 1,
+            inst.schema,
+            inst.t_start,
+            inst.t_end,
+            inst.posterior.map_posterior,
+            inst.object.map_or("-".into(), |o| format!("segment {o}")),
+            truth.map_or(String::new(), |t| format!(" (= {})", t.object)),
+            inst.place.as_deref().unwrap_or("-"),
+            inst.arm.as_deref().unwrap_or("-"),
+        )?;
+    }
+    writeln!(out, "wrote {} and {} (open with the demo in Foxglove)", json.display(), mcap.display())?;
+    Ok(())
+}
