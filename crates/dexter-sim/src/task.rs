@@ -314,7 +314,6 @@ pub fn grasp_and_lift(
     obs: &mut Observer<'_>,
     phase: &mut dyn FnMut(&str, f64),
 ) -> GraspOutcome {
-    let arm = reach.arm();
     let fail = |outcome: String| GraspOutcome {
         lifted: false,
         outcome,
@@ -322,6 +321,33 @@ pub fn grasp_and_lift(
         weighed: None,
         force_closure: None,
     };
+    let plan = match approach_grasp(sim, reach, hand, plan, obs, phase) {
+        Ok(p) => p,
+        Err(why) => return fail(why),
+    };
+    phase("grasp", sim.time());
+    let closure = match close_grasp(sim, reach, hand, obj, obs) {
+        Ok(c) => c,
+        Err(why) => return fail(why),
+    };
+    phase("lift", sim.time());
+    let mut g = lift_and_weigh(sim, reach, obj, &plan, obs);
+    g.force_closure = closure;
+    g
+}
+
+/// Reach (§3.1) to the pre-grasp 10 cm above `plan.grasp` with the hand pre-shaped — a straight line
+/// at hover height, the configuration servo if that stalls — then descend to the grasp pose. Returns
+/// the plan actually used (F3 may be on either side: the IK solution nearer the current
+/// configuration wins), or why the reach failed.
+pub fn approach_grasp(
+    sim: &mut DexterSim,
+    reach: &mut ReachControl,
+    hand: &HandControl,
+    plan: &GraspPlan,
+    obs: &mut Observer<'_>,
+    phase: &mut dyn FnMut(&str, f64),
+) -> Result<GraspPlan, String> {
     // 1. Pre-grasp: above the object, hand pre-shaped.
     obs.activity = "reach pre-grasp";
     hand.set(sim, plan.preshape, 0.0);
@@ -344,7 +370,7 @@ pub fn grasp_and_lift(
         }
     }
     let Some((_, grasp_pose)) = best else {
-        return fail("pre-grasp out of reach (no IK solution)".into());
+        return Err("pre-grasp out of reach (no IK solution)".into());
     };
     let plan = GraspPlan {
         grasp: grasp_pose,
@@ -367,17 +393,17 @@ pub fn grasp_and_lift(
     if !run_until(sim, reach, obs, 5.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
         match reach.set_goal_via_ik(sim, hover, 17) {
             Ok(true) => {}
-            _ => return fail("hover above the object out of reach (no IK solution)".into()),
+            _ => return Err("hover above the object out of reach (no IK solution)".into()),
         }
         if !run_until(sim, reach, obs, 8.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
             let (d, _) = reach.goal_error(sim);
-            return fail(format!("hover above the object not reached ({:.1} cm away)", d * 100.0));
+            return Err(format!("hover above the object not reached ({:.1} cm away)", d * 100.0));
         }
     }
     reach.set_goal(sim, pre);
     if !run_until(sim, reach, obs, 4.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
         let (d, _) = reach.goal_error(sim);
-        return fail(format!("pre-grasp not reached ({:.1} cm away)", d * 100.0));
+        return Err(format!("pre-grasp not reached ({:.1} cm away)", d * 100.0));
     }
     // 2. Descend.
     phase("reach grasp", sim.time());
@@ -386,10 +412,23 @@ pub fn grasp_and_lift(
     reach.set_goal(sim, plan.grasp);
     if !run_until(sim, reach, obs, 4.0, |s, r| r.at_goal(s, 0.004, 0.03)) {
         let (d, _) = reach.goal_error(sim);
-        return fail(format!("grasp pose not reached ({:.1} cm away)", d * 100.0));
+        return Err(format!("grasp pose not reached ({:.1} cm away)", d * 100.0));
     }
+    Ok(plan)
+}
+
+/// Grasp: close the hand until the Grasp predicate converges — F3 and F1 or F2 in contact with
+/// object `obj`, two hand parts on it, and the fingers still for 0.15 s. Returns the force closure of
+/// the converged grasp (closure, margin, grasp-map rank), or why it did not converge.
+pub fn close_grasp(
+    sim: &mut DexterSim,
+    reach: &mut ReachControl,
+    hand: &HandControl,
+    obj: usize,
+    obs: &mut Observer<'_>,
+) -> Result<Option<(bool, f64, usize)>, String> {
+    let arm = reach.arm();
     // 3. Grasp: close until fingers on both sides touch and the hand is still.
-    phase("grasp", sim.time());
     obs.activity = "grasp";
     hand.set(sim, FLEX_CLOSED, 0.0);
     let mut still = 0;
@@ -413,15 +452,29 @@ pub fn grasp_and_lift(
         still >= 30
     });
     if !grasped {
-        return fail("grasp did not converge (no opposing contacts)".into());
+        return Err("grasp did not converge (no opposing contacts)".into());
     }
     // Force closure of the converged grasp (SOCP, Murray–Li–Sastry): reported, not required — a
     // BarrettHand grasp with two fingers on one face may lack it and still lift by friction.
     let closure =
         control_basis::grasp::force_closure(&sim.hand_contacts_on_object(arm, obj), &sim.object_center_of_mass(obj))
             .ok();
+    Ok(closure.map(|c| (c.closure, c.margin, c.rank)))
+}
+
+/// Lift 10 cm with the grasp, hold still and weigh the object through the fingertip sensors (the
+/// seed's grasp criterion, §6.5: the hand rises 10 cm and the object is still held).
+pub fn lift_and_weigh(sim: &mut DexterSim, reach: &mut ReachControl, obj: usize, plan: &GraspPlan, obs: &mut Observer<'_>) -> GraspOutcome {
+    let arm = reach.arm();
+    let k = if arm == Arm::Left { 0 } else { 3 };
+    let mut tips = [FingertipWrench {
+        arm,
+        finger: 0,
+        force: [0.0; 3],
+        torque: [0.0; 3],
+        in_contact: false,
+    }; 6];
     // 4. Lift 10 cm.
-    phase("lift", sim.time());
     obs.activity = "lift";
     let z_before = sim.object_state(obj).pose.translation.z;
     let mut lift = plan.grasp;
@@ -463,7 +516,7 @@ pub fn grasp_and_lift(
         },
         rose,
         weighed: lifted.then(|| (sum / n.max(1) as f64, weight)),
-        force_closure: closure.map(|c| (c.closure, c.margin, c.rank)),
+        force_closure: None,
     }
 }
 
@@ -595,93 +648,15 @@ pub fn pick_and_place_in(
     }
     // 5. Transport: up to a safe height, over the place.
     phases.push(("transport".into(), sim.time() - t0));
-    obs.activity = "transport";
-    let palm_to_object = reach.tool_pose(sim).inverse() * sim.object_state(obj).pose;
-    let object_bottom_below_palm = {
-        let op = sim.object_state(obj).pose;
-        let palm = reach.tool_pose(sim);
-        palm.translation.z
-            - (op.translation.z - geometry::support_half_extent(&shape, &(op.rotation.inverse() * -Vec3::z())))
-    };
-    let safe_z = table_z + place.wall_height + object_bottom_below_palm + 0.08;
-    let mut up = reach.tool_pose(sim);
-    up.translation.vector.z = up.translation.vector.z.max(safe_z);
-    reach.max_speed = 0.3;
-    reach.set_goal(sim, up);
-    run_until(sim, &mut reach, obs, 3.0, |s, r| r.at_goal(s, 0.01, 0.05));
-    // Over the place: object centre above the place centre.
-    let mut over = up;
-    let obj_offset = (up.rotation * palm_to_object.translation.vector).xy();
-    over.translation.vector.x = place.center[0] - obj_offset.x;
-    over.translation.vector.y = place.center[1] - obj_offset.y;
-    // A straight line at the safe height; the configuration servo only if that stalls.
-    reach.set_goal(sim, over);
-    let straight = run_until(sim, &mut reach, obs, 6.0, |s, r| r.at_goal(s, 0.01, 0.05));
-    if !straight && reach.set_goal_via_ik(sim, over, 23)? {
-        run_until(sim, &mut reach, obs, 8.0, |s, r| r.at_goal(s, 0.01, 0.05));
-    }
-    let (_, _, parts) = sim.hand_wrench_on_object(arm, obj);
-    if parts < 2 {
-        return Ok(report(
-            sim,
-            false,
-            true,
-            "object dropped during transport".into(),
-            phases,
-            weighed,
-        ));
-    }
-    if !reach.at_goal(sim, 0.01, 0.05) {
-        let (d, _) = reach.goal_error(sim);
-        return Ok(report(
-            sim,
-            false,
-            true,
-            format!("place not reached ({:.1} cm away)", d * 100.0),
-            phases,
-            weighed,
-        ));
+    if let Err(why) = transport_over(sim, &mut reach, obj, &shape, [place.center[0], place.center[1]], table_z, place.wall_height, obs) {
+        return Ok(report(sim, false, true, why, phases, weighed));
     }
     // 6. Place: lower until the support force reference is met (the bin carries half the weight).
     phases.push(("place".into(), sim.time() - t0));
-    obs.activity = "place";
-    let mass = sim.objects()[obj].mass;
-    let weight = mass * sim.settings().gravity;
-    let mut down = over;
-    down.translation.vector.z = table_z + 0.002 + object_bottom_below_palm - 0.02;
-    reach.max_speed = 0.09;
-    reach.set_goal(sim, down);
-    let mut supported = 0;
-    let touched = run_until(sim, &mut reach, obs, 5.0, |s, _| {
-        let f = s.support_force_on_object(obj);
-        if f.z > 0.5 * weight {
-            supported += 1;
-        } else {
-            supported = 0;
-        }
-        supported >= 4
-    });
-    if !touched {
-        // The hand reached its lowest target without the support reference being met (the object
-        // rests on a wall or another object, or is still held by friction): release anyway and let
-        // the final state decide.
-        obs.activity = "place (no support felt)";
-    }
-    // Hold position where it is, open the hand.
-    let here = reach.tool_pose(sim);
-    reach.set_goal(sim, here);
+    lower_until_supported(sim, &mut reach, obj, &shape, table_z, obs);
     phases.push(("release".into(), sim.time() - t0));
-    obs.activity = "release";
-    hand.set(sim, 0.3, 0.0);
-    run_until(sim, &mut reach, obs, 0.5, |_, _| false);
-    // 7. Retreat.
+    release_and_retreat(sim, &mut reach, &hand, obs);
     phases.push(("retreat".into(), sim.time() - t0));
-    obs.activity = "retreat";
-    let mut away = here;
-    away.translation.vector.z += 0.12;
-    reach.max_speed = 0.3;
-    reach.set_goal(sim, away);
-    run_until(sim, &mut reach, obs, 2.0, |s, r| r.at_goal(s, 0.01, 0.05));
     run_until(sim, &mut reach, obs, 2.5, |s, _| {
         s.object_state(obj).linvel.norm() < 0.005
     });
@@ -703,6 +678,111 @@ pub fn pick_and_place_in(
         "object still moving".to_string()
     };
     Ok(report(sim, success, true, outcome, phases, weighed))
+}
+
+/// How far the bottom of grasped object `obj` (of shape `shape`) hangs below the palm surface (m).
+fn object_bottom_below_palm(sim: &DexterSim, reach: &mut ReachControl, obj: usize, shape: &Shape) -> f64 {
+    let op = sim.object_state(obj).pose;
+    let palm = reach.tool_pose(sim);
+    palm.translation.z - (op.translation.z - geometry::support_half_extent(shape, &(op.rotation.inverse() * -Vec3::z())))
+}
+
+/// Reach ◁ Grasp: carry grasped object `obj` up to a safe height (clearing walls of `wall_height`)
+/// and over `target` (x, y of where the object's centre should go): a straight line, the
+/// configuration servo if that stalls. Fails if the object was dropped or the place not reached.
+#[allow(clippy::too_many_arguments)]
+pub fn transport_over(
+    sim: &mut DexterSim,
+    reach: &mut ReachControl,
+    obj: usize,
+    shape: &Shape,
+    target: [f64; 2],
+    table_z: f64,
+    wall_height: f64,
+    obs: &mut Observer<'_>,
+) -> Result<(), String> {
+    obs.activity = "transport";
+    let arm = reach.arm();
+    let palm_to_object = reach.tool_pose(sim).inverse() * sim.object_state(obj).pose;
+    let below = object_bottom_below_palm(sim, reach, obj, shape);
+    let safe_z = table_z + wall_height + below + 0.08;
+    let mut up = reach.tool_pose(sim);
+    up.translation.vector.z = up.translation.vector.z.max(safe_z);
+    reach.max_speed = 0.3;
+    reach.set_goal(sim, up);
+    run_until(sim, reach, obs, 3.0, |s, r| r.at_goal(s, 0.01, 0.05));
+    // Over the target: object centre above it.
+    let mut over = up;
+    let obj_offset = (up.rotation * palm_to_object.translation.vector).xy();
+    over.translation.vector.x = target[0] - obj_offset.x;
+    over.translation.vector.y = target[1] - obj_offset.y;
+    reach.set_goal(sim, over);
+    let straight = run_until(sim, reach, obs, 6.0, |s, r| r.at_goal(s, 0.01, 0.05));
+    if !straight && reach.set_goal_via_ik(sim, over, 23).unwrap_or(false) {
+        run_until(sim, reach, obs, 8.0, |s, r| r.at_goal(s, 0.01, 0.05));
+    }
+    let (_, _, parts) = sim.hand_wrench_on_object(arm, obj);
+    if parts < 2 {
+        return Err("object dropped during transport".into());
+    }
+    if !reach.at_goal(sim, 0.01, 0.05) {
+        let (d, _) = reach.goal_error(sim);
+        return Err(format!("place not reached ({:.1} cm away)", d * 100.0));
+    }
+    Ok(())
+}
+
+/// Place (§3.3.3): lower the grasped object until the support force reference is met (the surface
+/// carries half its weight), at most down to the table at `table_z`. Returns whether the reference
+/// was met.
+pub fn lower_until_supported(
+    sim: &mut DexterSim,
+    reach: &mut ReachControl,
+    obj: usize,
+    shape: &Shape,
+    table_z: f64,
+    obs: &mut Observer<'_>,
+) -> bool {
+    obs.activity = "place";
+    let mass = sim.objects()[obj].mass;
+    let weight = mass * sim.settings().gravity;
+    let below = object_bottom_below_palm(sim, reach, obj, shape);
+    let mut down = reach.tool_pose(sim);
+    down.translation.vector.z = table_z + 0.002 + below - 0.02;
+    reach.max_speed = 0.09;
+    reach.set_goal(sim, down);
+    let mut supported = 0;
+    let touched = run_until(sim, reach, obs, 5.0, |s, _| {
+        let f = s.support_force_on_object(obj);
+        if f.z > 0.5 * weight {
+            supported += 1;
+        } else {
+            supported = 0;
+        }
+        supported >= 4
+    });
+    if !touched {
+        // The hand reached its lowest target without the support reference being met (the object
+        // rests on a wall or another object, or is still held by friction): release anyway and let
+        // the final state decide.
+        obs.activity = "place (no support felt)";
+    }
+    touched
+}
+
+/// Release: hold the hand where it is, open it, and retreat 12 cm up.
+pub fn release_and_retreat(sim: &mut DexterSim, reach: &mut ReachControl, hand: &HandControl, obs: &mut Observer<'_>) {
+    let here = reach.tool_pose(sim);
+    reach.set_goal(sim, here);
+    obs.activity = "release";
+    hand.set(sim, 0.3, 0.0);
+    run_until(sim, reach, obs, 0.5, |_, _| false);
+    obs.activity = "retreat";
+    let mut away = here;
+    away.translation.vector.z += 0.12;
+    reach.max_speed = 0.3;
+    reach.set_goal(sim, away);
+    run_until(sim, reach, obs, 2.0, |s, r| r.at_goal(s, 0.01, 0.05));
 }
 
 /// Search-Track (§3.2.2.1): points the head at `nominal`, then foveates the blob nearest to the

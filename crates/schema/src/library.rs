@@ -415,7 +415,7 @@ mod tests {
         let good = BUILTIN_LIBRARY;
         for (from, to, needle) in [
             ("version = 1", "version = 7", "version"),
-            ("miss = 0.05", "miss = 1.5", "miss"),
+            ("miss = 0.02", "miss = 1.5", "miss"),
             ("z = \"*100000\"", "z = \"*10000\"", "states[1].z"),
             ("z = \"*100000\"", "z = \"*1x0000\"", "states[1].z"),
             ("goal = [\"released\", \"done\"]", "goal = [\"nowhere\"]", "goal[0]"),

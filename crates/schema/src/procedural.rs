@@ -149,6 +149,66 @@ impl Features {
         v
     }
 
+    /// The colour draws õ₁..õₙ of this object as (bin, count), ascending by bin.
+    ///
+    /// With `draws_per_object = 0` every kept bin is one draw (the seed's reading). Otherwise the
+    /// object contributes exactly that many draws, shared among its kept bins in proportion to
+    /// their pixel weights (largest remainder, ties to the lower bin; equal shares when all weights
+    /// are 0), so the dominant colours of the object outweigh the rare shading bins. With
+    /// `merge_achromatic`, unsaturated bins (s < 0.25, whose hue is noise) count as the hue-0 bin
+    /// of the same value ([`canonical_bin`]).
+    pub fn color_draws(&self, draws_per_object: u32, merge_achromatic: bool) -> Vec<(usize, u64)> {
+        let canon = |b: u8| {
+            if merge_achromatic {
+                canonical_bin(usize::from(b))
+            } else {
+                usize::from(b)
+            }
+        };
+        let mut out: BTreeMap<usize, u64> = BTreeMap::new();
+        if self.histogram.is_empty() {
+            return Vec::new();
+        }
+        if draws_per_object == 0 {
+            for &(b, _) in &self.histogram {
+                out.insert(canon(b), 1);
+            }
+            return out.into_iter().collect();
+        }
+        let total: f64 = self.histogram.iter().map(|h| h.1).sum();
+        let weights: Vec<f64> = if total > 0.0 && total.is_finite() {
+            self.histogram.iter().map(|h| h.1 / total).collect()
+        } else {
+            vec![1.0 / self.histogram.len() as f64; self.histogram.len()]
+        };
+        let w = f64::from(draws_per_object);
+        let mut shares: Vec<(u64, f64, u8)> = self
+            .histogram
+            .iter()
+            .zip(&weights)
+            .map(|(&(b, _), &q)| {
+                let x = q * w;
+                (x.floor() as u64, x - x.floor(), b)
+            })
+            .collect();
+        let given: u64 = shares.iter().map(|s| s.0).sum();
+        let mut order: Vec<usize> = (0..shares.len()).collect();
+        order.sort_by(|&i, &j| shares[j].1.total_cmp(&shares[i].1).then(shares[i].2.cmp(&shares[j].2)));
+        for &i in order
+            .iter()
+            .cycle()
+            .take(u64::from(draws_per_object).saturating_sub(given) as usize)
+        {
+            shares[i].0 += 1;
+        }
+        for (n, _, b) in shares {
+            if n > 0 {
+                *out.entry(canon(b)).or_insert(0) += n;
+            }
+        }
+        out.into_iter().collect()
+    }
+
     /// The size observation in half-pixels: left + right when both cameras saw the object, twice
     /// the one count otherwise, `None` when neither did.
     pub fn size_half_pixels(&self) -> Option<u64> {
@@ -165,6 +225,15 @@ impl Features {
         self.size_half_pixels().map(|h| h as f64 / 20.0)
     }
 }
+
+/// The bin an unsaturated colour counts as when achromatic bins are merged: for s < 0.25 the hue
+/// is meaningless (noise decides it), so bins `16·h + v` for h = 0..4 all map to `v`.
+pub fn canonical_bin(bin: usize) -> usize {
+    if (bin / 4) % 4 == 0 { bin % 4 } else { bin }
+}
+
+/// Number of distinct colours after merging achromatic bins (64 − 12).
+pub const MERGED_COLOR_BINS: usize = 52;
 
 /// One demonstrated Pick-And-Place: the features of the object and the place it was put.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -315,6 +384,10 @@ pub struct Hyper {
     pub place_prior: PlacePrior,
     /// Symmetric Dirichlet concentration γ of each place's colour distribution (5.18).
     pub color_gamma: f64,
+    /// Colour draws per object (0: one per kept bin); see [`Features::color_draws`].
+    pub color_draws_per_object: u32,
+    /// Merge the unsaturated bins whose hue is noise; see [`Features::color_draws`].
+    pub merge_achromatic: bool,
     /// NIG prior of each place's size distribution, in deci-pixels; its prior predictive is also
     /// the background size model of M₀.
     pub size_prior: NormalInverseGamma,
@@ -327,18 +400,23 @@ pub struct Hyper {
 }
 
 /// Default γ: a weak smoothing, so that one demonstration already concentrates a place's colour
-/// distribution on the colours it showed (chosen on the household catalog: γ from 0.1 to 1 all
-/// sort ≥ 0.9 with one example; smaller γ makes feature selection more eager to connect colour).
-pub const DEFAULT_COLOR_GAMMA: f64 = 0.5;
+/// distribution on the colours it showed (chosen on rendered household-catalog features).
+pub const DEFAULT_COLOR_GAMMA: f64 = 0.1;
+
+/// Default colour draws per object (see [`Features::color_draws`]).
+pub const DEFAULT_COLOR_DRAWS: u32 = 10;
 
 impl Default for Hyper {
-    /// Defaults for Dexter's head cameras at 160×120 (the built-in scenes): sizes around 150
-    /// deci-pixels, a prior mean worth 0.05 observations, and σ² ~ InvGamma(2, 2·40²) (a typical
-    /// within-class spread of about 40 deci-pixels, broad: the prior predictive spans ~0–400).
+    /// Defaults for Dexter's head cameras at 160×120 (the built-in scenes), where household objects
+    /// measure 6–60 deci-pixels: a prior mean of 25 deci-pixels worth 0.05 observations and
+    /// σ² ~ InvGamma(2, 2·8²) (a within-place spread of about 8 deci-pixels; the prior predictive
+    /// is broad, spanning roughly 0–100).
     fn default() -> Self {
         Hyper {
             place_prior: PlacePrior::Uniform,
             color_gamma: DEFAULT_COLOR_GAMMA,
+            color_draws_per_object: DEFAULT_COLOR_DRAWS,
+            merge_achromatic: true,
             size_prior: default_size_prior(),
             structure_prior: [0.25; 4],
             structure: StructureChoice::Inferred,
@@ -348,11 +426,11 @@ impl Default for Hyper {
 }
 
 /// Default prior mean object size (deci-pixels) at the default camera.
-pub const DEFAULT_SIZE_MU: f64 = 150.0;
+pub const DEFAULT_SIZE_MU: f64 = 25.0;
 
 /// The default size prior (see [`Hyper::default`]).
 fn default_size_prior() -> NormalInverseGamma {
-    NormalInverseGamma::new(DEFAULT_SIZE_MU, 0.05, 2.0, 2.0 * 40.0 * 40.0).expect("constant NIG parameters are valid")
+    NormalInverseGamma::new(DEFAULT_SIZE_MU, 0.05, 2.0, 2.0 * 8.0 * 8.0).expect("constant NIG parameters are valid")
 }
 
 impl Hyper {
@@ -390,6 +468,27 @@ impl Hyper {
             return bad("relevance_log_threshold", "NaN".into());
         }
         Ok(())
+    }
+
+    /// The colour draws of an object under these hyper-parameters, as a sequence of bins.
+    fn draws(&self, f: &Features) -> Vec<(usize, u64)> {
+        f.color_draws(self.color_draws_per_object, self.merge_achromatic)
+    }
+
+    fn draw_sequence(&self, f: &Features) -> Vec<usize> {
+        self.draws(f)
+            .into_iter()
+            .flat_map(|(b, n)| std::iter::repeat_n(b, n as usize))
+            .collect()
+    }
+
+    /// Number of colours the background model M₀ spreads its mass over.
+    fn background_colors(&self) -> usize {
+        if self.merge_achromatic {
+            MERGED_COLOR_BINS
+        } else {
+            COLOR_BINS
+        }
     }
 
     fn color_dirichlet(&self) -> Result<SymmetricDirichlet, SchemaError> {
@@ -622,8 +721,8 @@ impl ProceduralModel {
             ));
         }
         e.features.validate(&format!("{field}features."))?;
-        let bins = e.features.color_bins();
-        if bins.is_empty() {
+        let draws = self.hyper.draws(&e.features);
+        if draws.is_empty() {
             return Err(SchemaError::invalid(
                 INPUT,
                 format!("{field}features.histogram"),
@@ -638,8 +737,10 @@ impl ProceduralModel {
             ));
         };
         let mut stats = self.places.get(&e.reference).cloned().unwrap_or_else(PlaceStats::empty);
-        for b in bins {
-            stats.color.update(b)?;
+        for (b, n) in draws {
+            for _ in 0..n {
+                stats.color.update(b)?;
+            }
         }
         stats.size.add(x)?;
         stats.demonstrations += 1;
@@ -790,7 +891,7 @@ impl ProceduralModel {
     /// `(color_per_place, color_pooled, size_per_place, size_pooled)`; a missing feature scores 0.
     fn feature_scores(&self, f: &Features) -> Result<(Vec<f64>, f64, Vec<f64>, f64), SchemaError> {
         let dir = self.hyper.color_dirichlet()?;
-        let bins = f.color_bins();
+        let bins = self.hyper.draw_sequence(f);
         let pooled = self.pooled()?;
         let size = f.deci_pixels();
         let color_k = self
@@ -811,7 +912,7 @@ impl ProceduralModel {
     pub fn predict(&self, features: &Features) -> Result<Prediction, SchemaError> {
         self.check_nonempty()?;
         features.validate("features.")?;
-        let bins = features.color_bins();
+        let bins = self.hyper.draw_sequence(features);
         let size = features.deci_pixels();
         if bins.is_empty() && size.is_none() {
             return Err(SchemaError::invalid(
@@ -859,7 +960,7 @@ impl ProceduralModel {
             })
             .map(|(n, p)| (n.clone(), *p))
             .unwrap_or_default();
-        let log_p0 = uniform_background_log_likelihood(bins.len(), COLOR_BINS)?
+        let log_p0 = uniform_background_log_likelihood(bins.len(), self.hyper.background_colors())?
             + size.map_or(0.0, |x| self.hyper.size_prior.predictive().log_pdf(x));
         let bayes_factor = BayesFactor::new(log_p1, log_p0)?;
         let t = self.hyper.relevance_log_threshold;

@@ -160,22 +160,21 @@ impl ProceduralModel {
         let color_src = if structure.color { own } else { &pooled };
         let size_src = if structure.size { own } else { &pooled };
         let dir = self.hyper.color_dirichlet()?;
-        let mut theta = dir.sample_posterior(rng, &color_src.color)?;
+        let theta = dir.sample_posterior(rng, &color_src.color)?;
+        // As many draws as a demonstrated object gives, with replacement; the histogram is their
+        // shares (the kept bins of a synthetic object).
         let per_demo = color_src.color.total() as f64 / color_src.demonstrations.max(1) as f64;
-        let m = (per_demo.round() as usize).clamp(1, COLOR_BINS);
-        let mut histogram = Vec::with_capacity(m);
+        let m = (per_demo.round() as usize).clamp(1, 1000);
+        let mut counts = [0u32; COLOR_BINS];
         for _ in 0..m {
-            let b = categorical(rng, &theta);
-            histogram.push((b as u8, theta[b]));
-            theta[b] = 0.0;
-            if theta.iter().sum::<f64>() <= 0.0 {
-                break;
-            }
+            counts[categorical(rng, &theta)] += 1;
         }
-        let wsum: f64 = histogram.iter().map(|h| h.1).sum();
-        if wsum > 0.0 {
-            histogram.iter_mut().for_each(|h| h.1 /= wsum);
-        }
+        let mut histogram: Vec<(u8, f64)> = counts
+            .iter()
+            .enumerate()
+            .filter(|c| *c.1 > 0)
+            .map(|(b, &c)| (b as u8, f64::from(c) / m as f64))
+            .collect();
         histogram.sort_by_key(|h| h.0);
         let x = self
             .hyper

@@ -27,6 +27,8 @@ struct HyperFile {
 struct ColorHyper {
     bins: usize,
     gamma: f64,
+    draws_per_object: u32,
+    merge_achromatic: bool,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -77,15 +79,17 @@ impl ProceduralModel {
     ///   "version": 1,
     ///   "hyper": {
     ///     "place_prior": { "kind": "uniform" },            // or { "kind": "dirichlet", "beta": 1.0 }
-    ///     "color": { "bins": 64, "gamma": 0.5 },            // symmetric Dirichlet per place (5.18)
-    ///     "size": { "unit": "deci-pixels", "mu": 150.0, "kappa": 0.05, "alpha": 2.0, "beta": 3200.0 },
+    ///     "color": { "bins": 64, "gamma": 0.1,              // symmetric Dirichlet per place (5.18)
+    ///                "draws_per_object": 10,                // 0 = one draw per kept bin
+    ///                "merge_achromatic": true },            // unsaturated bins: hue is noise
+    ///     "size": { "unit": "deci-pixels", "mu": 25.0, "kappa": 0.05, "alpha": 2.0, "beta": 128.0 },
     ///     "structure_prior": { "neither": 0.25, "color": 0.25, "size": 0.25, "color+size": 0.25 },
     ///     "structure": "inferred",                         // or a fixed structure name
     ///     "relevance_log_threshold": 0.0                   // relevant when ln B10 > this
     ///   },
     ///   "places": [                                        // sorted by name
     ///     { "name": "bin_left", "demonstrations": 3,
-    ///       "color_counts": [0, 2, …],                     // 64 counts of kept bins
+    ///       "color_counts": [0, 2, …],                     // 64 counts of colour draws
     ///       "size": { "n": 3, "sum_half_pixels": 9001, "sum_sq_half_pixels": 27012345 } }
     ///   ]
     /// }
@@ -103,6 +107,8 @@ impl ProceduralModel {
                 color: ColorHyper {
                     bins: COLOR_BINS,
                     gamma: h.color_gamma,
+                    draws_per_object: h.color_draws_per_object,
+                    merge_achromatic: h.merge_achromatic,
                 },
                 size: SizeHyper {
                     unit: SIZE_UNIT.into(),
@@ -205,6 +211,8 @@ impl ProceduralModel {
         let hyper = Hyper {
             place_prior: hf.place_prior,
             color_gamma: hf.color.gamma,
+            color_draws_per_object: hf.color.draws_per_object,
+            merge_achromatic: hf.color.merge_achromatic,
             size_prior,
             structure_prior: [sp.neither, sp.color, sp.size, sp.color_size],
             structure,

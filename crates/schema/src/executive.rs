@@ -1,0 +1,290 @@
+//! The executive: runs a schema (Def. 3.3) on any plant. It observes the predicate vector, decides
+//! which state of the schema the world is in, runs π(state) bound to feedback elements and
+//! effectors by the procedural policy ψ, and repeats until a goal state is reached — taking the
+//! schema's contingencies (a re-grasp after a drop, a hand-to-hand transfer) when the observed state
+//! says so. The declarative schema knows nothing of arms or objects; ψ does, so a schema inferred
+//! from a right-arm demonstration runs with the left arm when ψ says so.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::SchemaError;
+use crate::library::{Expect, Library, Schema};
+
+/// The procedural binding of one abstract action: its feedback elements and effector (ψ's output).
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Binding {
+    /// Effector (arm / hand).
+    pub arm: Option<String>,
+    /// Object (feedback element of Reach / Grasp).
+    pub object: Option<String>,
+    /// Place (feedback element of Reach-to-place / Place); for a transfer, the handoff location.
+    pub place: Option<String>,
+    /// Whether this binding is part of a hand-to-hand transfer.
+    pub transfer: bool,
+}
+
+/// How running an action ended (an outcome, not an error).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ActionOutcome {
+    /// The controller converged.
+    Converged,
+    /// It did not; why.
+    Failed(String),
+}
+
+/// A plant the executive can drive: it runs abstract actions bound by ψ and reports the observation
+/// vector x over the library's actions (4.19) from its own monitors.
+pub trait SchemaPlant {
+    /// The plant's error (invalid use, a broken simulator) — not an action's failure.
+    type Error: std::error::Error + Send + Sync + 'static;
+    /// The observation vector now.
+    fn observe(&mut self) -> Result<Vec<bool>, Self::Error>;
+    /// Runs `action` with `binding` until it converges, fails or times out.
+    fn run(&mut self, action: &str, binding: &Binding) -> Result<ActionOutcome, Self::Error>;
+}
+
+/// The procedural policy ψ: binds an abstract action in a schema state to resources.
+pub trait ProceduralPolicy {
+    /// The binding of `action` in `state` (of schema `schema`).
+    fn bind(&mut self, schema: &Schema, state: &str, action: &str) -> Binding;
+}
+
+/// One step of an execution.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ExecStep {
+    /// The state the executive found the world in.
+    pub state: String,
+    /// The action π chose.
+    pub action: String,
+    /// ψ's binding.
+    pub binding: Binding,
+    /// How it went.
+    pub outcome: ActionOutcome,
+    /// The contingency label of the transition into `state`, if one was taken.
+    pub contingency: Option<String>,
+}
+
+/// What an execution did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ExecReport {
+    /// The schema.
+    pub schema: String,
+    /// The steps.
+    pub steps: Vec<ExecStep>,
+    /// The final state.
+    pub final_state: String,
+    /// Whether a goal state was reached.
+    pub reached_goal: bool,
+    /// Contingencies taken (drop → regrasp, transfer).
+    pub contingencies: Vec<String>,
+}
+
+/// How well observation `x` agrees with state `s` of `schema`: the number of the state's constrained
+/// actions whose monitor sets agree, minus the disagreements (actions outside the schema count as
+/// expected-0).
+fn agreement(library: &Library, schema: &Schema, s: usize, x: &[bool]) -> i64 {
+    let mut score = 0;
+    for (a, &xa) in x.iter().enumerate().take(library.actions.len()) {
+        match schema.expects(s, a) {
+            Expect::Converged => score += if xa { 1 } else { -1 },
+            Expect::NotConverged => score += if xa { -1 } else { 1 },
+            Expect::Either => {}
+        }
+    }
+    score
+}
+
+/// Runs `schema` on `plant` with ψ = `policy`, for at most `max_actions` actions.
+///
+/// The state after each action is the best-agreeing one among the current state and its successors
+/// in T (ties: successors first, contingency edges last — unless ψ's last binding was a transfer,
+/// which selects the transfer edge).
+pub fn execute<P: SchemaPlant>(
+    library: &Library,
+    schema: &Schema,
+    plant: &mut P,
+    policy: &mut dyn ProceduralPolicy,
+    max_actions: usize,
+) -> Result<ExecReport, SchemaError>
+where
+    SchemaError: From<P::Error>,
+{
+    let mut state = schema.start;
+    let mut steps: Vec<ExecStep> = Vec::new();
+    let mut contingencies = Vec::new();
+    let mut last_transfer = false;
+    let mut entered_by: Option<String> = None;
+    for _ in 0..max_actions {
+        let x = plant.observe()?;
+        if x.len() != library.actions.len() {
+            return Err(SchemaError::invalid(
+                "plant",
+                "observation",
+                format!("{} entries for {} actions", x.len(), library.actions.len()),
+            ));
+        }
+        // Which state are we in now?
+        let mut best = (agreement(library, schema, state, &x), 0i64, state, None::<String>);
+        for t in schema.successors(state) {
+            let is_transfer = t.contingency.as_deref() == Some("transfer");
+            // Prefer plain edges; a transfer edge only after a transfer binding.
+            let pref = match (&t.contingency, is_transfer && last_transfer) {
+                (_, true) => 2,
+                (None, _) => 1,
+                (Some(_), _) if is_transfer => -10,
+                (Some(_), _) => 0,
+            };
+            let a = agreement(library, schema, t.to, &x);
+            if (a, pref) > (best.0, best.1) {
+                best = (a, pref, t.to, t.contingency.clone());
+            }
+        }
+        if best.2 != state {
+            state = best.2;
+            entered_by = best.3.clone();
+            if let Some(c) = &best.3 {
+                contingencies.push(c.clone());
+            }
+        }
+        if schema.is_goal(state) {
+            return Ok(ExecReport {
+                schema: schema.name.clone(),
+                steps,
+                final_state: schema.states[state].name.clone(),
+                reached_goal: true,
+                contingencies,
+            });
+        }
+        let action = &library.actions[schema.policy[state]].name;
+        let binding = policy.bind(schema, &schema.states[state].name, action);
+        last_transfer = binding.transfer;
+        let outcome = plant.run(action, &binding)?;
+        steps.push(ExecStep {
+            state: schema.states[state].name.clone(),
+            action: action.clone(),
+            binding,
+            outcome,
+            contingency: entered_by.take(),
+        });
+        // The same action three times in a row in the same state changed nothing: give up.
+        let n = steps.len();
+        if n >= 3
+            && steps[n - 3..]
+                .iter()
+                .all(|s| s.state == steps[n - 1].state && s.action == steps[n - 1].action)
+        {
+            break;
+        }
+    }
+    Ok(ExecReport {
+        schema: schema.name.clone(),
+        final_state: schema.states[state].name.clone(),
+        steps,
+        reached_goal: schema.is_goal(state),
+        contingencies,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A toy plant: a world of predicates that actions switch on, with one scripted drop.
+    #[derive(Debug)]
+    struct Toy {
+        lib: Library,
+        x: Vec<bool>,
+        drop_once: bool,
+        ran: Vec<String>,
+    }
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("toy")]
+    struct ToyError;
+
+    impl From<ToyError> for SchemaError {
+        fn from(_: ToyError) -> Self {
+            SchemaError::Empty("toy".into())
+        }
+    }
+
+    impl Toy {
+        fn set(&mut self, name: &str, v: bool) {
+            let a = self.lib.action(name).unwrap();
+            self.x[a] = v;
+        }
+    }
+
+    impl SchemaPlant for Toy {
+        type Error = ToyError;
+        fn observe(&mut self) -> Result<Vec<bool>, ToyError> {
+            Ok(self.x.clone())
+        }
+        fn run(&mut self, action: &str, b: &Binding) -> Result<ActionOutcome, ToyError> {
+            self.ran.push(format!("{action}:{}", b.arm.clone().unwrap_or_default()));
+            for n in self.lib.action_names().iter().map(|s| s.to_string()).collect::<Vec<_>>() {
+                self.set(&n, false);
+            }
+            match action {
+                "reach_object" => self.set("reach_object", true),
+                "grasp" => {
+                    self.set("grasp", true);
+                    self.set("reach_object", true);
+                }
+                "hold" => {
+                    if self.drop_once {
+                        // The object slips out while lifting: nothing is held.
+                        self.drop_once = false;
+                    } else {
+                        self.set("grasp", true);
+                        self.set("hold", true);
+                    }
+                }
+                "place" => {
+                    self.set("reach_place", true);
+                    self.set("place", true);
+                }
+                "release" => self.set("release", true),
+                _ => {}
+            }
+            Ok(ActionOutcome::Converged)
+        }
+    }
+
+    struct LeftArm;
+    impl ProceduralPolicy for LeftArm {
+        fn bind(&mut self, _s: &Schema, _state: &str, _action: &str) -> Binding {
+            Binding {
+                arm: Some("left".into()),
+                ..Binding::default()
+            }
+        }
+    }
+
+    #[test]
+    fn pick_and_place_runs_to_its_goal_and_regrasps_after_a_drop() {
+        let lib = Library::builtin();
+        let k = lib.actions.len();
+        let pp = lib.schema("pick_and_place").unwrap().clone();
+        for drop in [false, true] {
+            let mut toy = Toy {
+                lib: lib.clone(),
+                x: vec![false; k],
+                drop_once: drop,
+                ran: vec![],
+            };
+            let r = execute(&lib, &pp, &mut toy, &mut LeftArm, 30).unwrap();
+            assert!(r.reached_goal, "{r:?}");
+            assert_eq!(r.final_state, "released");
+            assert!(toy.ran.iter().all(|a| a.ends_with(":left")));
+            let grasps = toy.ran.iter().filter(|a| a.starts_with("grasp")).count();
+            if drop {
+                assert!(r.contingencies.contains(&"drop".to_string()), "{r:?}");
+                assert_eq!(grasps, 2, "{:?}", toy.ran);
+            } else {
+                assert!(r.contingencies.is_empty());
+                assert_eq!(grasps, 1);
+            }
+        }
+    }
+}
