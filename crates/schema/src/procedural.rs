@@ -229,7 +229,7 @@ impl Features {
 /// The bin an unsaturated colour counts as when achromatic bins are merged: for s < 0.25 the hue
 /// is meaningless (noise decides it), so bins `16·h + v` for h = 0..4 all map to `v`.
 pub fn canonical_bin(bin: usize) -> usize {
-    if (bin / 4) % 4 == 0 { bin % 4 } else { bin }
+    if (bin / 4).is_multiple_of(4) { bin % 4 } else { bin }
 }
 
 /// Number of distinct colours after merging achromatic bins (64 − 12).

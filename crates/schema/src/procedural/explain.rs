@@ -200,7 +200,7 @@ impl ProceduralModel {
         let map = structure.map();
         let color_matters = structure.feature_probability(FeatureType::Color);
         let size_matters = structure.feature_probability(FeatureType::Size);
-        let mut rng = StdRng::seed_from_u64(0x5EED_5_1_2);
+        let mut rng = StdRng::seed_from_u64(0x05EE_D512);
         let mut places = Vec::new();
         for (name, p) in &self.places {
             let pmf = self.color_pmf(name)?;

@@ -1,0 +1,136 @@
+//! Features of every presentation of a catalog, rendered with the simulator's vision pipeline:
+//! the object alone on the table (with the two bins) in front of Dexter's head cameras, segmented
+//! by background subtraction, matched in stereo, and reduced to the kept bins of the 64-colour
+//! histogram and the left/right pixel counts — exactly what `pbd record` stores per segment.
+//!
+//! Each presentation is rendered in several *variants* (seeded position jitter, yaw and pixel
+//! noise), so trials see the object as it would be presented again: not the same pixels twice.
+
+use anyhow::{Context, bail};
+use dexter_sim::rng::SplitMix64;
+use dexter_sim::scene::{CameraSpec, Catalog, LightSpec};
+use dexter_sim::vision::fixtures::{TABLE_FIXATION, TABLE_TOP, head_cameras, table_and_bins};
+use dexter_sim::vision::{ItemLabel, RenderItem, StereoVision};
+use nalgebra::Vector3;
+use schema::SegmentPercept;
+use schema::procedural::Features;
+use serde::{Deserialize, Serialize};
+
+/// One presentation of a catalog object and its hand labels.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Presentation {
+    /// Presentation name (`jif-1`).
+    pub name: String,
+    /// Object name (`jif`).
+    pub object: String,
+    /// The catalog's colour class, if labelled.
+    pub color_class: Option<String>,
+    /// The catalog's size class, if labelled.
+    pub size_class: Option<String>,
+}
+
+/// Rendered features: `features[p][v]` is variant v of presentation p.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FeatureBank {
+    /// Where the catalog came from.
+    pub catalog: String,
+    /// Seed of the renders.
+    pub seed: u64,
+    /// The presentations, in catalog order.
+    pub presentations: Vec<Presentation>,
+    /// Features per presentation and variant.
+    pub features: Vec<Vec<Features>>,
+}
+
+impl FeatureBank {
+    /// Number of variants per presentation.
+    pub fn variants(&self) -> usize {
+        self.features.first().map_or(0, Vec::len)
+    }
+}
+
+/// Renders `variants` views of every presentation in `catalog`; `tick` is called after each one.
+pub fn render_bank(
+    catalog: &Catalog,
+    variants: usize,
+    seed: u64,
+    mut tick: impl FnMut(),
+) -> anyhow::Result<FeatureBank> {
+    let spec = CameraSpec::default();
+    let light = LightSpec::default();
+    let cams = head_cameras(&spec, Vector3::from(TABLE_FIXATION))?;
+    let base = table_and_bins();
+    let mut vision = StereoVision::new(&spec, &light, seed)?;
+    vision.capture_background(&cams, &base)?;
+    let mut presentations = Vec::new();
+    let mut features = Vec::new();
+    let mut blobs = Vec::new();
+    for name in catalog.presentation_names() {
+        let (index, _) = catalog.presentation(name)?;
+        let object = &catalog.objects[index];
+        let mut views = Vec::with_capacity(variants);
+        for v in 0..variants {
+            let k = (presentations.len() as u64) << 16 | v as u64;
+            let mut rng = SplitMix64::stream(seed, k);
+            let x = 0.6 + 0.08 * (rng.next_f64() - 0.5);
+            let y = 0.16 * (rng.next_f64() - 0.5);
+            let yaw = 360.0 * rng.next_f64();
+            let pose = catalog.rest_pose(name, [x, y], yaw, TABLE_TOP)?;
+            let mut scene = base.clone();
+            scene.push(RenderItem::from_catalog(
+                &object.shape,
+                pose,
+                &object.colors,
+                ItemLabel::Object(0),
+            ));
+            vision.reseed(rng.next_u64());
+            vision.perceive_into(&cams, &scene, &mut blobs)?;
+            let best = blobs
+                .iter()
+                .filter_map(|b| {
+                    let l = b.left.map_or(0, |s| s.features.pixel_count);
+                    let r = b.right.map_or(0, |s| s.features.pixel_count);
+                    (l + r > 0).then_some((l + r, b))
+                })
+                .max_by_key(|(n, _)| *n)
+                .map(|(_, b)| b);
+            let Some(blob) = best else {
+                bail!("presentation {name}: the object is not visible to the head cameras");
+            };
+            let seg = blob.left.or(blob.right).context("blob without segments")?;
+            let h = &seg.features.histogram;
+            let kept: Vec<usize> = h.kept_bins().collect();
+            let total: f64 = kept.iter().map(|&i| f64::from(h.counts[i])).sum();
+            let histogram = kept
+                .iter()
+                .map(|&i| (i as u8, f64::from(h.counts[i]) / total.max(1.0)))
+                .collect();
+            let percept = SegmentPercept {
+                id: 0,
+                centroid: blob.centroid.map_or([0.0; 3], |c| [c.x, c.y, c.z]),
+                seen: blob.left.is_some() && blob.right.is_some(),
+                pixels: [
+                    blob.left.map_or(0, |s| s.features.pixel_count as u32),
+                    blob.right.map_or(0, |s| s.features.pixel_count as u32),
+                ],
+                histogram,
+                covariance: [0.0; 4],
+            };
+            views.push(Features::from(&percept));
+            tick();
+        }
+        presentations.push(Presentation {
+            name: name.to_string(),
+            object: object.name.clone(),
+            color_class: object.color_class.clone(),
+            size_class: object.size_class.clone(),
+        });
+        features.push(views);
+    }
+    Ok(FeatureBank {
+        catalog: catalog.path.display().to_string(),
+        seed,
+        presentations,
+        features,
+    })
+}

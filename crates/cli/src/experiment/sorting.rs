@@ -1,0 +1,885 @@
+//! The sorting experiments of §5.1–5.3 on rendered catalog features.
+//!
+//! A *trial* with n examples per class draws, for every class, n presentations at random as the
+//! demonstrations (each in a random rendered view), learns the procedural model, and tests on the
+//! class's remaining presentations (again in a random view). Everything is seeded.
+
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use bayes::chi2::chi2_contingency;
+use dexter_sim::scene::Catalog;
+use rand::RngExt;
+use rand::SeedableRng;
+use rand::rngs::StdRng;
+use rand::seq::SliceRandom;
+use schema::procedural::{Connectivity, Example, Features, Hyper, ProceduralModel, StructureChoice};
+use serde::Serialize;
+
+use super::features::{FeatureBank, render_bank};
+use super::{Feature, SortingArgs};
+use crate::plots::{self, LineChart, Series};
+use crate::progress;
+
+/// Which catalog label a class name refers to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Label {
+    /// `color_class`.
+    Color,
+    /// `size_class`.
+    Size,
+}
+
+impl Label {
+    fn field(self) -> &'static str {
+        match self {
+            Label::Color => "color_class",
+            Label::Size => "size_class",
+        }
+    }
+}
+
+/// Per presentation index, its class under a labelling, or None.
+fn labels(bank: &FeatureBank, label: Label) -> Vec<Option<&str>> {
+    bank.presentations
+        .iter()
+        .map(|p| match label {
+            Label::Color => p.color_class.as_deref(),
+            Label::Size => p.size_class.as_deref(),
+        })
+        .collect()
+}
+
+/// Presentations per class; errors when the catalog lacks the labels or a class has fewer than
+/// `min` presentations.
+fn class_pools(bank: &FeatureBank, label: Label, classes: &[String], min: usize) -> anyhow::Result<Vec<Vec<usize>>> {
+    let l = labels(bank, label);
+    if l.iter().all(Option::is_none) {
+        bail!(
+            "catalog {} has no `{}` labels: this experiment needs them on its objects",
+            bank.catalog,
+            label.field()
+        );
+    }
+    let mut pools = Vec::new();
+    for c in classes {
+        let pool: Vec<usize> = (0..l.len()).filter(|&i| l[i] == Some(c.as_str())).collect();
+        if pool.len() < min {
+            let mut known: Vec<&str> = l.iter().flatten().copied().collect();
+            known.sort_unstable();
+            known.dedup();
+            bail!(
+                "catalog {}: class `{c}` ({}) has {} presentations, this experiment needs at least {min} (classes: {})",
+                bank.catalog,
+                label.field(),
+                pool.len(),
+                known.join(", ")
+            );
+        }
+        pools.push(pool);
+    }
+    Ok(pools)
+}
+
+fn trial_rng(seed: u64, salt: u64, n: usize, trial: usize) -> StdRng {
+    StdRng::seed_from_u64(seed ^ salt.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ ((n as u64) << 32) ^ trial as u64)
+}
+
+fn view<'a>(bank: &'a FeatureBank, rng: &mut StdRng, p: usize) -> &'a Features {
+    let v = rng.random_range(0..bank.variants());
+    &bank.features[p][v]
+}
+
+/// One sorting trial.
+struct TrialResult {
+    correct: usize,
+    total: usize,
+    p_value: f64,
+    model: ProceduralModel,
+    /// (score ln B10, is_task_object) for the relevance test set.
+    scores: Vec<(f64, bool)>,
+}
+
+fn sorting_trial(
+    bank: &FeatureBank,
+    pools: &[Vec<usize>],
+    names: &[String],
+    hyper: &Hyper,
+    n: usize,
+    rng: &mut StdRng,
+    negatives: &[usize],
+) -> anyhow::Result<TrialResult> {
+    let mut train = Vec::new();
+    let mut test = Vec::new();
+    for (k, pool) in pools.iter().enumerate() {
+        let mut pool = pool.clone();
+        pool.shuffle(rng);
+        for (i, &p) in pool.iter().enumerate() {
+            let f = view(bank, rng, p).clone();
+            if i < n {
+                train.push(Example {
+                    features: f,
+                    reference: names[k].clone(),
+                });
+            } else {
+                test.push((k, f));
+            }
+        }
+    }
+    let model = ProceduralModel::learn(hyper.clone(), &train)?;
+    let order: Vec<&str> = model.place_names();
+    let index: BTreeMap<&str, usize> = names.iter().enumerate().map(|(i, s)| (s.as_str(), i)).collect();
+    let mut confusion = vec![vec![0.0; names.len()]; names.len()];
+    let mut correct = 0;
+    let mut scores = Vec::new();
+    for (k, f) in &test {
+        let pred = model.predict(f)?;
+        let j = index.get(pred.map_place.as_str()).copied().unwrap_or(*k);
+        confusion[*k][j] += 1.0;
+        correct += usize::from(j == *k);
+        scores.push((pred.relevance.bayes_factor.log_b10, true));
+    }
+    debug_assert_eq!(order.len(), names.len());
+    for &p in negatives {
+        let f = view(bank, rng, p);
+        scores.push((model.predict(f)?.relevance.bayes_factor.log_b10, false));
+    }
+    // χ² against a random sorter: is the predicted bin independent of the true class?
+    let p_value = chi2_contingency(&confusion, false).map_or(1.0, |t| t.p_value);
+    Ok(TrialResult {
+        correct,
+        total: test.len(),
+        p_value,
+        model,
+        scores,
+    })
+}
+
+/// Area under the ROC curve of scores (higher = positive), ties counted half.
+pub fn auc(scores: &[(f64, bool)]) -> f64 {
+    let pos: Vec<f64> = scores.iter().filter(|s| s.1).map(|s| s.0).collect();
+    let neg: Vec<f64> = scores.iter().filter(|s| !s.1).map(|s| s.0).collect();
+    if pos.is_empty() || neg.is_empty() {
+        return f64::NAN;
+    }
+    let mut sum = 0.0;
+    for &p in &pos {
+        for &q in &neg {
+            sum += if p > q {
+                1.0
+            } else if p == q {
+                0.5
+            } else {
+                0.0
+            };
+        }
+    }
+    sum / (pos.len() * neg.len()) as f64
+}
+
+/// ROC points (fpr, tpr), from the highest threshold down.
+pub fn roc(scores: &[(f64, bool)]) -> Vec<(f64, f64)> {
+    let mut s = scores.to_vec();
+    s.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let np = s.iter().filter(|x| x.1).count().max(1) as f64;
+    let nn = s.iter().filter(|x| !x.1).count().max(1) as f64;
+    let (mut tp, mut fp) = (0.0, 0.0);
+    let mut out = vec![(0.0, 0.0)];
+    for (i, &(score, pos)) in s.iter().enumerate() {
+        if pos {
+            tp += 1.0;
+        } else {
+            fp += 1.0;
+        }
+        if i + 1 == s.len() || s[i + 1].0 != score {
+            out.push((fp / nn, tp / np));
+        }
+    }
+    out
+}
+
+fn mean_sd(xs: &[f64]) -> (f64, f64) {
+    let n = xs.len().max(1) as f64;
+    let m = xs.iter().sum::<f64>() / n;
+    let v = if xs.len() > 1 {
+        xs.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0)
+    } else {
+        0.0
+    };
+    (m, v.sqrt())
+}
+
+fn median(xs: &[f64]) -> f64 {
+    let mut v = xs.to_vec();
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let m = v.len() / 2;
+    if v.len() % 2 == 1 {
+        v[m]
+    } else {
+        0.5 * (v[m - 1] + v[m])
+    }
+}
+
+/// One row of the per-n summary.
+#[derive(Debug, Clone, Serialize)]
+pub struct Row {
+    /// Examples per class.
+    pub examples: usize,
+    /// Mean over trials (success rate, AUC or selection accuracy).
+    pub mean: f64,
+    /// Sample standard deviation over trials.
+    pub sd: f64,
+    /// Median χ² p-value against a random sorter (sorting experiments).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub median_p: Option<f64>,
+    /// Maximum χ² p-value.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_p: Option<f64>,
+}
+
+/// The JSON summary.
+#[derive(Debug, Serialize)]
+pub struct Summary {
+    /// Which experiment.
+    pub experiment: String,
+    /// The catalog.
+    pub catalog: String,
+    /// Classes (or tasks).
+    pub classes: Vec<String>,
+    /// Structure choice.
+    pub structure: String,
+    /// Trials per n.
+    pub trials: usize,
+    /// Seed.
+    pub seed: u64,
+    /// What `mean` measures.
+    pub measure: String,
+    /// Per n (or per task and n for selection).
+    pub rows: BTreeMap<String, Vec<Row>>,
+    /// Extra findings (e.g. incremental = batch).
+    pub notes: Vec<String>,
+    /// Files written.
+    pub files: Vec<String>,
+    /// Seconds for rendering and for the experiment.
+    pub seconds: [f64; 2],
+}
+
+/// Runs `pbd experiment sorting`.
+pub fn run(args: &SortingArgs, out: &mut dyn Write) -> anyhow::Result<()> {
+    // Config phase.
+    let catalog = match &args.catalog {
+        Some(p) => Catalog::load(p)?,
+        None => Catalog::builtin_household()?,
+    };
+    if args.trials == 0 || args.max_examples == 0 || args.views == 0 {
+        bail!("--trials, --max-examples and --views must be at least 1");
+    }
+    let classes: Vec<String> = if args.classes.is_empty() {
+        match args.feature {
+            Feature::Size => vec!["small".into(), "large".into()],
+            _ => vec!["red".into(), "blue".into()],
+        }
+    } else {
+        args.classes.clone()
+    };
+    let label_for = |cs: &[String]| {
+        if cs.iter().all(|c| dexter_sim::scene::SIZE_CLASSES.contains(&c.as_str())) {
+            Label::Size
+        } else {
+            Label::Color
+        }
+    };
+    let label = match args.feature {
+        Feature::Color => Label::Color,
+        Feature::Size => Label::Size,
+        _ => label_for(&classes),
+    };
+    let structure = match &args.structure {
+        Some(s) => StructureChoice::parse(s)
+            .with_context(|| format!("--structure {s:?}: expected inferred, neither, color, size or color+size"))?,
+        None => match (args.feature, label) {
+            (Feature::Color | Feature::Size | Feature::Relevance, Label::Color) => {
+                StructureChoice::Fixed(Connectivity::parse("color").unwrap_or_default())
+            }
+            (Feature::Color | Feature::Size | Feature::Relevance, Label::Size) => {
+                StructureChoice::Fixed(Connectivity::parse("size").unwrap_or_default())
+            }
+            _ => StructureChoice::Inferred,
+        },
+    };
+    let hyper = Hyper {
+        structure,
+        ..Hyper::default()
+    };
+    // Labels are checked before the (slow) rendering.
+    check_labels(&catalog, args.feature, label)?;
+    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
+
+    // Run phase.
+    let t0 = Instant::now();
+    let n_views = catalog.presentation_names().len() * args.views;
+    let pb = progress::bar(args.json, n_views as u64, "rendering");
+    let bank = render_bank(&catalog, args.views, args.seed, || pb.inc(1))?;
+    pb.finish_and_clear();
+    let render_secs = t0.elapsed().as_secs_f64();
+    if let Some(p) = &args.dump_features {
+        std::fs::write(p, serde_json::to_string(&bank)?).with_context(|| format!("writing {}", p.display()))?;
+    }
+    let t1 = Instant::now();
+    let mut summary = Summary {
+        experiment: format!("{:?}", args.feature).to_lowercase(),
+        catalog: bank.catalog.clone(),
+        classes: classes.clone(),
+        structure: structure.name().into(),
+        trials: args.trials,
+        seed: args.seed,
+        measure: String::new(),
+        rows: BTreeMap::new(),
+        notes: vec![],
+        files: vec![],
+        seconds: [render_secs, 0.0],
+    };
+    match args.feature {
+        Feature::Color | Feature::Size => sorting(args, &bank, &hyper, label, &classes, &mut summary)?,
+        Feature::Relevance => relevance(args, &bank, &hyper, label, &classes, &mut summary)?,
+        Feature::Incremental => incremental(args, &bank, &hyper, label, &classes, &mut summary)?,
+        Feature::Selection => selection(args, &bank, &hyper, &mut summary)?,
+    }
+    summary.seconds[1] = t1.elapsed().as_secs_f64();
+    let md = markdown(&summary);
+    let md_path = args.output.join("summary.md");
+    std::fs::write(&md_path, &md).with_context(|| format!("writing {}", md_path.display()))?;
+    summary.files.push(md_path.display().to_string());
+    if args.json {
+        serde_json::to_writer_pretty(&mut *out, &summary)?;
+        writeln!(out)?;
+    } else {
+        write!(out, "{md}")?;
+        writeln!(out, "\nfiles:")?;
+        for f in &summary.files {
+            writeln!(out, "  {f}")?;
+        }
+    }
+    Ok(())
+}
+
+fn check_labels(catalog: &Catalog, feature: Feature, label: Label) -> anyhow::Result<()> {
+    let need: &[Label] = match feature {
+        Feature::Selection => &[Label::Color, Label::Size],
+        _ => std::slice::from_ref(&label),
+    };
+    for l in need {
+        let has = catalog.objects.iter().any(|o| match l {
+            Label::Color => o.color_class.is_some(),
+            Label::Size => o.size_class.is_some(),
+        });
+        if !has {
+            bail!(
+                "catalog {} has no `{}` labels: `--feature {}` needs them on its objects",
+                catalog.path.display(),
+                l.field(),
+                format!("{feature:?}").to_lowercase()
+            );
+        }
+    }
+    Ok(())
+}
+
+fn write_csv(path: &Path, header: &str, rows: &[String]) -> anyhow::Result<()> {
+    let mut s = String::from(header);
+    s.push('\n');
+    for r in rows {
+        s.push_str(r);
+        s.push('\n');
+    }
+    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+}
+
+fn sorting(
+    args: &SortingArgs,
+    bank: &FeatureBank,
+    hyper: &Hyper,
+    label: Label,
+    classes: &[String],
+    summary: &mut Summary,
+) -> anyhow::Result<()> {
+    let pools = class_pools(bank, label, classes, 2)?;
+    let max_n = pools.iter().map(Vec::len).min().unwrap_or(1) - 1;
+    let max_n = args.max_examples.min(max_n).max(1);
+    let pb = progress::bar(args.json, (max_n * args.trials) as u64, "trials");
+    let mut csv = Vec::new();
+    let mut rows = Vec::new();
+    for n in 1..=max_n {
+        let mut rates = Vec::new();
+        let mut ps = Vec::new();
+        for t in 0..args.trials {
+            let mut rng = trial_rng(args.seed, 1, n, t);
+            let r = sorting_trial(bank, &pools, classes, hyper, n, &mut rng, &[])?;
+            let rate = r.correct as f64 / r.total.max(1) as f64;
+            let sp = r.model.structure_posterior()?;
+            csv.push(format!(
+                "{n},{t},{},{},{rate:.6},{:.6e},{},{:.6}",
+                r.correct,
+                r.total,
+                r.p_value,
+                sp.map().name(),
+                sp.map_probability()
+            ));
+            rates.push(rate);
+            ps.push(r.p_value);
+            pb.inc(1);
+        }
+        let (mean, sd) = mean_sd(&rates);
+        rows.push(Row {
+            examples: n,
+            mean,
+            sd,
+            median_p: Some(median(&ps)),
+            max_p: Some(ps.iter().copied().fold(0.0, f64::max)),
+        });
+    }
+    pb.finish_and_clear();
+    let dir = &args.output;
+    let csv_path = dir.join("success.csv");
+    write_csv(
+        &csv_path,
+        "examples_per_class,trial,correct,tested,success_rate,chi2_p_value,map_structure,map_structure_probability",
+        &csv,
+    )?;
+    let what = classes.join(" vs ");
+    let svg = dir.join("success.svg");
+    plots::line_chart(
+        &svg,
+        &LineChart {
+            title: format!("sorting {what}: success rate (mean ± sd, {} trials)", args.trials),
+            x_label: "examples per class".into(),
+            y_label: "success rate".into(),
+            x_range: (0.5, max_n as f64 + 0.5),
+            y_range: (0.0, 1.05),
+            log_y: false,
+            series: vec![Series {
+                label: String::new(),
+                points: rows.iter().map(|r| (r.examples as f64, r.mean)).collect(),
+                errors: rows.iter().map(|r| (r.mean - r.sd, (r.mean + r.sd).min(1.0))).collect(),
+            }],
+            hlines: vec![(1.0 / classes.len() as f64, "random sorter".into())],
+        },
+    )?;
+    let psvg = dir.join("p_values.svg");
+    let floor = 1e-300;
+    let lo = rows.iter().filter_map(|r| r.median_p).fold(1.0, f64::min).max(floor) * 0.1;
+    plots::line_chart(
+        &psvg,
+        &LineChart {
+            title: format!("sorting {what}: χ² p-value against a random sorter"),
+            x_label: "examples per class".into(),
+            y_label: "p-value".into(),
+            x_range: (0.5, max_n as f64 + 0.5),
+            y_range: (lo, 1.0),
+            log_y: true,
+            series: vec![
+                Series {
+                    label: "maximum".into(),
+                    points: rows
+                        .iter()
+                        .map(|r| (r.examples as f64, r.max_p.unwrap_or(1.0).max(floor)))
+                        .collect(),
+                    errors: vec![],
+                },
+                Series {
+                    label: "median".into(),
+                    points: rows
+                        .iter()
+                        .map(|r| (r.examples as f64, r.median_p.unwrap_or(1.0).max(floor)))
+                        .collect(),
+                    errors: vec![],
+                },
+            ],
+            hlines: vec![(0.05, "5 %".into()), (0.01, "1 %".into())],
+        },
+    )?;
+    summary.measure = "success rate (correctly sorted / tested)".into();
+    summary.rows.insert(what, rows);
+    summary
+        .files
+        .extend([csv_path, svg, psvg].map(|p| p.display().to_string()));
+    Ok(())
+}
+
+fn relevance(
+    args: &SortingArgs,
+    bank: &FeatureBank,
+    hyper: &Hyper,
+    label: Label,
+    classes: &[String],
+    summary: &mut Summary,
+) -> anyhow::Result<()> {
+    let pools = class_pools(bank, label, classes, 2)?;
+    let l = labels(bank, label);
+    let negatives: Vec<usize> = (0..l.len())
+        .filter(|&i| !l[i].is_some_and(|c| classes.iter().any(|k| k == c)))
+        .collect();
+    if negatives.is_empty() {
+        bail!("every presentation belongs to the task's classes: nothing to reject");
+    }
+    let max_n = pools.iter().map(Vec::len).min().unwrap_or(1) - 1;
+    let max_n = args.max_examples.min(max_n).max(1);
+    let pb = progress::bar(args.json, (max_n * args.trials) as u64, "trials");
+    let mut csv = Vec::new();
+    let mut rows = Vec::new();
+    let mut curves = Vec::new();
+    let mut accuracy_notes = Vec::new();
+    for n in 1..=max_n {
+        let mut aucs = Vec::new();
+        let mut pooled = Vec::new();
+        let mut acc = Vec::new();
+        for t in 0..args.trials {
+            let mut rng = trial_rng(args.seed, 2, n, t);
+            let r = sorting_trial(bank, &pools, classes, hyper, n, &mut rng, &negatives)?;
+            let a = auc(&r.scores);
+            let th = hyper.relevance_log_threshold;
+            let right = r.scores.iter().filter(|(s, pos)| (*s > th) == *pos).count();
+            acc.push(right as f64 / r.scores.len().max(1) as f64);
+            csv.push(format!("{n},{t},{a:.6},{:.6}", acc[acc.len() - 1]));
+            aucs.push(a);
+            pooled.extend(r.scores);
+            pb.inc(1);
+        }
+        let (mean, sd) = mean_sd(&aucs);
+        rows.push(Row {
+            examples: n,
+            mean,
+            sd,
+            median_p: None,
+            max_p: None,
+        });
+        let (am, asd) = mean_sd(&acc);
+        accuracy_notes.push(format!(
+            "{n} example(s) per class: decision ln B10 > {} is right for {:.3} ± {:.3} of the objects",
+            hyper.relevance_log_threshold, am, asd
+        ));
+        curves.push(Series {
+            label: format!("{n} per class"),
+            points: roc(&pooled),
+            errors: vec![],
+        });
+    }
+    pb.finish_and_clear();
+    let dir = &args.output;
+    let csv_path = dir.join("relevance.csv");
+    write_csv(&csv_path, "examples_per_class,trial,auc,accuracy_at_threshold", &csv)?;
+    let roc_csv = dir.join("roc.csv");
+    let roc_rows: Vec<String> = curves
+        .iter()
+        .enumerate()
+        .flat_map(|(i, c)| c.points.iter().map(move |(f, t)| format!("{},{f:.6},{t:.6}", i + 1)))
+        .collect();
+    write_csv(
+        &roc_csv,
+        "examples_per_class,false_positive_rate,true_positive_rate",
+        &roc_rows,
+    )?;
+    let svg = dir.join("roc.svg");
+    plots::line_chart(
+        &svg,
+        &LineChart {
+            title: format!("task relevance of {} (ROC, trials pooled)", classes.join(" + ")),
+            x_label: "false positive rate".into(),
+            y_label: "true positive rate".into(),
+            x_range: (0.0, 1.0),
+            y_range: (0.0, 1.02),
+            log_y: false,
+            series: curves,
+            hlines: vec![],
+        },
+    )?;
+    summary.measure = "ROC AUC of ln B10 (task objects vs all others)".into();
+    summary.notes = accuracy_notes;
+    summary.rows.insert(classes.join(" + "), rows);
+    summary
+        .files
+        .extend([csv_path, roc_csv, svg].map(|p| p.display().to_string()));
+    Ok(())
+}
+
+fn incremental(
+    args: &SortingArgs,
+    bank: &FeatureBank,
+    hyper: &Hyper,
+    label: Label,
+    classes: &[String],
+    summary: &mut Summary,
+) -> anyhow::Result<()> {
+    let pools = class_pools(bank, label, classes, 1)?;
+    let mut rng = trial_rng(args.seed, 3, 0, 0);
+    let m = args.max_examples.min(pools.iter().map(Vec::len).min().unwrap_or(1));
+    // Interleave the classes: one example of each per step.
+    let mut examples = Vec::new();
+    for (k, pool) in pools.iter().enumerate() {
+        let mut pool = pool.clone();
+        pool.shuffle(&mut rng);
+        for (i, &p) in pool.iter().take(m).enumerate() {
+            examples.push((i, k, view(bank, &mut rng, p).clone()));
+        }
+    }
+    examples.sort_by_key(|e| (e.0, e.1));
+    let demos: Vec<Example> = examples
+        .iter()
+        .map(|(_, k, f)| Example {
+            features: f.clone(),
+            reference: classes[*k].clone(),
+        })
+        .collect();
+    let mut model = ProceduralModel::new(hyper.clone())?;
+    let mut rows: Vec<(String, Vec<Vec<f64>>)> = classes.iter().map(|c| (c.clone(), Vec::new())).collect();
+    let mut csv = Vec::new();
+    for (step, e) in demos.iter().enumerate() {
+        model.update(e)?;
+        if step % classes.len() == classes.len() - 1 {
+            for (k, c) in classes.iter().enumerate() {
+                let pmf = model.color_pmf(c)?;
+                for (b, p) in pmf.iter().enumerate() {
+                    csv.push(format!("{},{c},{b},{p:.8}", step / classes.len() + 1));
+                }
+                rows[k].1.push(pmf);
+            }
+        }
+    }
+    // Incremental = batch, for several orders.
+    let batch = ProceduralModel::learn(hyper.clone(), &demos)?;
+    let mut max_diff: f64 = 0.0;
+    let mut identical = model == batch;
+    for _ in 0..10 {
+        let mut d = demos.clone();
+        d.shuffle(&mut rng);
+        let mut inc = ProceduralModel::new(hyper.clone())?;
+        for e in &d {
+            inc.update(e)?;
+        }
+        identical &= inc == batch;
+        for c in classes {
+            let (a, b) = (inc.color_pmf(c)?, batch.color_pmf(c)?);
+            max_diff = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(max_diff, f64::max);
+            let (sa, sb) = (inc.size_density(c)?, batch.size_density(c)?);
+            max_diff = max_diff
+                .max((sa.loc() - sb.loc()).abs())
+                .max((sa.scale() - sb.scale()).abs());
+        }
+    }
+    let dir = &args.output;
+    let csv_path = dir.join("incremental_pmfs.csv");
+    write_csv(&csv_path, "examples_per_class,place,bin,probability", &csv)?;
+    let svg = dir.join("incremental_pmfs.svg");
+    plots::pmf_grid(&svg, "colour pmf per place after each example (Fig. 5.11)", &rows)?;
+    // Swatches and size densities of the final model (Figs. 5.12, 5.5).
+    let sw = dir.join("samples.svg");
+    let mut srng = trial_rng(args.seed, 4, 0, 0);
+    let inst = model.sample_instances(&mut srng, 36 * classes.len())?;
+    let by_place: Vec<(String, Vec<Features>)> = classes
+        .iter()
+        .map(|c| {
+            (
+                c.clone(),
+                inst.iter()
+                    .filter(|i| &i.place == c)
+                    .map(|i| i.features.clone())
+                    .collect(),
+            )
+        })
+        .collect();
+    plots::swatches(&sw, &by_place)?;
+    let dens = dir.join("size_density.svg");
+    let dists = classes
+        .iter()
+        .map(|c| Ok((c.clone(), model.size_density(c)?)))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    plots::size_densities(&dens, &dists, &[])?;
+    let ex = model.explain()?;
+    summary.measure = "colour pmf per place after each example".into();
+    summary.notes.push(format!(
+        "incremental = batch over 10 random orders: identical statistics {identical}, max |difference| of predictive quantities {max_diff:e}"
+    ));
+    summary.notes.extend(ex.text.lines().map(str::to_string));
+    summary
+        .files
+        .extend([csv_path, svg, sw, dens].map(|p| p.display().to_string()));
+    Ok(())
+}
+
+/// A place of a feature-selection task: (place name, colour class, size class) constraints.
+type TaskPlace = (&'static str, Option<&'static str>, Option<&'static str>);
+
+/// The feature-selection tasks: (name, expected structure, places).
+fn selection_tasks() -> Vec<(&'static str, Connectivity, Vec<TaskPlace>)> {
+    vec![
+        (
+            "color-only (red vs blue)",
+            Connectivity::parse("color").unwrap_or_default(),
+            vec![("red", Some("red"), None), ("blue", Some("blue"), None)],
+        ),
+        (
+            "size-only (small vs large)",
+            Connectivity::parse("size").unwrap_or_default(),
+            vec![("small", None, Some("small")), ("large", None, Some("large"))],
+        ),
+        (
+            "color-and-size (red/green x small/large)",
+            Connectivity::parse("color+size").unwrap_or_default(),
+            vec![
+                ("red-small", Some("red"), Some("small")),
+                ("red-large", Some("red"), Some("large")),
+                ("green-small", Some("green"), Some("small")),
+                ("green-large", Some("green"), Some("large")),
+            ],
+        ),
+    ]
+}
+
+fn selection(args: &SortingArgs, bank: &FeatureBank, hyper: &Hyper, summary: &mut Summary) -> anyhow::Result<()> {
+    let max_n = args.max_examples.min(3);
+    let tasks = selection_tasks();
+    let pb = progress::bar(args.json, (tasks.len() * max_n * args.trials) as u64, "trials");
+    let mut csv = Vec::new();
+    let mut series = Vec::new();
+    let hyper = Hyper {
+        structure: StructureChoice::Inferred,
+        ..hyper.clone()
+    };
+    for (ti, (name, expected, places)) in tasks.iter().enumerate() {
+        let pools: Vec<Vec<usize>> = places
+            .iter()
+            .map(|(_, c, s)| {
+                (0..bank.presentations.len())
+                    .filter(|&i| {
+                        let p = &bank.presentations[i];
+                        c.is_none_or(|c| p.color_class.as_deref() == Some(c))
+                            && s.is_none_or(|s| p.size_class.as_deref() == Some(s))
+                    })
+                    .collect()
+            })
+            .collect();
+        if let Some((k, _)) = pools.iter().enumerate().find(|(_, p)| p.is_empty()) {
+            bail!(
+                "catalog {}: no presentation for place `{}` of task {name}",
+                bank.catalog,
+                places[k].0
+            );
+        }
+        let names: Vec<String> = places.iter().map(|p| p.0.to_string()).collect();
+        let mut rows = Vec::new();
+        for n in 1..=max_n {
+            let mut hits = Vec::new();
+            for t in 0..args.trials {
+                let mut rng = trial_rng(args.seed, 10 + ti as u64, n, t);
+                let mut train = Vec::new();
+                for (k, pool) in pools.iter().enumerate() {
+                    let mut pool = pool.clone();
+                    pool.shuffle(&mut rng);
+                    for &p in pool.iter().take(n) {
+                        train.push(Example {
+                            features: view(bank, &mut rng, p).clone(),
+                            reference: names[k].clone(),
+                        });
+                    }
+                }
+                let model = ProceduralModel::learn(hyper.clone(), &train)?;
+                let sp = model.structure_posterior()?;
+                let ok = sp.map() == *expected;
+                hits.push(f64::from(u8::from(ok)));
+                let probs: Vec<String> = sp.structures.iter().map(|s| format!("{:.6}", s.probability)).collect();
+                csv.push(format!("{name},{n},{t},{},{ok},{}", sp.map().name(), probs.join(",")));
+                pb.inc(1);
+            }
+            let (mean, sd) = mean_sd(&hits);
+            rows.push(Row {
+                examples: n,
+                mean,
+                sd,
+                median_p: None,
+                max_p: None,
+            });
+        }
+        series.push(Series {
+            label: name.to_string(),
+            points: rows.iter().map(|r| (r.examples as f64, r.mean)).collect(),
+            errors: vec![],
+        });
+        summary.rows.insert(name.to_string(), rows);
+    }
+    pb.finish_and_clear();
+    let dir = &args.output;
+    let csv_path = dir.join("selection.csv");
+    write_csv(
+        &csv_path,
+        "task,examples_per_class,trial,map_structure,correct,p_neither,p_color,p_size,p_color_size",
+        &csv,
+    )?;
+    let svg = dir.join("selection.svg");
+    plots::line_chart(
+        &svg,
+        &LineChart {
+            title: "feature selection: right structure named (fraction of trials)".into(),
+            x_label: "examples per class".into(),
+            y_label: "fraction of trials".into(),
+            x_range: (0.5, max_n as f64 + 0.5),
+            y_range: (0.0, 1.05),
+            log_y: false,
+            series,
+            hlines: vec![(0.9, "0.9".into())],
+        },
+    )?;
+    summary.measure = "fraction of trials whose MAP structure is the task's".into();
+    summary.classes = tasks.iter().map(|t| t.0.to_string()).collect();
+    summary.files.extend([csv_path, svg].map(|p| p.display().to_string()));
+    Ok(())
+}
+
+fn markdown(s: &Summary) -> String {
+    let mut md = format!(
+        "# pbd experiment sorting --feature {}\n\ncatalog `{}`, classes {}, structure `{}`, {} trials, seed {}; \
+         rendering {:.1} s, experiment {:.1} s.\n\nMeasure: {}.\n",
+        s.experiment,
+        s.catalog,
+        s.classes.join(", "),
+        s.structure,
+        s.trials,
+        s.seed,
+        s.seconds[0],
+        s.seconds[1],
+        s.measure
+    );
+    for (name, rows) in &s.rows {
+        md.push_str(&format!("\n## {name}\n\n"));
+        let with_p = rows.iter().any(|r| r.median_p.is_some());
+        if with_p {
+            md.push_str("| examples per class | mean | sd | median χ² p | max χ² p |\n|---:|---:|---:|---:|---:|\n");
+        } else {
+            md.push_str("| examples per class | mean | sd |\n|---:|---:|---:|\n");
+        }
+        for r in rows {
+            md.push_str(&format!("| {} | {:.3} | {:.3} |", r.examples, r.mean, r.sd));
+            if with_p {
+                md.push_str(&format!(
+                    " {:.2e} | {:.2e} |",
+                    r.median_p.unwrap_or(f64::NAN),
+                    r.max_p.unwrap_or(f64::NAN)
+                ));
+            }
+            md.push('\n');
+        }
+    }
+    if !s.notes.is_empty() {
+        md.push_str("\n## Notes\n\n");
+        for n in &s.notes {
+            md.push_str(&format!("- {n}\n"));
+        }
+    }
+    md
+}
