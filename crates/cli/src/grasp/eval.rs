@@ -1,0 +1,423 @@
+//! `pbd grasp eval`: the experiment of §6.5. Catalog presentations are split at random (seeded)
+//! into training and test sets; the scripted teacher demonstrates grasps on the training set in the
+//! sim, the prototype model is learned from them; every test presentation is presented and seen,
+//! and 6 candidates from the model and 6 from the naive baseline (after the same collision and
+//! reach filtering) are each executed in the sim: reach the pre-grasp, close, lift 10 cm, success if
+//! still held. Reported: success per object (Fig. 6.7), totals, a significance test and the object ×
+//! prototype sharing table (Table 6.1).
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use dexter_sim::grasp_trial::{self, Percept, TrialOutcome};
+use grasp_topics::{Corpus, GraspModel, naive_baseline};
+use rand::seq::SliceRandom;
+use serde::Serialize;
+
+use super::common::{self, Method, Presenter, Rejections, select_candidates};
+use super::{PresentArgs, command_for, learn_config, mat2, model_summary, record_scripted};
+
+/// Arguments of `pbd grasp eval`.
+#[derive(Debug, Args)]
+pub struct EvalArgs {
+    #[command(flatten)]
+    pub present: PresentArgs,
+    /// Number of test presentations (the seed used 12).
+    #[arg(long, default_value_t = 12)]
+    pub test: usize,
+    /// Number of training presentations (the seed used 19); 0 = all the others.
+    #[arg(long, default_value_t = 24)]
+    pub train: usize,
+    /// Test presentations, comma-separated (default: drawn at random).
+    #[arg(long, value_delimiter = ',')]
+    pub objects: Vec<String>,
+    /// Demonstrations attempted per training presentation.
+    #[arg(long, default_value_t = 4)]
+    pub demos: usize,
+    /// Candidates executed per test presentation and method (the seed used 6).
+    #[arg(long, default_value_t = 6)]
+    pub candidates: usize,
+    /// Use this model instead of recording and learning (test presentations exclude its objects).
+    #[arg(long, conflicts_with = "corpus")]
+    pub model: Option<PathBuf>,
+    /// Learn from this corpus instead of recording one (test presentations exclude its objects).
+    #[arg(long)]
+    pub corpus: Option<PathBuf>,
+    /// Number of prototypes A (the seed used 10).
+    #[arg(long, default_value_t = 10, conflicts_with = "nonparametric")]
+    pub prototypes: usize,
+    /// Infer the number of prototypes (Dirichlet process).
+    #[arg(long)]
+    pub nonparametric: bool,
+    /// Number of canonical orientations Q (the seed used 6).
+    #[arg(long, default_value_t = 6)]
+    pub orientations: usize,
+    /// Burn-in sweeps of the sampler.
+    #[arg(long, default_value_t = 200)]
+    pub burn_in: usize,
+    /// Sampler chains.
+    #[arg(long, default_value_t = 4)]
+    pub chains: usize,
+    /// Seed of every random choice (split, demonstrations, sampler, candidates, sim noise).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Directory for the report (trials.csv, objects.csv, sharing.csv, fig6_7.svg, summary.md,
+    /// summary.json; corpus.json and prototypes.json when learned here).
+    #[arg(short, long, default_value = "grasp-eval")]
+    pub output: PathBuf,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One executed candidate.
+#[derive(Debug, Clone, Serialize)]
+pub struct Trial {
+    /// Test presentation.
+    pub object: String,
+    /// Generator.
+    pub method: Method,
+    /// Candidate index (rank order, from 1).
+    pub candidate: usize,
+    /// Prototype (model candidates).
+    pub prototype: Option<usize>,
+    /// Palm-surface position in the object frame (m).
+    pub position: Option<[f64; 3]>,
+    /// Palm-surface orientation `[w, x, y, z]`.
+    pub orientation: Option<[f64; 4]>,
+    /// Success (§6.5 criterion).
+    pub success: bool,
+    /// How far the object rose (m).
+    pub rose: f64,
+    /// What happened.
+    pub outcome: String,
+    /// Simulated seconds.
+    pub sim_time: f64,
+}
+
+/// Per test presentation.
+#[derive(Debug, Clone, Serialize)]
+pub struct ObjectResult {
+    /// Presentation.
+    pub object: String,
+    /// Model successes (of `candidates`).
+    pub model: usize,
+    /// Naive successes.
+    pub naive: usize,
+    /// Appearance b seen (px²), if seen.
+    pub appearance: Option<[[f64; 2]; 2]>,
+    /// Most probable prototype for its appearance (6.28), from 1.
+    pub top_prototype: Option<usize>,
+    /// Model candidates dropped.
+    pub model_rejected: Rejections,
+    /// Naive candidates dropped.
+    pub naive_rejected: Rejections,
+}
+
+/// Significance of the difference.
+#[derive(Debug, Clone, Serialize)]
+pub struct Significance {
+    /// One-sided Fisher exact test, H1: the model succeeds more often.
+    pub fisher_one_sided_p: f64,
+    /// Pearson χ² on the 2×2 table with Yates' correction (two-sided).
+    pub chi2: f64,
+    /// Its p-value.
+    pub chi2_p: f64,
+}
+
+/// `summary.json` / `--json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct EvalSummary {
+    /// Seed.
+    pub seed: u64,
+    /// Training presentations (with at least one kept grasp).
+    pub train: Vec<String>,
+    /// Test presentations.
+    pub test: Vec<String>,
+    /// Candidates per object and method.
+    pub candidates: usize,
+    /// Demonstrations kept / attempted (when recorded here).
+    pub demos_kept: Option<(usize, usize)>,
+    /// The model.
+    pub model: super::ModelSummary,
+    /// Per object.
+    pub objects: Vec<ObjectResult>,
+    /// Model successes / attempts.
+    pub model_total: (usize, usize),
+    /// Naive successes / attempts.
+    pub naive_total: (usize, usize),
+    /// Test.
+    pub significance: Significance,
+    /// Wall-clock seconds of the whole run.
+    pub wall_time: f64,
+    /// Files written.
+    pub files: Vec<String>,
+}
+
+struct Prepared {
+    percept: Option<Percept>,
+    top_prototype: Option<usize>,
+    jobs: Vec<(Method, usize, Option<grasp_topics::RankedPreGrasp>)>,
+    rejected: [Rejections; 2],
+}
+
+/// Runs `pbd grasp eval`.
+pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
+    let wall = Instant::now();
+    // Config.
+    let presenter = Presenter::new(&args.present)?;
+    if args.candidates == 0 {
+        bail!("--candidates must be at least 1");
+    }
+    for o in &args.objects {
+        presenter.check(o)?;
+    }
+    let config = learn_config(
+        args.prototypes,
+        args.nonparametric,
+        1.0,
+        args.orientations,
+        args.burn_in,
+        args.chains,
+        args.seed,
+    );
+    config.validate()?;
+    let given_model = args.model.as_ref().map(GraspModel::load).transpose()?;
+    let given_corpus = args.corpus.as_ref().map(Corpus::load).transpose()?;
+    if let Some(c) = &given_corpus {
+        c.validate()?;
+    }
+    std::fs::create_dir_all(&args.output).with_context(|| format!("cannot create {}", args.output.display()))?;
+    // Split.
+    let mut all = presenter.presentations();
+    all.shuffle(&mut common::rng(args.seed, 1));
+    let known: Vec<String> = match (&given_model, &given_corpus) {
+        (Some(m), _) => m.objects.clone(),
+        (_, Some(c)) => c.objects.iter().map(|o| o.name.clone()).collect(),
+        _ => Vec::new(),
+    };
+    let test: Vec<String> = if args.objects.is_empty() {
+        all.iter()
+            .filter(|o| !known.contains(o))
+            .take(args.test)
+            .cloned()
+            .collect()
+    } else {
+        args.objects.clone()
+    };
+    if test.is_empty() {
+        bail!("no test presentations (every catalog presentation is a training object of the model)");
+    }
+    let mut files = Vec::new();
+    let path_str = |p: &std::path::Path| p.display().to_string();
+    // Model.
+    let mut demos_kept = None;
+    let model = if let Some(m) = given_model {
+        m
+    } else {
+        let corpus = match given_corpus {
+            Some(c) => c,
+            None => {
+                let pool: Vec<String> = all.iter().filter(|o| !test.contains(o)).cloned().collect();
+                let n = if args.train == 0 {
+                    pool.len()
+                } else {
+                    args.train.min(pool.len())
+                };
+                let train = &pool[..n];
+                if train.is_empty() {
+                    bail!("no training presentations left after the test split");
+                }
+                let bar = crate::progress::bar(args.json, train.len() as u64, "demonstrate");
+                let tick = |name: &str| {
+                    bar.set_message(name.to_string());
+                    bar.inc(1);
+                };
+                let (corpus, demos, _skipped) = record_scripted(&presenter, train, args.demos, args.seed, &tick)?;
+                bar.finish_and_clear();
+                demos_kept = Some((demos.iter().filter(|d| d.kept).count(), demos.len()));
+                if corpus.num_grasps() == 0 {
+                    bail!("no demonstrated grasp held on the training presentations");
+                }
+                let p = args.output.join("corpus.json");
+                corpus.save(&p)?;
+                files.push(path_str(&p));
+                corpus
+            }
+        };
+        let spinner = crate::progress::spinner(args.json, "learn");
+        let m = GraspModel::learn(&corpus, &config)?;
+        spinner.finish_and_clear();
+        let p = args.output.join("prototypes.json");
+        m.save(&p)?;
+        files.push(path_str(&p));
+        m
+    };
+    let model_path = args
+        .model
+        .clone()
+        .unwrap_or_else(|| args.output.join("prototypes.json"));
+    // Perceive each test object and choose its candidates.
+    let n = args.candidates;
+    let bar = crate::progress::bar(args.json, test.len() as u64, "perceive");
+    let prepared = common::parallel_map(&test, |i, name| -> Result<Prepared> {
+        let (scene, settings) = presenter.scene(name, common::mix(args.seed, 1000 + i as u64))?;
+        let percept = match grasp_trial::perceive(&scene, &settings)? {
+            Ok(p) => p,
+            Err(_) => {
+                bar.inc(1);
+                let mut jobs = Vec::new();
+                for m in [Method::Model, Method::Naive] {
+                    for k in 0..n {
+                        jobs.push((m, k, None));
+                    }
+                }
+                return Ok(Prepared {
+                    percept: None,
+                    top_prototype: None,
+                    jobs,
+                    rejected: [Rejections::default(); 2],
+                });
+            }
+        };
+        let reach_sim = grasp_trial::parked_sim(&scene, &settings)?;
+        let b = mat2(percept.appearance);
+        let pz = model.prototype_probabilities(&b)?;
+        let top = pz.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map(|(j, _)| j);
+        let dims = common::object_shape(&scene.catalog.objects[scene.resolved[0].object].shape).dimensions();
+        let mut jobs = Vec::new();
+        let mut rejected = [Rejections::default(); 2];
+        for (mi, m) in [Method::Model, Method::Naive].into_iter().enumerate() {
+            let mut rng = common::rng(args.seed, 2000 + 2 * i as u64 + mi as u64);
+            let sel = select_candidates(
+                &presenter,
+                &scene,
+                &reach_sim,
+                &percept,
+                m,
+                n,
+                |k, rng| match m {
+                    Method::Model => model.generate(&b, k, rng).map_err(anyhow::Error::from),
+                    Method::Naive => naive_baseline(&dims, k, rng).map_err(anyhow::Error::from),
+                },
+                &mut rng,
+            )?;
+            rejected[mi] = sel.rejected;
+            for k in 0..n {
+                jobs.push((m, k, sel.chosen.get(k).cloned()));
+            }
+        }
+        bar.inc(1);
+        Ok(Prepared {
+            percept: Some(percept),
+            top_prototype: top,
+            jobs,
+            rejected,
+        })
+    })?;
+    bar.finish_and_clear();
+    // Execute every candidate.
+    let mut jobs = Vec::new();
+    for (i, p) in prepared.iter().enumerate() {
+        for (m, k, c) in &p.jobs {
+            jobs.push((i, *m, *k, c.clone()));
+        }
+    }
+    let bar = crate::progress::bar(args.json, jobs.len() as u64, "grasp");
+    let outcomes = common::parallel_map(&jobs, |_, (i, m, _k, c)| -> Result<Option<TrialOutcome>> {
+        let r = match c {
+            None => None,
+            Some(c) => {
+                let (scene, settings) = presenter.scene(&test[*i], common::mix(args.seed, 1000 + *i as u64))?;
+                Some(grasp_trial::execute(
+                    &scene,
+                    &settings,
+                    presenter.arm,
+                    &command_for(c, *m),
+                )?)
+            }
+        };
+        bar.set_message(test[*i].clone());
+        bar.inc(1);
+        Ok(r)
+    })?;
+    bar.finish_and_clear();
+    let trials: Vec<Trial> = jobs
+        .iter()
+        .zip(outcomes)
+        .map(|((i, m, k, c), o)| {
+            let seen = prepared[*i].percept.is_some();
+            Trial {
+                object: test[*i].clone(),
+                method: *m,
+                candidate: k + 1,
+                prototype: c.as_ref().and_then(|c| c.pre_grasp.prototype.map(|j| j + 1)),
+                position: c.as_ref().map(|c| c.pre_grasp.position),
+                orientation: c.as_ref().map(|c| c.pre_grasp.orientation),
+                success: o.as_ref().is_some_and(|o| o.success),
+                rose: o.as_ref().map_or(0.0, |o| o.rose),
+                outcome: match (&o, seen) {
+                    (Some(o), _) => o.outcome.clone(),
+                    (None, false) => "object not seen".into(),
+                    (None, true) => "no collision-free reachable candidate".into(),
+                },
+                sim_time: o.as_ref().map_or(0.0, |o| o.sim_time),
+            }
+        })
+        .collect();
+    let objects: Vec<ObjectResult> = test
+        .iter()
+        .enumerate()
+        .map(|(i, name)| {
+            let count = |m: Method| {
+                trials
+                    .iter()
+                    .filter(|t| &t.object == name && t.method == m && t.success)
+                    .count()
+            };
+            ObjectResult {
+                object: name.clone(),
+                model: count(Method::Model),
+                naive: count(Method::Naive),
+                appearance: prepared[i].percept.as_ref().map(|p| p.appearance),
+                top_prototype: prepared[i].top_prototype.map(|j| j + 1),
+                model_rejected: prepared[i].rejected[0],
+                naive_rejected: prepared[i].rejected[1],
+            }
+        })
+        .collect();
+    let attempts = test.len() * n;
+    let ms: usize = objects.iter().map(|o| o.model).sum();
+    let ns: usize = objects.iter().map(|o| o.naive).sum();
+    let significance = super::report::significance(ms, ns, attempts)?;
+    let summary_model = model_summary(&model, &model_path);
+    let mut summary = EvalSummary {
+        seed: args.seed,
+        train: model.objects.clone(),
+        test: test.clone(),
+        candidates: n,
+        demos_kept,
+        model: summary_model,
+        objects,
+        model_total: (ms, attempts),
+        naive_total: (ns, attempts),
+        significance,
+        wall_time: 0.0,
+        files,
+    };
+    summary.wall_time = wall.elapsed().as_secs_f64();
+    super::report::write_files(&args.output, &mut summary, &trials, &model)?;
+    let p = args.output.join("summary.json");
+    std::fs::write(&p, serde_json::to_string_pretty(&summary)?)
+        .with_context(|| format!("cannot write {}", p.display()))?;
+    summary.files.push(path_str(&p));
+    if args.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&summary)?)?;
+    } else {
+        super::report::print(out, &summary, &model)?;
+    }
+    Ok(())
+}
