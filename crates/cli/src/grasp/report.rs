@@ -152,25 +152,10 @@ fn plot_svg(summary: &EvalSummary) -> Result<String> {
             .y_label_area_size(40)
             .build_cartesian_2d(0.0..n as f64, 0.0..summary.candidates as f64 + 0.5)
             .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-        let names: Vec<String> = summary.objects.iter().map(|o| o.object.clone()).collect();
         chart
             .configure_mesh()
             .disable_x_mesh()
-            .x_labels(n.max(1))
-            .x_label_formatter(&|x| {
-                let i = x.floor() as usize;
-                if (x - i as f64 - 0.5).abs() < 1e-6 {
-                    names.get(i).cloned().unwrap_or_default()
-                } else {
-                    String::new()
-                }
-            })
-            .x_label_style(
-                ("sans-serif", 11)
-                    .into_font()
-                    .transform(FontTransform::Rotate90)
-                    .color(&BLACK),
-            )
+            .x_labels(0)
             .y_desc("successful grasps")
             .draw()
             .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
@@ -199,6 +184,16 @@ fn plot_svg(summary: &EvalSummary) -> Result<String> {
             .position(SeriesLabelPosition::UpperRight)
             .draw()
             .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        // Object names under their bars, rotated (drawn on the root area, outside the plot).
+        let style = ("sans-serif", 11)
+            .into_font()
+            .transform(FontTransform::Rotate90)
+            .color(&BLACK);
+        for (i, o) in summary.objects.iter().enumerate() {
+            let (px, py) = chart.backend_coord(&(i as f64 + 0.5, 0.0));
+            root.draw(&Text::new(o.object.clone(), (px - 6, py + 6), style.clone()))
+                .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        }
         root.present().map_err(|e| anyhow::anyhow!("plot: {e}"))?;
     }
     Ok(buf)
