@@ -16,9 +16,11 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod doctor;
+mod execute;
 mod experiment;
 mod grasp;
 mod infer;
+mod learn;
 #[allow(dead_code)]
 mod mcap_log;
 mod output;
@@ -51,6 +53,10 @@ enum Command {
     Grasp(grasp::GraspCommand),
     /// Infer which schema explains a recorded demonstration, and its instances.
     Infer(infer::InferArgs),
+    /// Learn the procedural model of a task from demonstrations (or explain one).
+    Learn(learn::LearnArgs),
+    /// Do a demonstrated task in a new scene (any arm, transfers, re-grasps).
+    Execute(execute::ExecuteArgs),
     /// Check an MCAP file (and repair one that was cut short).
     Doctor(doctor::DoctorArgs),
     /// The seed's procedural-learning experiments on features rendered from an object catalog.
@@ -78,6 +84,8 @@ fn main() -> ExitCode {
         Command::Grasp(cmd) => grasp::main(cmd, &mut out),
         Command::Infer(args) => infer::main(args, &mut out),
         Command::Doctor(args) => doctor::main(args, &mut out),
+        Command::Learn(args) => learn::main(args, &mut out),
+        Command::Execute(args) => execute::main(args, &mut out),
         Command::Experiment(cmd) => experiment::main(cmd, &mut out),
     };
     let result = result.and_then(|()| out.flush().map_err(anyhow::Error::from));

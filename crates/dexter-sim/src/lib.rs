@@ -4,6 +4,7 @@
 pub mod control;
 pub mod convert;
 pub mod error;
+pub mod exec;
 pub mod geometry;
 pub mod grasp_trial;
 pub mod perception;

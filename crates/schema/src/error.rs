@@ -42,6 +42,9 @@ pub enum SchemaError {
     /// A demonstration with nothing to explain.
     #[error("empty demonstration: {0}")]
     Empty(String),
+    /// The plant failed (not an action's failure: a broken simulator or robot link).
+    #[error("plant: {0}")]
+    Plant(Box<dyn std::error::Error + Send + Sync>),
     /// An error from the statistics crate.
     #[error(transparent)]
     Bayes(#[from] bayes::BayesError),

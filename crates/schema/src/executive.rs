@@ -105,17 +105,15 @@ pub fn execute<P: SchemaPlant>(
     plant: &mut P,
     policy: &mut dyn ProceduralPolicy,
     max_actions: usize,
-) -> Result<ExecReport, SchemaError>
-where
-    SchemaError: From<P::Error>,
-{
+) -> Result<ExecReport, SchemaError> {
+    let plant_error = |e: P::Error| SchemaError::Plant(Box::new(e));
     let mut state = schema.start;
     let mut steps: Vec<ExecStep> = Vec::new();
     let mut contingencies = Vec::new();
     let mut last_transfer = false;
     let mut entered_by: Option<String> = None;
     for _ in 0..max_actions {
-        let x = plant.observe()?;
+        let x = plant.observe().map_err(plant_error)?;
         if x.len() != library.actions.len() {
             return Err(SchemaError::invalid(
                 "plant",
@@ -158,7 +156,7 @@ where
         let action = &library.actions[schema.policy[state]].name;
         let binding = policy.bind(schema, &schema.states[state].name, action);
         last_transfer = binding.transfer;
-        let outcome = plant.run(action, &binding)?;
+        let outcome = plant.run(action, &binding).map_err(plant_error)?;
         steps.push(ExecStep {
             state: schema.states[state].name.clone(),
             action: action.clone(),
@@ -201,12 +199,6 @@ mod tests {
     #[derive(Debug, thiserror::Error)]
     #[error("toy")]
     struct ToyError;
-
-    impl From<ToyError> for SchemaError {
-        fn from(_: ToyError) -> Self {
-            SchemaError::Empty("toy".into())
-        }
-    }
 
     impl Toy {
         fn set(&mut self, name: &str, v: bool) {

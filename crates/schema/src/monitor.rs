@@ -60,7 +60,7 @@ impl Default for MonitorConfig {
             place_margin: 0.02,
             place_height: 0.35,
             place_load_fraction: 0.4,
-            release_clear: 0.10,
+            release_clear: 0.15,
             open_flexion: 1.0,
         }
     }
@@ -94,6 +94,8 @@ pub struct Observation {
 struct HandMemory {
     /// Segment latched by the grasp monitor, with the palm height at the grasp and the held load.
     grasp: Option<(u32, f64, f64)>,
+    /// The largest finger flexion while the grasp held (rad).
+    grasp_flexion: f64,
     /// Where the hand let go, while Release is converged.
     released_at: Option<[f64; 3]>,
 }
@@ -205,17 +207,20 @@ impl MonitorBank {
                         && let Some(seg) = near(1.5 * c.reach_radius)
                     {
                         mem.grasp = Some((seg, h.palm[2], 0.0));
+                        mem.grasp_flexion = h.flexion;
                         mem.released_at = None;
                     }
                 }
                 Some((seg, z0, load)) => {
                     let loaded = f.iter().filter(|&&b| b).count();
                     if loaded >= 2 {
+                        mem.grasp_flexion = mem.grasp_flexion.max(h.flexion);
                         mem.grasp = Some((seg, z0, if h.palm[2] > z0 + c.hold_rise { load.max(h.load) } else { load }));
                     } else {
                         mem.grasp = None;
-                        // Let go with the hand opening: Release; otherwise the object slipped out (a drop).
-                        if h.flexion < c.open_flexion || !any_contact && h.flexion < 1.5 * c.open_flexion {
+                        // Let go with the hand opening: Release; with the fingers still closed (or closing
+                        // further) the object slipped out: a drop.
+                        if h.flexion < c.open_flexion || h.flexion < mem.grasp_flexion - 0.1 {
                             mem.released_at = Some(h.palm);
                         }
                     }
