@@ -9,8 +9,14 @@
 //! (§5.3.4):
 //!
 //! * **colour** — the kept bins of the object's 64-bin HSV histogram (the 20th-percentile rule of
-//!   §5.1.2.1) are exchangeable categorical draws õ₁..õₙ; per place a symmetric Dirichlet(γ) prior,
-//!   counts as sufficient statistics, predictive (5.18) and the product (5.16)–(5.17) for a new object;
+//!   §5.1.2.1), shared out as `D` weighted draws and mapped to 8 *colour classes* (black, three
+//!   greys, and the four hues; [`color_class_bin`]): shading moves a surface's pixels across the
+//!   value and saturation bins, not across hues. The draws of one object are not independent (they
+//!   are one surface), so each object counts as [`Hyper::color_object_weight`] observations (the
+//!   counts scaled by w/D) rather than D: the Occam factor of feature selection then counts
+//!   objects, not pixels. Per place a Dirichlet(α·m) prior around a base measure m (the colour
+//!   frequencies of the objects the robot may meet), counts as sufficient statistics, predictive
+//!   (5.18) and the product (5.16)–(5.17) for a new object;
 //! * **size** — the segment size in deci-pixels (§5.1.2.2), one observation per object (the mean of
 //!   the left and right cameras, whose sizes are highly correlated, Fig. 5.4); per place a
 //!   Normal–Inverse-Gamma prior with a Student-t predictive.
@@ -39,15 +45,20 @@
 //!
 //! # Task relevance (§5.1.3)
 //!
-//! ln B₁₀ = ln p₁(õ) − ln p₀(õ) (5.19) against a background model M₀ of "any object": colour uniform
-//! over the 64 bins, p₀ = 64⁻ⁿ (5.20)–(5.21), and size from the NIG prior predictive (the size prior
-//! describes objects the robot may meet, Fig. 5.7). The object is *relevant* when
-//! ln B₁₀ > [`Hyper::relevance_log_threshold`], by default 0 (B₁₀ > 1, the seed's rule).
+//! ln B₁₀ = ln p₁(õ) − ln p₀(õ) (5.19) against a background model M₀ of "any object": the *prior*
+//! predictive of the feature units, i.e. colour from the base measure m (5.20)–(5.21) with m in
+//! place of the seed's uniform L⁻¹, so a colour every object shows (white highlights, dark shading)
+//! is no evidence of belonging to the task, and size from the NIG prior predictive (Fig. 5.7). The
+//! object is *relevant* when ln B₁₀ > [`Hyper::relevance_log_threshold`], by default
+//! [`DEFAULT_RELEVANCE_LOG_THRESHOLD`] = 2 (B₁₀ > e² ≈ 7.4, "substantial" evidence), calibrated on
+//! the rendered household catalog: with three examples per class it maximises the mean accuracy of
+//! the relevant/irrelevant decision over the colour-class pairs (B₁₀ > 1 accepts too many
+//! background objects, since p₁ is a mixture fitted to few examples).
 //!
 //! # Incremental learning (§5.2)
 //!
-//! Every statistic is an integer (colour counts, demonstrations, and the size sums Σx and Σx² in
-//! half-pixels), so [`ProceduralModel::update`] one demonstration at a time gives *exactly* the
+//! Every statistic is an integer (colour draw counts, demonstrations, and the size sums Σx and Σx²
+//! in half-pixels; the object weight is applied when scoring, not when counting), so [`ProceduralModel::update`] one demonstration at a time gives *exactly* the
 //! model [`ProceduralModel::learn`] builds from all of them, in any order, and
 //! [`ProceduralModel::merge`] adds two models.
 //!
@@ -61,9 +72,9 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use bayes::bayes_factor::{BayesFactor, log_mixture_marginal, log_place_weights, uniform_background_log_likelihood};
+use bayes::bayes_factor::{BayesFactor, log_mixture_marginal, log_place_weights};
 use bayes::dirichlet::{CategoryCounts, SymmetricDirichlet};
-use bayes::special::log_sum_exp;
+use bayes::special::{ln_gamma, log_sum_exp};
 use bayes::univariate::{GaussianStats, NormalInverseGamma, StudentT};
 use serde::{Deserialize, Serialize};
 
@@ -80,7 +91,7 @@ pub use explain::{ColorMass, Explanation, PlaceExplanation, SyntheticInstance, b
 /// The `format` field of a model file.
 pub const MODEL_FORMAT: &str = "pbd-procedural-model";
 /// The model format version this crate reads and writes.
-pub const MODEL_VERSION: u32 = 1;
+pub const MODEL_VERSION: u32 = 2;
 /// Number of colours L of the HSV histogram (4 hue × 4 saturation × 4 value bins, §5.1.2.1).
 pub const COLOR_BINS: usize = 64;
 
@@ -155,12 +166,11 @@ impl Features {
     /// object contributes exactly that many draws, shared among its kept bins in proportion to
     /// their pixel weights (largest remainder, ties to the lower bin; equal shares when all weights
     /// are 0), so the dominant colours of the object outweigh the rare shading bins. With
-    /// `merge_achromatic`, unsaturated bins (s < 0.25, whose hue is noise) count as the hue-0 bin
-    /// of the same value ([`canonical_bin`]).
-    pub fn color_draws(&self, draws_per_object: u32, merge_achromatic: bool) -> Vec<(usize, u64)> {
+    /// `classes`, every bin counts as its colour class ([`color_class_bin`]).
+    pub fn color_draws(&self, draws_per_object: u32, classes: bool) -> Vec<(usize, u64)> {
         let canon = |b: u8| {
-            if merge_achromatic {
-                canonical_bin(usize::from(b))
+            if classes {
+                color_class_bin(usize::from(b))
             } else {
                 usize::from(b)
             }
@@ -226,14 +236,22 @@ impl Features {
     }
 }
 
-/// The bin an unsaturated colour counts as when achromatic bins are merged: for s < 0.25 the hue
-/// is meaningless (noise decides it), so bins `16·h + v` for h = 0..4 all map to `v`.
-pub fn canonical_bin(bin: usize) -> usize {
-    if (bin / 4).is_multiple_of(4) { bin % 4 } else { bin }
+/// The bin that stands for a bin's *colour class*: black (v < ¼: bin 0), dark grey, grey and white
+/// (s < ¼, whose hue is noise: bins 1, 2, 3), and the four hues red–yellow, green, cyan–blue and
+/// purple–pink (every saturation and value of hue h: the vivid bright bin `16·h + 15`).
+pub fn color_class_bin(bin: usize) -> usize {
+    let (h, s, v) = ((bin / 16) % 4, (bin / 4) % 4, bin % 4);
+    if v == 0 {
+        0
+    } else if s == 0 {
+        v
+    } else {
+        16 * h + 15
+    }
 }
 
-/// Number of distinct colours after merging achromatic bins (64 − 12).
-pub const MERGED_COLOR_BINS: usize = 52;
+/// The representative bins of the 8 colour classes ([`color_class_bin`]), ascending.
+pub const COLOR_CLASS_BINS: [usize; 8] = [0, 1, 2, 3, 15, 31, 47, 63];
 
 /// One demonstrated Pick-And-Place: the features of the object and the place it was put.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -382,12 +400,19 @@ impl StructureChoice {
 pub struct Hyper {
     /// The place prior ψ.
     pub place_prior: PlacePrior,
-    /// Symmetric Dirichlet concentration γ of each place's colour distribution (5.18).
-    pub color_gamma: f64,
-    /// Colour draws per object (0: one per kept bin); see [`Features::color_draws`].
+    /// Concentration α of the Dirichlet(α·m) prior of each place's colour distribution (5.18).
+    pub color_concentration: f64,
+    /// Base measure m over the 64 bins (normalised when used; ≥ 0, and > 0 on every bin an object
+    /// can show): the prior mean of a place's colour distribution and the background colour model
+    /// of M₀.
+    pub color_base: Vec<f64>,
+    /// Colour draws D per object (≥ 1); see [`Features::color_draws`].
     pub color_draws_per_object: u32,
-    /// Merge the unsaturated bins whose hue is noise; see [`Features::color_draws`].
-    pub merge_achromatic: bool,
+    /// How many independent colour observations one object is worth, w ∈ (0, D]: the counts are
+    /// scaled by w/D when scoring (module docs).
+    pub color_object_weight: f64,
+    /// Count every bin as its colour class ([`color_class_bin`]).
+    pub color_classes: bool,
     /// NIG prior of each place's size distribution, in deci-pixels; its prior predictive is also
     /// the background size model of M₀.
     pub size_prior: NormalInverseGamma,
@@ -399,9 +424,32 @@ pub struct Hyper {
     pub relevance_log_threshold: f64,
 }
 
-/// Default γ: a weak smoothing, so that one demonstration already concentrates a place's colour
-/// distribution on the colours it showed (chosen on rendered household-catalog features).
-pub const DEFAULT_COLOR_GAMMA: f64 = 0.1;
+/// Default α: a place's colour distribution is worth 3 objects of prior (chosen on rendered
+/// household-catalog features together with [`DEFAULT_COLOR_OBJECT_WEIGHT`]).
+pub const DEFAULT_COLOR_CONCENTRATION: f64 = 3.0;
+
+/// Default object weight w: one object's 10 draws count as 3 independent observations. w = 10
+/// (independent draws) lets three random objects per place look colour-distinct by chance; w = 1
+/// (one observation per object) is too weak to find a real colour task from three examples.
+pub const DEFAULT_COLOR_OBJECT_WEIGHT: f64 = 3.0;
+
+/// Default ln B₁₀ threshold of task relevance (module docs).
+pub const DEFAULT_RELEVANCE_LOG_THRESHOLD: f64 = 2.0;
+
+/// Default base measure over the colour classes [`COLOR_CLASS_BINS`] (black, dark grey, grey,
+/// white, red–yellow, green, cyan–blue, purple–pink): the mean colour-class shares of the
+/// presentations of the built-in household catalog rendered by Dexter's head cameras
+/// (`tests/data/household_features.json`), each class smoothed by half an object.
+pub const DEFAULT_COLOR_CLASS_BASE: [f64; 8] = [0.111, 0.033, 0.107, 0.151, 0.238, 0.103, 0.134, 0.046];
+
+/// [`DEFAULT_COLOR_CLASS_BASE`] spread over the 64 bins (0 off the class bins).
+pub fn default_color_base() -> Vec<f64> {
+    let mut m = vec![0.0; COLOR_BINS];
+    for (b, p) in COLOR_CLASS_BINS.iter().zip(DEFAULT_COLOR_CLASS_BASE) {
+        m[*b] = p;
+    }
+    m
+}
 
 /// Default colour draws per object (see [`Features::color_draws`]).
 pub const DEFAULT_COLOR_DRAWS: u32 = 10;
@@ -414,13 +462,15 @@ impl Default for Hyper {
     fn default() -> Self {
         Hyper {
             place_prior: PlacePrior::Uniform,
-            color_gamma: DEFAULT_COLOR_GAMMA,
+            color_concentration: DEFAULT_COLOR_CONCENTRATION,
+            color_base: default_color_base(),
             color_draws_per_object: DEFAULT_COLOR_DRAWS,
-            merge_achromatic: true,
+            color_object_weight: DEFAULT_COLOR_OBJECT_WEIGHT,
+            color_classes: true,
             size_prior: default_size_prior(),
             structure_prior: [0.25; 4],
             structure: StructureChoice::Inferred,
-            relevance_log_threshold: 0.0,
+            relevance_log_threshold: DEFAULT_RELEVANCE_LOG_THRESHOLD,
         }
     }
 }
@@ -442,8 +492,42 @@ impl Hyper {
         {
             return bad("place_prior.beta", format!("{beta} must be finite and > 0"));
         }
-        if !(self.color_gamma.is_finite() && self.color_gamma > 0.0) {
-            return bad("color.gamma", format!("{} must be finite and > 0", self.color_gamma));
+        if !(self.color_concentration.is_finite() && self.color_concentration > 0.0) {
+            return bad(
+                "color.concentration",
+                format!("{} must be finite and > 0", self.color_concentration),
+            );
+        }
+        if self.color_draws_per_object == 0 {
+            return bad("color.draws_per_object", "must be >= 1".into());
+        }
+        let w = self.color_object_weight;
+        if !(w.is_finite() && w > 0.0 && w <= f64::from(self.color_draws_per_object)) {
+            return bad(
+                "color.object_weight",
+                format!("{w} must be in (0, draws_per_object = {}]", self.color_draws_per_object),
+            );
+        }
+        if self.color_base.len() != COLOR_BINS {
+            return bad(
+                "color.base",
+                format!("{} values, expected {COLOR_BINS}", self.color_base.len()),
+            );
+        }
+        if let Some(i) = self.color_base.iter().position(|p| !(p.is_finite() && *p >= 0.0)) {
+            return bad(
+                &format!("color.base[{i}]"),
+                format!("{} must be finite and >= 0", self.color_base[i]),
+            );
+        }
+        for b in 0..COLOR_BINS {
+            let reachable = !self.color_classes || color_class_bin(b) == b;
+            if reachable && self.color_base[b] <= 0.0 {
+                return bad(
+                    &format!("color.base[{b}]"),
+                    "must be > 0: objects can show this colour".into(),
+                );
+            }
         }
         for (i, &p) in self.structure_prior.iter().enumerate() {
             if !(p.is_finite() && p >= 0.0) {
@@ -470,29 +554,78 @@ impl Hyper {
         Ok(())
     }
 
-    /// The colour draws of an object under these hyper-parameters, as a sequence of bins.
+    /// The colour draws of an object under these hyper-parameters, as (bin, count).
     fn draws(&self, f: &Features) -> Vec<(usize, u64)> {
-        f.color_draws(self.color_draws_per_object, self.merge_achromatic)
+        f.color_draws(self.color_draws_per_object, self.color_classes)
     }
 
-    fn draw_sequence(&self, f: &Features) -> Vec<usize> {
-        self.draws(f)
-            .into_iter()
-            .flat_map(|(b, n)| std::iter::repeat_n(b, n as usize))
+    /// The colour unit of these hyper-parameters.
+    pub(crate) fn color_unit(&self) -> ColorUnit {
+        let total: f64 = self.color_base.iter().sum();
+        ColorUnit {
+            alpha: self
+                .color_base
+                .iter()
+                .map(|p| self.color_concentration * p / total)
+                .collect(),
+            concentration: self.color_concentration,
+            scale: self.color_object_weight / f64::from(self.color_draws_per_object),
+        }
+    }
+}
+
+/// The colour feature unit: Dirichlet(α·m) over the bins, with counts scaled by w/D (module docs).
+/// Every function takes raw integer draw counts.
+pub(crate) struct ColorUnit {
+    /// α·m per bin.
+    alpha: Vec<f64>,
+    /// α = Σ α·m.
+    concentration: f64,
+    /// w / D.
+    scale: f64,
+}
+
+impl ColorUnit {
+    /// ln p(counts) under the prior: the Dirichlet–multinomial (Pólya) marginal of the scaled
+    /// counts, ln Γ(α) − ln Γ(α + X) + Σ ln Γ(αm_l + x_l) − ln Γ(αm_l).
+    fn log_marginal(&self, counts: &[u64]) -> f64 {
+        let mut x_total = 0.0;
+        let mut s = 0.0;
+        for (l, &c) in counts.iter().enumerate() {
+            if c == 0 {
+                continue;
+            }
+            let x = c as f64 * self.scale;
+            x_total += x;
+            s += ln_gamma(self.alpha[l] + x) - ln_gamma(self.alpha[l]);
+        }
+        s + ln_gamma(self.concentration) - ln_gamma(self.concentration + x_total)
+    }
+
+    /// The posterior-predictive pmf (5.18) given a place's counts.
+    pub(crate) fn predictive(&self, counts: &[u64]) -> Vec<f64> {
+        let x_total: f64 = counts.iter().map(|&c| c as f64 * self.scale).sum();
+        let z = self.concentration + x_total;
+        counts
+            .iter()
+            .zip(&self.alpha)
+            .map(|(&c, a)| (a + c as f64 * self.scale) / z)
             .collect()
     }
 
-    /// Number of colours the background model M₀ spreads its mass over.
-    fn background_colors(&self) -> usize {
-        if self.merge_achromatic {
-            MERGED_COLOR_BINS
-        } else {
-            COLOR_BINS
-        }
+    /// ln p(õ | counts) of an object's draws: the product (5.16)–(5.17) of the predictive, each draw
+    /// weighted w/D.
+    fn log_score(&self, counts: &[u64], draws: &[(usize, u64)]) -> f64 {
+        let p = self.predictive(counts);
+        draws.iter().map(|&(b, n)| n as f64 * self.scale * p[b].ln()).sum()
     }
 
-    fn color_dirichlet(&self) -> Result<SymmetricDirichlet, SchemaError> {
-        Ok(SymmetricDirichlet::new(COLOR_BINS, self.color_gamma)?)
+    /// ln p₀(õ): the same product under the prior predictive m (the background model M₀).
+    fn log_background(&self, draws: &[(usize, u64)]) -> f64 {
+        draws
+            .iter()
+            .map(|&(b, n)| n as f64 * self.scale * (self.alpha[b] / self.concentration).ln())
+            .sum()
     }
 }
 
@@ -818,17 +951,17 @@ impl ProceduralModel {
     /// ln p(D_f | one shared distribution) and Σₖ ln p(D_f,k) for both feature types:
     /// `[[color pooled, color split], [size pooled, size split]]`.
     fn feature_evidence(&self) -> Result<[[f64; 2]; 2], SchemaError> {
-        let dir = self.hyper.color_dirichlet()?;
+        let unit = self.hyper.color_unit();
         let nig = &self.hyper.size_prior;
         let pooled = self.pooled()?;
         let mut color_split = 0.0;
         let mut size_split = 0.0;
         for p in self.places.values() {
-            color_split += dir.log_marginal_likelihood(&p.color)?;
+            color_split += unit.log_marginal(p.color.counts());
             size_split += nig.log_marginal_likelihood(&p.size.gaussian());
         }
         Ok([
-            [dir.log_marginal_likelihood(&pooled.color)?, color_split],
+            [unit.log_marginal(pooled.color.counts()), color_split],
             [nig.log_marginal_likelihood(&pooled.size.gaussian()), size_split],
         ])
     }
@@ -890,16 +1023,16 @@ impl ProceduralModel {
     /// Per feature type, ln p(õ_f | place k) for every place and ln p(õ_f | pooled):
     /// `(color_per_place, color_pooled, size_per_place, size_pooled)`; a missing feature scores 0.
     fn feature_scores(&self, f: &Features) -> Result<(Vec<f64>, f64, Vec<f64>, f64), SchemaError> {
-        let dir = self.hyper.color_dirichlet()?;
-        let bins = self.hyper.draw_sequence(f);
+        let unit = self.hyper.color_unit();
+        let draws = self.hyper.draws(f);
         let pooled = self.pooled()?;
         let size = f.deci_pixels();
         let color_k = self
             .places
             .values()
-            .map(|p| dir.log_predictive_product(&p.color, &bins))
-            .collect::<Result<Vec<_>, _>>()?;
-        let color_all = dir.log_predictive_product(&pooled.color, &bins)?;
+            .map(|p| unit.log_score(p.color.counts(), &draws))
+            .collect();
+        let color_all = unit.log_score(pooled.color.counts(), &draws);
         let size_score = |s: &SizeStats| size.map_or(0.0, |x| self.size_predictive(s).log_pdf(x));
         let size_k = self.places.values().map(|p| size_score(&p.size)).collect();
         let size_all = size_score(&pooled.size);
@@ -912,9 +1045,9 @@ impl ProceduralModel {
     pub fn predict(&self, features: &Features) -> Result<Prediction, SchemaError> {
         self.check_nonempty()?;
         features.validate("features.")?;
-        let bins = self.hyper.draw_sequence(features);
+        let draws = self.hyper.draws(features);
         let size = features.deci_pixels();
-        if bins.is_empty() && size.is_none() {
+        if draws.is_empty() && size.is_none() {
             return Err(SchemaError::invalid(
                 INPUT,
                 "features",
@@ -960,7 +1093,7 @@ impl ProceduralModel {
             })
             .map(|(n, p)| (n.clone(), *p))
             .unwrap_or_default();
-        let log_p0 = uniform_background_log_likelihood(bins.len(), self.hyper.background_colors())?
+        let log_p0 = self.hyper.color_unit().log_background(&draws)
             + size.map_or(0.0, |x| self.hyper.size_prior.predictive().log_pdf(x));
         let bayes_factor = BayesFactor::new(log_p1, log_p0)?;
         let t = self.hyper.relevance_log_threshold;
@@ -974,7 +1107,7 @@ impl ProceduralModel {
                 relevant: bayes_factor.log_b10 > t,
             },
             observed: Connectivity {
-                color: !bins.is_empty(),
+                color: !draws.is_empty(),
                 size: size.is_some(),
             },
         })
@@ -983,7 +1116,7 @@ impl ProceduralModel {
     /// The posterior-predictive colour pmf (5.18) of a place over the 64 bins.
     pub fn color_pmf(&self, place: &str) -> Result<Vec<f64>, SchemaError> {
         let p = self.place_or_err(place)?;
-        Ok(self.hyper.color_dirichlet()?.predictive_probs(&p.color)?)
+        Ok(self.hyper.color_unit().predictive(p.color.counts()))
     }
 
     /// The posterior-predictive size density (Student-t, deci-pixels) of a place.

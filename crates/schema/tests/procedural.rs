@@ -362,9 +362,16 @@ fn model_file_round_trips_and_names_bad_fields() {
     assert!(json.contains("\"format\": \"pbd-procedural-model\""));
     assert_eq!(ProceduralModel::from_json(&json, "m.json").unwrap(), m);
 
-    let other_version = json.replace(&format!("\"version\": {MODEL_VERSION}"), "\"version\": 2");
+    let other_version = json.replace(&format!("\"version\": {MODEL_VERSION}"), "\"version\": 3");
     let e = field_of(ProceduralModel::from_json(&other_version, "m.json").unwrap_err());
-    assert!(e.starts_with("version") && e.contains("version 2"), "{e}");
+    assert!(e.starts_with("version") && e.contains("version 3"), "{e}");
+    // Version 1 counted every colour draw as independent: refused with a pointer to re-learn.
+    let v1 = json.replace(&format!("\"version\": {MODEL_VERSION}"), "\"version\": 1");
+    let e = field_of(ProceduralModel::from_json(&v1, "m.json").unwrap_err());
+    assert!(
+        e.starts_with("version") && e.contains("version 1") && e.contains("pbd learn"),
+        "{e}"
+    );
 
     let other_format = json.replace("pbd-procedural-model", "something-else");
     assert!(field_of(ProceduralModel::from_json(&other_format, "m.json").unwrap_err()).starts_with("format"));
@@ -385,9 +392,14 @@ fn model_file_round_trips_and_names_bad_fields() {
     assert!(e.starts_with("hyper") && e.contains("size"), "{e}");
 
     let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
-    v["hyper"]["color"]["gamma"] = serde_json::json!(-1.0);
+    v["hyper"]["color"]["concentration"] = serde_json::json!(-1.0);
     let e = field_of(ProceduralModel::from_json(&v.to_string(), "m.json").unwrap_err());
-    assert!(e.starts_with("hyper.color.gamma"), "{e}");
+    assert!(e.starts_with("hyper.color.concentration"), "{e}");
+
+    let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    v["hyper"]["color"]["base"][15] = serde_json::json!(0.0);
+    let e = field_of(ProceduralModel::from_json(&v.to_string(), "m.json").unwrap_err());
+    assert!(e.starts_with("hyper.color.base[15]"), "{e}");
 
     let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
     v["places"][0]["size"]["n"] = serde_json::json!(7);

@@ -159,8 +159,9 @@ impl ProceduralModel {
         let pooled = self.pooled()?;
         let color_src = if structure.color { own } else { &pooled };
         let size_src = if structure.size { own } else { &pooled };
-        let dir = self.hyper.color_dirichlet()?;
-        let theta = dir.sample_posterior(rng, &color_src.color)?;
+        // The colour pmf of the synthetic object: the place's predictive (5.18) (the posterior mean
+        // of its colour distribution).
+        let theta = self.hyper.color_unit().predictive(color_src.color.counts());
         // As many draws as a demonstrated object gives, with replacement; the histogram is their
         // shares (the kept bins of a synthetic object).
         let per_demo = color_src.color.total() as f64 / color_src.demonstrations.max(1) as f64;

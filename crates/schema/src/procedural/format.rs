@@ -26,9 +26,11 @@ struct HyperFile {
 #[serde(deny_unknown_fields)]
 struct ColorHyper {
     bins: usize,
-    gamma: f64,
+    concentration: f64,
+    base: Vec<f64>,
     draws_per_object: u32,
-    merge_achromatic: bool,
+    object_weight: f64,
+    classes: bool,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -61,7 +63,7 @@ struct PlaceFile {
 }
 
 #[derive(Serialize)]
-struct FileV1<'a> {
+struct FileV2<'a> {
     format: &'a str,
     version: u32,
     hyper: HyperFile,
@@ -76,39 +78,48 @@ impl ProceduralModel {
     /// ```json
     /// {
     ///   "format": "pbd-procedural-model",
-    ///   "version": 1,
+    ///   "version": 2,
     ///   "hyper": {
     ///     "place_prior": { "kind": "uniform" },            // or { "kind": "dirichlet", "beta": 1.0 }
-    ///     "color": { "bins": 64, "gamma": 0.1,              // symmetric Dirichlet per place (5.18)
-    ///                "draws_per_object": 10,                // 0 = one draw per kept bin
-    ///                "merge_achromatic": true },            // unsaturated bins: hue is noise
+    ///     "color": { "bins": 64,
+    ///                "concentration": 3.0,                  // α of Dirichlet(α·m) per place (5.18)
+    ///                "base": [0.111, 0.033, …],             // m over the 64 bins (also M₀'s colour)
+    ///                "draws_per_object": 10,                // D draws per object
+    ///                "object_weight": 3.0,                  // one object = w observations
+    ///                "classes": true },                     // bins count as their colour class
     ///     "size": { "unit": "deci-pixels", "mu": 25.0, "kappa": 0.05, "alpha": 2.0, "beta": 128.0 },
     ///     "structure_prior": { "neither": 0.25, "color": 0.25, "size": 0.25, "color+size": 0.25 },
     ///     "structure": "inferred",                         // or a fixed structure name
-    ///     "relevance_log_threshold": 0.0                   // relevant when ln B10 > this
+    ///     "relevance_log_threshold": 2.0                   // relevant when ln B10 > this
     ///   },
     ///   "places": [                                        // sorted by name
     ///     { "name": "bin_left", "demonstrations": 3,
-    ///       "color_counts": [0, 2, …],                     // 64 counts of colour draws
+    ///       "color_counts": [0, 2, …],                     // 64 counts of colour draws (D per object)
     ///       "size": { "n": 3, "sum_half_pixels": 9001, "sum_sq_half_pixels": 27012345 } }
     ///   ]
     /// }
     /// ```
     ///
+    /// Version 1 (independent colour draws, symmetric Dirichlet, uniform background) is refused
+    /// with an error that says to re-learn: its counts cannot be converted (they may hold one draw
+    /// per kept bin and are not per colour class).
+    ///
     /// Size statistics are in half-pixels (left + right pixel counts), exact integers; the size
     /// observation in deci-pixels is x / 20.
     pub fn to_json(&self) -> String {
         let h = &self.hyper;
-        let file = FileV1 {
+        let file = FileV2 {
             format: MODEL_FORMAT,
             version: MODEL_VERSION,
             hyper: HyperFile {
                 place_prior: h.place_prior,
                 color: ColorHyper {
                     bins: COLOR_BINS,
-                    gamma: h.color_gamma,
+                    concentration: h.color_concentration,
+                    base: h.color_base.clone(),
                     draws_per_object: h.color_draws_per_object,
-                    merge_achromatic: h.merge_achromatic,
+                    object_weight: h.color_object_weight,
+                    classes: h.color_classes,
                 },
                 size: SizeHyper {
                     unit: SIZE_UNIT.into(),
@@ -168,6 +179,16 @@ impl ProceduralModel {
         }
         match obj.get("version") {
             Some(Value::Number(n)) if n.as_u64() == Some(u64::from(MODEL_VERSION)) => {}
+            Some(Value::Number(n)) if n.as_u64() == Some(1) => {
+                return Err(invalid(
+                    "version",
+                    format!(
+                        "model version 1 (independent colour draws) is no longer supported; this build reads \
+                         version {MODEL_VERSION} (colour classes, per-object weight): re-run `pbd learn` on the \
+                         demonstrations"
+                    ),
+                ));
+            }
             Some(other) => {
                 return Err(invalid(
                     "version",
@@ -210,9 +231,11 @@ impl ProceduralModel {
         let sp = &hf.structure_prior;
         let hyper = Hyper {
             place_prior: hf.place_prior,
-            color_gamma: hf.color.gamma,
+            color_concentration: hf.color.concentration,
+            color_base: hf.color.base,
             color_draws_per_object: hf.color.draws_per_object,
-            merge_achromatic: hf.color.merge_achromatic,
+            color_object_weight: hf.color.object_weight,
+            color_classes: hf.color.classes,
             size_prior,
             structure_prior: [sp.neither, sp.color, sp.size, sp.color_size],
             structure,
