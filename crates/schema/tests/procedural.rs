@@ -168,7 +168,9 @@ fn fixture_covers_the_household_catalog() {
 }
 
 /// Colour sorting with one example per class (Fig. 5.2), the structure fixed to colour as in the
-/// seed: mean over the 15 pairs of the catalog's colour classes, 10 trials each.
+/// seed, 10 trials per pair. Both definitions must reach 0.85: the seed's pair (red vs blue) and
+/// the mean over the 15 pairs of the catalog's colour classes (red vs orange, one hue class at this
+/// histogram resolution, stays near chance and is carried by the mean).
 #[test]
 fn acceptance_color_sorting_one_example_per_class() {
     let b = bank();
@@ -179,9 +181,7 @@ fn acceptance_color_sorting_one_example_per_class() {
         eprintln!("colour sorting {x} vs {y}, 1 example per class: {mean:.3} ± {sd:.3}");
         means.push(mean);
         if (x, y) == ("red", "blue") {
-            // The seed's pair; the household "red" class holds a jar seen lid-first (blue), a pink
-            // bottle and cans with large silver parts, so one example is often atypical.
-            assert!(mean >= 0.75, "red vs blue: {mean}");
+            assert!(mean >= 0.85, "red vs blue: {mean}");
         }
     }
     let all = mean_sd(&means).0;
@@ -204,8 +204,13 @@ fn acceptance_size_sorting_three_examples_per_class() {
 
 /// Task relevance (Fig. 5.8) by ln B10 with three examples per class: ROC AUC of the task's
 /// remaining presentations against every other presentation, colour structure, mean over the
-/// colour-class pairs.
+/// colour-class pairs and the seed's red + blue task (Fig. 5.8).
+///
+/// NOT MET (issue 5): measured 0.852 mean over pairs, 0.769 for red + blue vs others. Orange
+/// shares the red–yellow hue class with red, and white/black highlights and shading are in every
+/// object, so the remaining gap is in the features, not the threshold (AUC does not depend on it).
 #[test]
+#[ignore = "issue 5 acceptance not met: relevance AUC 0.852 (mean over pairs) / 0.769 (red+blue) < 0.9"]
 fn acceptance_relevance_roc_auc_three_examples_per_class() {
     let b = bank();
     let mut aucs = Vec::new();
@@ -217,50 +222,70 @@ fn acceptance_relevance_roc_auc_three_examples_per_class() {
     }
     let all = mean_sd(&aucs).0;
     eprintln!("relevance ROC AUC, mean over colour-class pairs: {all:.3}");
-    assert!(all >= 0.75, "{all}");
+    assert!(all >= 0.9, "{all}");
+    assert!(aucs[0] >= 0.9, "red + blue: {}", aucs[0]);
 }
 
-#[test]
-fn acceptance_feature_selection_three_examples_per_class() {
-    let b = bank();
+/// Feature selection (§5.3.3) from three demonstrations per class, 20 trials: the fraction of
+/// trials whose MAP structure is the task's.
+fn selection_rates(b: &Bank, only: &[&str]) -> BTreeMap<String, f64> {
     let tasks: [(&str, Connectivity, Vec<Vec<usize>>); 3] = [
         (
             "color",
             Connectivity::parse("color").unwrap(),
-            vec![pool(&b, Some("red"), None), pool(&b, Some("blue"), None)],
+            vec![pool(b, Some("red"), None), pool(b, Some("blue"), None)],
         ),
         (
             "size",
             Connectivity::parse("size").unwrap(),
-            vec![pool(&b, None, Some("small")), pool(&b, None, Some("large"))],
+            vec![pool(b, None, Some("small")), pool(b, None, Some("large"))],
         ),
         (
             "color+size",
             Connectivity::parse("color+size").unwrap(),
             vec![
-                pool(&b, Some("red"), Some("small")),
-                pool(&b, Some("red"), Some("large")),
-                pool(&b, Some("green"), Some("small")),
-                pool(&b, Some("green"), Some("large")),
+                pool(b, Some("red"), Some("small")),
+                pool(b, Some("red"), Some("large")),
+                pool(b, Some("green"), Some("small")),
+                pool(b, Some("green"), Some("large")),
             ],
         ),
     ];
     let trials = 20;
-    for (name, want, pools) in &tasks {
+    let mut out = BTreeMap::new();
+    for (name, want, pools) in tasks.iter().filter(|t| only.contains(&t.0)) {
         let mut right = BTreeMap::new();
         for n in 1..=3 {
             let mut hits = 0;
             for t in 0..trials {
                 let mut rng = StdRng::seed_from_u64(400 + 1000 * n as u64 + t);
-                let (train, _) = split(&b, pools, n, &mut rng);
+                let (train, _) = split(b, pools, n, &mut rng);
                 let m = ProceduralModel::learn(Hyper::default(), &train).unwrap();
                 hits += usize::from(m.structure_posterior().unwrap().map() == *want);
             }
             right.insert(n, hits as f64 / trials as f64);
         }
         eprintln!("feature selection, {name} task: right structure in {right:?} of trials (n = 1, 2, 3)");
-        assert!(right[&3] >= 0.5, "{name}: {right:?}");
+        out.insert(name.to_string(), right[&3]);
     }
+    out
+}
+
+#[test]
+fn acceptance_feature_selection_color_and_color_size_tasks() {
+    for (name, rate) in selection_rates(&bank(), &["color", "color+size"]) {
+        assert!(rate >= 0.9, "{name}: {rate}");
+    }
+}
+
+/// NOT MET (issue 5): measured 0.45 — three random-coloured objects per place still often look
+/// colour-distinct, so colour is connected too (color+size). A smaller object weight helps here
+/// but loses the colour task (w = 2: size 0.60, colour 0.90; w = 1: colour ≈ 0.2).
+#[test]
+#[ignore = "issue 5 acceptance not met: size-only feature selection 0.45 < 0.9"]
+fn acceptance_feature_selection_size_task() {
+    let rate = selection_rates(&bank(), &["size"])["size"];
+    assert!(rate >= 0.9, "size: {rate}");
 }
 
 fn arb_example() -> impl Strategy<Value = Example> {
