@@ -203,6 +203,10 @@ pub struct RecordSummary {
     pub demos: Vec<DemoRecord>,
 }
 
+/// What a record run produced: the corpus (presentations with at least one kept grasp), every
+/// attempt, and the presentations skipped with why.
+pub(crate) type Recorded = (Corpus, Vec<DemoRecord>, Vec<(String, String)>);
+
 /// Demonstrates `demos` grasps on each presentation with the scripted teacher; returns the corpus
 /// (objects with at least one kept grasp) and the attempt records. `progress` is told after each
 /// presentation.
@@ -212,7 +216,7 @@ pub(crate) fn record_scripted(
     demos: usize,
     seed: u64,
     progress: &(dyn Fn(&str) + Sync),
-) -> Result<(Corpus, Vec<DemoRecord>, Vec<(String, String)>)> {
+) -> Result<Recorded> {
     let results = common::parallel_map(objects, |i, name| -> Result<_> {
         let obj_seed = common::mix(seed, i as u64);
         let (scene, settings) = presenter.scene(name, obj_seed)?;

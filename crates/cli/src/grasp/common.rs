@@ -295,7 +295,7 @@ pub fn record_teleop(
     name: &str,
     streams: &[TeleopStream],
     seed: u64,
-) -> Result<(Corpus, Vec<DemoRecord>, Vec<(String, String)>)> {
+) -> Result<super::Recorded> {
     let (scene, settings) = presenter.scene(name, seed)?;
     let percept = match grasp_trial::perceive(&scene, &settings)? {
         Ok(p) => p,
