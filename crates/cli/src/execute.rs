@@ -19,7 +19,7 @@ use dexter_sim::perception::Eyes;
 use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
 use dexter_sim::scene::Scene;
 use schema::{ExecReport, Library, Percept};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::infer::InferFile;
 use crate::mcap_log::{LogLevel, McapLog};
@@ -58,7 +58,7 @@ pub struct ExecuteArgs {
 }
 
 /// What happened to one object.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ObjectReport {
     /// Scene label.
     pub object: String,
@@ -87,7 +87,7 @@ pub struct ObjectReport {
 }
 
 /// The whole report.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ExecuteReport {
     /// The scene.
     pub scene: String,

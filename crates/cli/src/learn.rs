@@ -43,6 +43,10 @@ pub struct LearnArgs {
     /// With --explain: directory for the pictures (default: next to the model).
     #[arg(long)]
     pub plots: Option<PathBuf>,
+    /// Relevance decision threshold on ln B10 (5.19–5.21) for a new model: an object belongs to the
+    /// task when ln B10 exceeds it. 0 is the seed's rule (B10 > 1, even prior odds).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub relevance_threshold: f64,
     /// Seed of the posterior-predictive samples.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -144,7 +148,16 @@ pub fn main(args: LearnArgs, out: &mut dyn Write) -> Result<()> {
             }
             m
         }
-        None => ProceduralModel::learn(Hyper::default(), &examples)?,
+        None => {
+            if !args.relevance_threshold.is_finite() {
+                bail!("--relevance-threshold must be a number");
+            }
+            let hyper = Hyper {
+                relevance_log_threshold: args.relevance_threshold,
+                ..Hyper::default()
+            };
+            ProceduralModel::learn(hyper, &examples)?
+        }
     };
     model.save(&output)?;
     let explanation = model.explain()?;

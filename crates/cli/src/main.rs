@@ -15,6 +15,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod demo;
 mod doctor;
 mod execute;
 mod experiment;
@@ -53,6 +54,8 @@ enum Command {
     Grasp(grasp::GraspCommand),
     /// Infer which schema explains a recorded demonstration, and its instances.
     Infer(infer::InferArgs),
+    /// The whole story on the built-in scenes: record, infer, learn, execute (no arguments needed).
+    Demo(demo::DemoArgs),
     /// Learn the procedural model of a task from demonstrations (or explain one).
     Learn(learn::LearnArgs),
     /// Do a demonstrated task in a new scene (any arm, transfers, re-grasps).
@@ -85,6 +88,7 @@ fn main() -> ExitCode {
         Command::Infer(args) => infer::main(args, &mut out),
         Command::Doctor(args) => doctor::main(args, &mut out),
         Command::Learn(args) => learn::main(args, &mut out),
+        Command::Demo(args) => demo::main(args, &mut out),
         Command::Execute(args) => execute::main(args, &mut out),
         Command::Experiment(cmd) => experiment::main(cmd, &mut out),
     };

@@ -291,18 +291,23 @@ impl SchemaPlant for SimPlant<'_> {
             "grasp" => {
                 let arm = parse_arm(binding.arm.as_deref())?;
                 let k = arm_index(arm);
-                let obj = self.object.ok_or_else(|| SimError::Task("grasp before reach".into()))?;
-                let r = self.with_observer(|sim, reach, hand, obs| close_grasp(sim, &mut reach[k], &hand[k], obj, obs))?;
-                match r {
-                    Ok(_) => ActionOutcome::Converged,
-                    Err(why) => ActionOutcome::Failed(why),
+                match self.object {
+                    None => ActionOutcome::Failed("no object to grasp (no reach yet)".into()),
+                    Some(obj) => {
+                        let r = self.with_observer(|sim, reach, hand, obs| close_grasp(sim, &mut reach[k], &hand[k], obj, obs))?;
+                        match r {
+                            Ok(_) => ActionOutcome::Converged,
+                            Err(why) => ActionOutcome::Failed(why),
+                        }
+                    }
                 }
             }
             "hold" => {
                 let arm = parse_arm(binding.arm.as_deref())?;
                 let k = arm_index(arm);
-                let obj = self.object.ok_or_else(|| SimError::Task("hold before grasp".into()))?;
-                let plan = self.plan.ok_or_else(|| SimError::Task("hold before reach".into()))?;
+                let (Some(obj), Some(plan)) = (self.object, self.plan) else {
+                    return Ok(ActionOutcome::Failed("nothing grasped to hold (no reach yet)".into()));
+                };
                 let g = self.with_observer(|sim, reach, _, obs| lift_and_weigh(sim, &mut reach[k], obj, &plan, obs))?;
                 if g.lifted {
                     ActionOutcome::Converged
@@ -315,7 +320,9 @@ impl SchemaPlant for SimPlant<'_> {
             "place" => {
                 let arm = parse_arm(binding.arm.as_deref())?;
                 let k = arm_index(arm);
-                let obj = self.object.ok_or_else(|| SimError::Task("place before grasp".into()))?;
+                let Some(obj) = self.object else {
+                    return Ok(ActionOutcome::Failed("nothing grasped to place (no reach yet)".into()));
+                };
                 let shape = self.scene.catalog.objects[self.sim.objects()[obj].catalog_index].shape.clone();
                 let (target, wall) = if binding.transfer {
                     (self.handoff, 0.0)

@@ -46,13 +46,14 @@ const HOUSEHOLD_TOML: &str = include_str!("../../../assets/objects/household.tom
 /// The catalog path the shipped scenes use; built-in scenes resolve it to the built-in catalog.
 const SHIPPED_CATALOG: &str = "../objects/household.toml";
 
-const BUILTIN_SCENE_NAMES: [&str; 3] = ["sorting", "pick-place", "sorting-new"];
+const BUILTIN_SCENE_NAMES: [&str; 4] = ["sorting", "pick-place", "sorting-new", "sorting-demo"];
 
 fn builtin_scene_text(name: &str) -> Option<&'static str> {
     match name {
         "sorting" => Some(include_str!("../../../assets/scenes/sorting.toml")),
         "pick-place" => Some(include_str!("../../../assets/scenes/pick-place.toml")),
         "sorting-new" => Some(include_str!("../../../assets/scenes/sorting-new.toml")),
+        "sorting-demo" => Some(include_str!("../../../assets/scenes/sorting-demo.toml")),
         _ => None,
     }
 }
