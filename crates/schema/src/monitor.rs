@@ -220,7 +220,7 @@ impl MonitorBank {
                         mem.grasp = None;
                         // Let go with the hand opening: Release; with the fingers still closed (or closing
                         // further) the object slipped out: a drop.
-                        if h.flexion < c.open_flexion || h.flexion < mem.grasp_flexion - 0.1 {
+                        if h.flexion < c.open_flexion || h.flexion < mem.grasp_flexion - 0.02 {
                             mem.released_at = Some(h.palm);
                         }
                     }
