@@ -103,7 +103,13 @@ pub fn main(args: DemoArgs, out: &mut dyn Write) -> Result<()> {
         inf.inference.instances.len()
     ))?;
     for (i, inst) in inf.inference.instances.iter().enumerate() {
-        let truth = inf.truth.get(i).cloned().flatten().map(|t| t.object).unwrap_or_default();
+        let truth = inf
+            .truth
+            .get(i)
+            .cloned()
+            .flatten()
+            .map(|t| t.object)
+            .unwrap_or_default();
         say(format!(
             "      {}. {} of {} into {} with the {} arm (p = {:.3})",
             i + 1,
@@ -167,6 +173,9 @@ pub fn main(args: DemoArgs, out: &mut dyn Write) -> Result<()> {
         wall.elapsed().as_secs_f64(),
         args.out.display()
     ))?;
-    say(format!("next: `pbd learn --explain {} --samples 20` shows what the robot learned", model.display()))?;
+    say(format!(
+        "next: `pbd learn --explain {} --samples 20` shows what the robot learned",
+        model.display()
+    ))?;
     Ok(())
 }

@@ -129,7 +129,8 @@ impl ExecSink for Sink {
     fn tick(&mut self, sim: &DexterSim, activity: &str) {
         if activity != self.last_activity {
             self.last_activity = activity.to_string();
-            self.progress.set_message(format!("{activity} (t = {:.1} s)", sim.time()));
+            self.progress
+                .set_message(format!("{activity} (t = {:.1} s)", sim.time()));
             if let Some(log) = self.log.as_mut() {
                 let r = log.log_text(sim.time(), LogLevel::Info, activity);
                 self.keep(r);
@@ -159,15 +160,17 @@ impl ExecSink for Sink {
                 (n.as_str(), [v.x, v.y, v.z])
             })
             .collect();
-        let r = log.log_json(TOPIC_PERCEPT, "pbd.Percept", &schema, sim.time(), p).and_then(|()| {
-            log.log_json(
-                TOPIC_TRUTH,
-                "pbd.Truth",
-                &schema,
-                sim.time(),
-                &serde_json::json!({"t": sim.time(), "objects": objects}),
-            )
-        });
+        let r = log
+            .log_json(TOPIC_PERCEPT, "pbd.Percept", &schema, sim.time(), p)
+            .and_then(|()| {
+                log.log_json(
+                    TOPIC_TRUTH,
+                    "pbd.Truth",
+                    &schema,
+                    sim.time(),
+                    &serde_json::json!({"t": sim.time(), "objects": objects}),
+                )
+            });
         self.keep(r);
     }
 }
@@ -400,7 +403,11 @@ pub fn main(args: ExecuteArgs, out: &mut dyn Write) -> Result<()> {
 pub fn print_report(r: &ExecuteReport, out: &mut dyn Write) -> Result<()> {
     writeln!(out, "{} on scene {}:", r.schema, r.scene)?;
     for o in &r.objects {
-        let arms = if o.arms.is_empty() { "-".to_string() } else { o.arms.join("→") };
+        let arms = if o.arms.is_empty() {
+            "-".to_string()
+        } else {
+            o.arms.join("→")
+        };
         writeln!(
             out,
             "  {:<16} {:<8} {:<10} arms {:<12} {:<9} {:<24} {}",
@@ -409,9 +416,18 @@ pub fn print_report(r: &ExecuteReport, out: &mut dyn Write) -> Result<()> {
             o.place.as_deref().unwrap_or("-"),
             arms,
             if o.transfer { "transfer" } else { "" },
-            if o.contingencies.is_empty() { String::new() } else { format!("contingencies: {}", o.contingencies.join(", ")) },
+            if o.contingencies.is_empty() {
+                String::new()
+            } else {
+                format!("contingencies: {}", o.contingencies.join(", "))
+            },
             match o.decision.as_str() {
-                "execute" => if o.success { "PLACED".to_string() } else { "FAILED".to_string() },
+                "execute" =>
+                    if o.success {
+                        "PLACED".to_string()
+                    } else {
+                        "FAILED".to_string()
+                    },
                 _ => o.reason.clone(),
             }
         )?;

@@ -70,6 +70,12 @@ pub struct InferFile {
     pub truth: Vec<Option<TruthNote>>,
 }
 
+/// True object positions over time: (t, [(label, position)]).
+pub type TruthTrack = Vec<(f64, Vec<(String, [f64; 3])>)>;
+
+/// What a recording holds for inference: percepts, truth, metadata, warnings.
+pub type Demonstration = (Vec<Percept>, TruthTrack, BTreeMap<String, String>, Vec<String>);
+
 #[derive(Debug, Deserialize)]
 struct Truth {
     t: f64,
@@ -77,7 +83,7 @@ struct Truth {
 }
 
 /// Reads percepts (and ground truth, if present) from a recording.
-pub fn read_percepts(path: &Path) -> Result<(Vec<Percept>, Vec<(f64, Vec<(String, [f64; 3])>)>, BTreeMap<String, String>, Vec<String>)> {
+pub fn read_percepts(path: &Path) -> Result<Demonstration> {
     let rec = read_recording(path, &[TOPIC_PERCEPT, TOPIC_TRUTH])?;
     let mut warnings = Vec::new();
     if let Some(FileStatus::Recovered { messages, reason }) = &rec.status {
@@ -144,15 +150,21 @@ pub fn infer_percepts(library: &Library, percepts: &[Percept]) -> Result<(Infere
     Ok((inference, obs, engine))
 }
 
-fn truth_for(inf: &Inference, percepts: &[Percept], truth: &[(f64, Vec<(String, [f64; 3])>)]) -> Vec<Option<TruthNote>> {
+fn truth_for(inf: &Inference, percepts: &[Percept], truth: &TruthTrack) -> Vec<Option<TruthNote>> {
     inf.instances
         .iter()
         .map(|inst| {
             let seg = inst.object?;
-            let t = inst.facts.iter().find(|f| f.action == "grasp").map_or(inst.t_start, |f| f.first);
+            let t = inst
+                .facts
+                .iter()
+                .find(|f| f.action == "grasp")
+                .map_or(inst.t_start, |f| f.first);
             let p = percepts.iter().rev().find(|p| p.t <= t + 1e-9)?;
             let c = p.segments.iter().find(|s| s.id == seg)?.centroid;
-            let (_, objects) = truth.iter().min_by(|a, b| (a.0 - t).abs().total_cmp(&(b.0 - t).abs()))?;
+            let (_, objects) = truth
+                .iter()
+                .min_by(|a, b| (a.0 - t).abs().total_cmp(&(b.0 - t).abs()))?;
             objects
                 .iter()
                 .map(|(name, pos)| {
@@ -168,7 +180,9 @@ fn truth_for(inf: &Inference, percepts: &[Percept], truth: &[(f64, Vec<(String, 
 }
 
 fn default_output(demo: &Path, ext: &str) -> PathBuf {
-    let stem = demo.file_stem().map_or_else(|| "demo".into(), |s| s.to_string_lossy().to_string());
+    let stem = demo
+        .file_stem()
+        .map_or_else(|| "demo".into(), |s| s.to_string_lossy().to_string());
     demo.with_file_name(format!("{stem}.{ext}"))
 }
 
@@ -195,7 +209,10 @@ pub fn main(args: InferArgs, out: &mut dyn Write) -> Result<()> {
         truth: truth_for(&inference, &percepts, &truth),
         inference,
     };
-    let json_path = args.output.clone().unwrap_or_else(|| default_output(&args.demo, "infer.json"));
+    let json_path = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&args.demo, "infer.json"));
     let mcap_path = json_path.with_extension("mcap");
     write_companion(&mcap_path, &engine, &obs, &file)?;
     let text = serde_json::to_string_pretty(&file)?;
@@ -228,7 +245,9 @@ fn write_companion(path: &Path, engine: &Engine, obs: &[Observation], file: &Inf
         while v + 1 < visits.len() && visits[v].t_end < o.t {
             v += 1;
         }
-        let (sch, st) = visits.get(v).map_or(("gap", "before"), |x| (x.schema.as_str(), x.state.as_str()));
+        let (sch, st) = visits
+            .get(v)
+            .map_or(("gap", "before"), |x| (x.schema.as_str(), x.state.as_str()));
         let state_index = engine
             .library()
             .schema(sch)
@@ -241,7 +260,14 @@ fn write_companion(path: &Path, engine: &Engine, obs: &[Observation], file: &Inf
             .iter()
             .map(|h| {
                 let mut s = names[h.action].to_string();
-                for part in [h.arm.clone(), h.segment.map(|x| format!("segment {x}")), h.place.clone()].into_iter().flatten() {
+                for part in [
+                    h.arm.clone(),
+                    h.segment.map(|x| format!("segment {x}")),
+                    h.place.clone(),
+                ]
+                .into_iter()
+                .flatten()
+                {
                     s.push(' ');
                     s.push_str(&part);
                 }
@@ -269,7 +295,11 @@ fn write_companion(path: &Path, engine: &Engine, obs: &[Observation], file: &Inf
                 inst.arm
             ),
         )?;
-        log.log_text(inst.t_end, LogLevel::Info, &format!("instance {}: {} reaches its goal", i + 1, inst.schema))?;
+        log.log_text(
+            inst.t_end,
+            LogLevel::Info,
+            &format!("instance {}: {} reaches its goal", i + 1, inst.schema),
+        )?;
     }
     log.finish()?;
     Ok(())
@@ -285,12 +315,17 @@ fn summary(file: &InferFile, library: &Library, json: &Path, mcap: &Path, out: &
         inf.steps,
         library.schemas.len()
     )?;
-    writeln!(out, "posterior over the library (each schema as one or more instances; uniform prior):")?;
+    writeln!(
+        out,
+        "posterior over the library (each schema as one or more instances; uniform prior):"
+    )?;
     let mut hyps = inf.posterior.hypotheses.clone();
     hyps.sort_by(|a, b| b.posterior.total_cmp(&a.posterior));
     for h in &hyps {
         let bar = "#".repeat((h.posterior * 30.0).round() as usize);
-        let ev = h.log_evidence.map_or("impossible".to_string(), |l| format!("log p(x|S) = {l:9.2}"));
+        let ev = h
+            .log_evidence
+            .map_or("impossible".to_string(), |l| format!("log p(x|S) = {l:9.2}"));
         writeln!(out, "  {:<16} {:>7.4}  {:<30} {ev}", h.schema, h.posterior, bar)?;
     }
     writeln!(
@@ -298,7 +333,11 @@ fn summary(file: &InferFile, library: &Library, json: &Path, mcap: &Path, out: &
         "MAP: {} (p = {:.4}){}",
         inf.posterior.map,
         inf.posterior.map_posterior,
-        if inf.posterior.map == "none" { " — no schema of the library explains this demonstration" } else { "" }
+        if inf.posterior.map == "none" {
+            " — no schema of the library explains this demonstration"
+        } else {
+            ""
+        }
     )?;
     if !inf.state_path.is_empty() {
         let path: Vec<String> = inf
@@ -326,6 +365,11 @@ fn summary(file: &InferFile, library: &Library, json: &Path, mcap: &Path, out: &
             inst.arm.as_deref().unwrap_or("-"),
         )?;
     }
-    writeln!(out, "wrote {} and {} (open with the demo in Foxglove)", json.display(), mcap.display())?;
+    writeln!(
+        out,
+        "wrote {} and {} (open with the demo in Foxglove)",
+        json.display(),
+        mcap.display()
+    )?;
     Ok(())
 }

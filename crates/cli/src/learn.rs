@@ -106,7 +106,11 @@ pub fn examples_from(path: &Path) -> Result<Vec<Example>> {
                 "warning: {}: instance {} has no {} — skipped",
                 path.display(),
                 i + 1,
-                if inst.features.is_none() { "object features" } else { "place" }
+                if inst.features.is_none() {
+                    "object features"
+                } else {
+                    "place"
+                }
             );
             continue;
         };
@@ -132,8 +136,18 @@ pub fn main(args: LearnArgs, out: &mut dyn Write) -> Result<()> {
     for d in &args.demos {
         let ex = examples_from(d)?;
         for e in &ex {
-            let bins: Vec<String> = e.features.histogram.iter().take(3).map(|(b, _)| b.to_string()).collect();
-            listing.push((d.display().to_string(), e.reference.clone(), format!("bins {} px {:?}", bins.join(","), e.features.pixels)));
+            let bins: Vec<String> = e
+                .features
+                .histogram
+                .iter()
+                .take(3)
+                .map(|(b, _)| b.to_string())
+                .collect();
+            listing.push((
+                d.display().to_string(),
+                e.reference.clone(),
+                format!("bins {} px {:?}", bins.join(","), e.features.pixels),
+            ));
         }
         examples.extend(ex);
     }
@@ -170,7 +184,11 @@ pub fn main(args: LearnArgs, out: &mut dyn Write) -> Result<()> {
     if args.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
     } else {
-        writeln!(out, "learned from {} demonstrations → {}", report.demonstrations, report.output)?;
+        writeln!(
+            out,
+            "learned from {} demonstrations → {}",
+            report.demonstrations, report.output
+        )?;
         writeln!(out, "{}", explanation.text)?;
     }
     Ok(())
@@ -188,7 +206,9 @@ fn explain(path: &Path, args: &LearnArgs, out: &mut dyn Write) -> Result<()> {
         use rand::SeedableRng;
         let mut rng = rand::rngs::StdRng::seed_from_u64(args.seed);
         let inst = model.sample_instances(&mut rng, args.samples)?;
-        let stem = path.file_stem().map_or("model".into(), |s| s.to_string_lossy().to_string());
+        let stem = path
+            .file_stem()
+            .map_or("model".into(), |s| s.to_string_lossy().to_string());
         let mut by_place: BTreeMap<String, Vec<Features>> = BTreeMap::new();
         let mut sizes = Vec::new();
         let names = model.place_names().iter().map(|s| s.to_string()).collect::<Vec<_>>();
@@ -286,7 +306,10 @@ pub fn decide(path: &Path, scene: &Scene, seed: u64, labels: &[String]) -> Resul
                 Ok(p.map_place.clone())
             }
         } else {
-            Err(format!("not part of the task (ln B10 = {lb:.1} ≤ {:.1})", p.relevance.log_threshold))
+            Err(format!(
+                "not part of the task (ln B10 = {lb:.1} ≤ {:.1})",
+                p.relevance.log_threshold
+            ))
         };
         out.push(Decision {
             object: label.clone(),

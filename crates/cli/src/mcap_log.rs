@@ -737,7 +737,9 @@ fn scan(path: &Path, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStat
             messages: 0,
             reason: match e {
                 // Also reported at a record boundary: the reader wants a footer.
-                mcap::McapError::UnexpectedEof => "the file ends before its footer (the writer did not finish)".to_owned(),
+                mcap::McapError::UnexpectedEof => {
+                    "the file ends before its footer (the writer did not finish)".to_owned()
+                }
                 e => e.to_string(),
             },
         },
@@ -803,7 +805,9 @@ pub fn repair(path: impl AsRef<Path>, out: impl AsRef<Path>) -> Result<u64> {
     if let Some(e) = failure {
         return Err(e.context(format!("cannot write {}", out.display())));
     }
-    writer.finish().with_context(|| format!("cannot write {}", out.display()))?;
+    writer
+        .finish()
+        .with_context(|| format!("cannot write {}", out.display()))?;
     Ok(count)
 }
 
@@ -838,10 +842,8 @@ pub fn read_recording(path: impl AsRef<Path>, topics: &[&str]) -> Result<Recordi
     let mut wanted: HashMap<u16, String> = HashMap::new();
     let mut rec = Recording::default();
     let (_, status) = scan(path, &mut |record| match record {
-        Record::Channel(c) => {
-            if topics.is_empty() || topics.contains(&c.topic.as_str()) {
-                wanted.insert(c.id, c.topic);
-            }
+        Record::Channel(c) if topics.is_empty() || topics.contains(&c.topic.as_str()) => {
+            wanted.insert(c.id, c.topic);
         }
         Record::Message { header, data } => {
             if let Some(topic) = wanted.get(&header.channel_id) {
@@ -858,7 +860,10 @@ pub fn read_recording(path: impl AsRef<Path>, topics: &[&str]) -> Result<Recordi
     })?;
     let count = rec.messages.len() as u64;
     rec.status = Some(match status {
-        FileStatus::Recovered { reason, .. } => FileStatus::Recovered { messages: count, reason },
+        FileStatus::Recovered { reason, .. } => FileStatus::Recovered {
+            messages: count,
+            reason,
+        },
         s => s,
     });
     Ok(rec)

@@ -395,19 +395,31 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
     let (source, task_list, source_name) = match &args.teleop {
         Some(path) => {
             let stream = TeleopStream::load(path)?;
-            (TeleopSource::Replay(Replay::new(stream)), Vec::new(), format!("teleop file {}", path.display()))
+            (
+                TeleopSource::Replay(Replay::new(stream)),
+                Vec::new(),
+                format!("teleop file {}", path.display()),
+            )
         }
         None => {
             let t = tasks(&args, &sim, &scene)?;
             let teacher = Teacher::with_tasks(&sim, &scene, &t, seed)?;
-            (TeleopSource::Script(Box::new(teacher)), t, format!("scripted teacher ({:?})", args.script))
+            (
+                TeleopSource::Script(Box::new(teacher)),
+                t,
+                format!("scripted teacher ({:?})", args.script),
+            )
         }
     };
     if let Some(dir) = args.output.parent()
         && !dir.as_os_str().is_empty()
         && !dir.is_dir()
     {
-        bail!("cannot write {}: directory {} does not exist", args.output.display(), dir.display());
+        bail!(
+            "cannot write {}: directory {} does not exist",
+            args.output.display(),
+            dir.display()
+        );
     }
     let mut log = McapLog::create(&args.output)?;
     log.attach("dexter.urdf", "application/xml", DEXTER_URDF.as_bytes())?;
@@ -473,7 +485,11 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
         log.log_text(demo.sim_time, LogLevel::Info, note)?;
     }
     if demo.interrupted {
-        log.log_text(demo.sim_time, LogLevel::Warning, "recording interrupted; finished with what was captured")?;
+        log.log_text(
+            demo.sim_time,
+            LogLevel::Warning,
+            "recording interrupted; finished with what was captured",
+        )?;
     }
     let stats = log.finish()?;
     let wall_time = wall.elapsed().as_secs_f64();
@@ -497,7 +513,11 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
         scene: args.scene.clone(),
         source: source_name,
         tasks: task_list,
-        real_time_factor: if wall_time > 0.0 { demo.sim_time / wall_time } else { 0.0 },
+        real_time_factor: if wall_time > 0.0 {
+            demo.sim_time / wall_time
+        } else {
+            0.0
+        },
         demo,
         wall_time,
         messages: stats.messages,
@@ -513,7 +533,11 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
             report.source,
             report.wall_time,
             report.real_time_factor,
-            if report.demo.interrupted { " — INTERRUPTED, kept what was captured" } else { "" }
+            if report.demo.interrupted {
+                " — INTERRUPTED, kept what was captured"
+            } else {
+                ""
+            }
         )?;
         for t in &report.tasks {
             writeln!(out, "  task      {}", describe(t))?;
@@ -533,7 +557,11 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
     }
     if report.demo.interrupted {
         // Interrupted: the file is complete, but say so in the exit status.
-        bail!("interrupted after {:.1} s; {} holds what was captured", report.demo.sim_time, report.output);
+        bail!(
+            "interrupted after {:.1} s; {} holds what was captured",
+            report.demo.sim_time,
+            report.output
+        );
     }
     Ok(())
 }

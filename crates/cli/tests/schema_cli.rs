@@ -62,7 +62,11 @@ fn posterior_of(v: &Value, schema: &str) -> f64 {
 }
 
 fn check_explained_by(v: &Value, schema: &str, min: f64) {
-    assert_eq!(v["inference"]["posterior"]["map"], schema, "{:#}", v["inference"]["posterior"]);
+    assert_eq!(
+        v["inference"]["posterior"]["map"], schema,
+        "{:#}",
+        v["inference"]["posterior"]
+    );
     let p = posterior_of(v, schema);
     assert!(p >= min, "p({schema}) = {p}");
 }
@@ -72,8 +76,14 @@ fn pick_and_place_with_either_arm_and_with_a_retried_grasp_is_pick_and_place() {
     let tele = dir().join("pp-left.teleop.csv");
     let tele = tele.to_str().unwrap();
     for (name, args) in [
-        ("pp-left", &["--arm", "left", "--place", "bin-left", "--save-teleop", tele][..]),
-        ("pp-right-retry", &["--arm", "right", "--place", "bin-right", "--retry"][..]),
+        (
+            "pp-left",
+            &["--arm", "left", "--place", "bin-left", "--save-teleop", tele][..],
+        ),
+        (
+            "pp-right-retry",
+            &["--arm", "right", "--place", "bin-right", "--retry"][..],
+        ),
     ] {
         let v = infer(&recorded(name, args));
         check_explained_by(&v, "pick_and_place", 0.99);
@@ -83,7 +93,11 @@ fn pick_and_place_with_either_arm_and_with_a_retried_grasp_is_pick_and_place() {
         assert_eq!(inst[0]["arm"], arm);
         assert_eq!(inst[0]["place"], format!("bin-{arm}"));
         assert_eq!(v["truth"][0]["object"], "jif");
-        assert!(inst[0]["features"]["histogram"].as_array().is_some_and(|h| !h.is_empty()));
+        assert!(
+            inst[0]["features"]["histogram"]
+                .as_array()
+                .is_some_and(|h| !h.is_empty())
+        );
         // The state path goes through the schema's states in order.
         let states: Vec<&str> = v["inference"]["state_path"]
             .as_array()
@@ -91,7 +105,12 @@ fn pick_and_place_with_either_arm_and_with_a_retried_grasp_is_pick_and_place() {
             .iter()
             .map(|s| s["state"].as_str().unwrap())
             .collect();
-        let pos = |s: &str| states.iter().position(|x| *x == s).unwrap_or_else(|| panic!("{s} in {states:?}"));
+        let pos = |s: &str| {
+            states
+                .iter()
+                .position(|x| *x == s)
+                .unwrap_or_else(|| panic!("{s} in {states:?}"))
+        };
         assert!(pos("grasped") < pos("carrying") && pos("carrying") < pos("placed") && pos("placed") < pos("released"));
     }
 }
@@ -117,16 +136,32 @@ fn a_replayed_glove_stream_is_understood_like_the_live_demonstration() {
     let stream = dir().join("pp-left.teleop.csv");
     let live = recorded(
         "pp-left",
-        &["--arm", "left", "--place", "bin-left", "--save-teleop", stream.to_str().unwrap()],
+        &[
+            "--arm",
+            "left",
+            "--place",
+            "bin-left",
+            "--save-teleop",
+            stream.to_str().unwrap(),
+        ],
     );
     let text = std::fs::read_to_string(&stream).unwrap();
     assert!(text.starts_with("t,hand,x,y,z,qx,qy,qz,qw,flexion\n"));
     let replay = dir().join("replay.mcap");
-    let o = pbd(&["record", "--teleop", stream.to_str().unwrap(), "-o", replay.to_str().unwrap()]);
+    let o = pbd(&[
+        "record",
+        "--teleop",
+        stream.to_str().unwrap(),
+        "-o",
+        replay.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let (a, b) = (infer(&live), infer(&replay));
     check_explained_by(&b, "pick_and_place", 0.99);
-    assert_eq!(a["inference"]["instances"][0]["place"], b["inference"]["instances"][0]["place"]);
+    assert_eq!(
+        a["inference"]["instances"][0]["place"],
+        b["inference"]["instances"][0]["place"]
+    );
     assert_eq!(b["truth"][0]["object"], "jif");
 }
 
@@ -140,13 +175,21 @@ fn a_sorting_demonstration_is_cut_into_one_instance_per_object() {
         ("red_block", "bin-right"),
     ];
     let assign: Vec<String> = pairs.iter().map(|(o, p)| format!("{o}={p}")).collect();
-    let v = infer(&recorded("sort5", &["--scene", "sorting", "--script", "sort", "--assign", &assign.join(",")]));
+    let v = infer(&recorded(
+        "sort5",
+        &["--scene", "sorting", "--script", "sort", "--assign", &assign.join(",")],
+    ));
     check_explained_by(&v, "pick_and_place", 0.99);
     let inst = v["inference"]["instances"].as_array().unwrap();
     let got: Vec<(String, String)> = inst
         .iter()
         .zip(v["truth"].as_array().unwrap())
-        .map(|(i, t)| (t["object"].as_str().unwrap_or("?").to_string(), i["place"].as_str().unwrap_or("-").to_string()))
+        .map(|(i, t)| {
+            (
+                t["object"].as_str().unwrap_or("?").to_string(),
+                i["place"].as_str().unwrap_or("-").to_string(),
+            )
+        })
         .collect();
     let want: Vec<(String, String)> = pairs.iter().map(|(o, p)| (o.to_string(), p.to_string())).collect();
     assert_eq!(got, want, "{inst:#?}");
@@ -187,15 +230,35 @@ fn a_right_arm_demonstration_is_executed_with_the_left_arm_where_the_object_need
 fn recordings_pass_the_mcap_readers_validation_and_have_the_expected_topics() {
     let path = recorded(
         "pp-left",
-        &["--arm", "left", "--place", "bin-left", "--save-teleop", dir().join("pp-left.teleop.csv").to_str().unwrap()],
+        &[
+            "--arm",
+            "left",
+            "--place",
+            "bin-left",
+            "--save-teleop",
+            dir().join("pp-left.teleop.csv").to_str().unwrap(),
+        ],
     );
     let o = pbd(&["doctor", path.to_str().unwrap(), "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let d: Value = serde_json::from_str(&stdout(&o)).unwrap();
     assert_eq!(d["complete"], true);
     assert!(d["issues"].as_array().unwrap().is_empty(), "{d:#}");
-    let topics: Vec<&str> = d["channels"].as_array().unwrap().iter().map(|c| c[0].as_str().unwrap()).collect();
-    for t in ["/tf", "/scene", "/joint_states", "/fingertips", "/pbd/percept", "/teleop/command", "/pbd/truth"] {
+    let topics: Vec<&str> = d["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c[0].as_str().unwrap())
+        .collect();
+    for t in [
+        "/tf",
+        "/scene",
+        "/joint_states",
+        "/fingertips",
+        "/pbd/percept",
+        "/teleop/command",
+        "/pbd/truth",
+    ] {
         assert!(topics.contains(&t), "{t} missing from {topics:?}");
     }
     assert_eq!(d["attachments"][0], "dexter.urdf");
@@ -217,7 +280,17 @@ fn a_killed_recording_is_recovered_up_to_its_last_chunk_and_sigint_loses_nothing
         let path = dir().join(format!("{name}.mcap"));
         let mut child = Command::new(env!("CARGO_BIN_EXE_pbd"))
             // A long demonstration (sorting six objects): still running when the signal comes.
-            .args(["record", "--seed", "3", "--scene", "sorting", "--script", "sort", "-o", path.to_str().unwrap()])
+            .args([
+                "record",
+                "--seed",
+                "3",
+                "--scene",
+                "sorting",
+                "--script",
+                "sort",
+                "-o",
+                path.to_str().unwrap(),
+            ])
             .spawn()
             .unwrap();
         // Long enough for several 2-second chunks.
@@ -228,19 +301,32 @@ fn a_killed_recording_is_recovered_up_to_its_last_chunk_and_sigint_loses_nothing
             .unwrap();
         assert!(ok.success());
         let status = child.wait().unwrap();
-        assert!(!status.success(), "{signal}: the exit status says the recording was cut short");
+        assert!(
+            !status.success(),
+            "{signal}: the exit status says the recording was cut short"
+        );
         let o = pbd(&["doctor", path.to_str().unwrap(), "--json"]);
         assert!(o.status.success(), "{}", stderr(&o));
         let d: Value = serde_json::from_str(&stdout(&o)).unwrap();
         assert!(d["messages"].as_u64().unwrap() > 100, "{d:#}");
-        assert_eq!(d["complete"], signal == "INT", "SIGINT finishes the file, SIGKILL cannot: {d:#}");
+        assert_eq!(
+            d["complete"],
+            signal == "INT",
+            "SIGINT finishes the file, SIGKILL cannot: {d:#}"
+        );
         // Inference reads what is there, warning if the file was cut short.
         let o = pbd(&["infer", path.to_str().unwrap(), "--json"]);
         assert!(o.status.success(), "{}", stderr(&o));
         if signal == "KILL" {
             assert!(stderr(&o).contains("cut short"), "{}", stderr(&o));
             let repaired = dir().join("repaired.mcap");
-            let o = pbd(&["doctor", path.to_str().unwrap(), "--repair", repaired.to_str().unwrap(), "--json"]);
+            let o = pbd(&[
+                "doctor",
+                path.to_str().unwrap(),
+                "--repair",
+                repaired.to_str().unwrap(),
+                "--json",
+            ]);
             assert!(o.status.success(), "{}", stderr(&o));
             let o = pbd(&["doctor", repaired.to_str().unwrap(), "--json"]);
             let r: Value = serde_json::from_str(&stdout(&o)).unwrap();
@@ -270,15 +356,34 @@ fn bad_input_is_refused_with_a_clear_message() {
 
     let demo = recorded(
         "pp-left",
-        &["--arm", "left", "--place", "bin-left", "--save-teleop", dir().join("pp-left.teleop.csv").to_str().unwrap()],
+        &[
+            "--arm",
+            "left",
+            "--place",
+            "bin-left",
+            "--save-teleop",
+            dir().join("pp-left.teleop.csv").to_str().unwrap(),
+        ],
     );
-    let o = pbd(&["infer", demo.to_str().unwrap(), "--library", "/nonexistent/library.toml"]);
+    let o = pbd(&[
+        "infer",
+        demo.to_str().unwrap(),
+        "--library",
+        "/nonexistent/library.toml",
+    ]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("/nonexistent/library.toml"), "{}", stderr(&o));
-    let bad_lib = write("lib.toml", b"version = 1\nmiss = 2.0\nfalse_alarm = 0.01\ndwell_secs = 2\n");
+    let bad_lib = write(
+        "lib.toml",
+        b"version = 1\nmiss = 2.0\nfalse_alarm = 0.01\ndwell_secs = 2\n",
+    );
     let o = pbd(&["infer", demo.to_str().unwrap(), "--library", bad_lib.to_str().unwrap()]);
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("lib.toml") && stderr(&o).contains("miss"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("lib.toml") && stderr(&o).contains("miss"),
+        "{}",
+        stderr(&o)
+    );
 
     // An MCAP with no percepts: an empty demonstration.
     let o = pbd(&["sim", "pick-place", "--mcap", d.join("sim.mcap").to_str().unwrap()]);
@@ -299,11 +404,20 @@ fn bad_input_is_refused_with_a_clear_message() {
         let out = d.join("never.mcap");
         let o = pbd(&["record", "--teleop", p.to_str().unwrap(), "-o", out.to_str().unwrap()]);
         assert!(!o.status.success());
-        assert!(stderr(&o).contains(name) && stderr(&o).contains(needle), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains(name) && stderr(&o).contains(needle),
+            "{}",
+            stderr(&o)
+        );
         assert!(!out.exists(), "nothing half-written");
     }
 
-    let o = pbd(&["learn", not_mcap.to_str().unwrap(), "-o", d.join("m.json").to_str().unwrap()]);
+    let o = pbd(&[
+        "learn",
+        not_mcap.to_str().unwrap(),
+        "-o",
+        d.join("m.json").to_str().unwrap(),
+    ]);
     assert!(!o.status.success());
     let o = pbd(&["learn", "-o", d.join("m.json").to_str().unwrap()]);
     assert!(!o.status.success());

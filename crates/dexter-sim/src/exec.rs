@@ -77,7 +77,9 @@ pub struct SimPlant<'a> {
 
 impl std::fmt::Debug for SimPlant<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SimPlant").field("object", &self.object).finish_non_exhaustive()
+        f.debug_struct("SimPlant")
+            .field("object", &self.object)
+            .finish_non_exhaustive()
     }
 }
 
@@ -195,9 +197,7 @@ impl<'a> SimPlant<'a> {
                 *next = t + period;
             }
         };
-        let mut obs = Observer::new(&mut callback);
-        let r = f(self.sim, &mut self.reach, &self.hand, &mut obs);
-        drop(obs);
+        let r = f(self.sim, &mut self.reach, &self.hand, &mut Observer::new(&mut callback));
         match error {
             Some(e) => Err(e),
             None => Ok(r),
@@ -252,7 +252,9 @@ impl SchemaPlant for SimPlant<'_> {
                     _ => self.resolve_object(binding)?,
                 };
                 self.object = Some(obj);
-                let shape = self.scene.catalog.objects[self.sim.objects()[obj].catalog_index].shape.clone();
+                let shape = self.scene.catalog.objects[self.sim.objects()[obj].catalog_index]
+                    .shape
+                    .clone();
                 // The grasp is planned at the seen centroid (x, y) with the object's model.
                 let mut pose = self.sim.object_state(obj).pose;
                 if let Some(seg) = self.percepts.last().and_then(|p| {
@@ -294,7 +296,9 @@ impl SchemaPlant for SimPlant<'_> {
                 match self.object {
                     None => ActionOutcome::Failed("no object to grasp (no reach yet)".into()),
                     Some(obj) => {
-                        let r = self.with_observer(|sim, reach, hand, obs| close_grasp(sim, &mut reach[k], &hand[k], obj, obs))?;
+                        let r = self.with_observer(|sim, reach, hand, obs| {
+                            close_grasp(sim, &mut reach[k], &hand[k], obj, obs)
+                        })?;
                         match r {
                             Ok(_) => ActionOutcome::Converged,
                             Err(why) => ActionOutcome::Failed(why),
@@ -323,7 +327,9 @@ impl SchemaPlant for SimPlant<'_> {
                 let Some(obj) = self.object else {
                     return Ok(ActionOutcome::Failed("nothing grasped to place (no reach yet)".into()));
                 };
-                let shape = self.scene.catalog.objects[self.sim.objects()[obj].catalog_index].shape.clone();
+                let shape = self.scene.catalog.objects[self.sim.objects()[obj].catalog_index]
+                    .shape
+                    .clone();
                 let (target, wall) = if binding.transfer {
                     (self.handoff, 0.0)
                 } else {
@@ -395,7 +401,11 @@ impl PickPlacePolicy {
         let table_z = scene.spec.table.height;
         let p = scene.place(place)?;
         let at_object = arms_reaching(sim, table_z, object_at)?;
-        let at_place = arms_reaching(sim, table_z, &Vec3::new(p.center[0], p.center[1], table_z + p.wall_height))?;
+        let at_place = arms_reaching(
+            sim,
+            table_z,
+            &Vec3::new(p.center[0], p.center[1], table_z + p.wall_height),
+        )?;
         let both: Vec<Arm> = at_object.iter().copied().filter(|a| at_place.contains(a)).collect();
         // Prefer the arm on the object's side.
         let side = if object_at.y >= 0.0 { Arm::Left } else { Arm::Right };
@@ -436,12 +446,20 @@ impl schema::ProceduralPolicy for PickPlacePolicy {
         if state == "transfer_placed" {
             self.transferred = true;
         }
-        let arm = if self.transferred { self.place_arm } else { self.pick_arm };
+        let arm = if self.transferred {
+            self.place_arm
+        } else {
+            self.pick_arm
+        };
         let transfer = action == "place" && self.is_transfer() && !self.transferred;
         Binding {
             arm: Some(arm.prefix().to_string()),
             object: Some(self.object.clone()),
-            place: Some(if transfer { HANDOFF.to_string() } else { self.place.clone() }),
+            place: Some(if transfer {
+                HANDOFF.to_string()
+            } else {
+                self.place.clone()
+            }),
             transfer,
         }
     }

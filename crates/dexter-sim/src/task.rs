@@ -464,7 +464,13 @@ pub fn close_grasp(
 
 /// Lift 10 cm with the grasp, hold still and weigh the object through the fingertip sensors (the
 /// seed's grasp criterion, §6.5: the hand rises 10 cm and the object is still held).
-pub fn lift_and_weigh(sim: &mut DexterSim, reach: &mut ReachControl, obj: usize, plan: &GraspPlan, obs: &mut Observer<'_>) -> GraspOutcome {
+pub fn lift_and_weigh(
+    sim: &mut DexterSim,
+    reach: &mut ReachControl,
+    obj: usize,
+    plan: &GraspPlan,
+    obs: &mut Observer<'_>,
+) -> GraspOutcome {
     let arm = reach.arm();
     let k = if arm == Arm::Left { 0 } else { 3 };
     let mut tips = [FingertipWrench {
@@ -648,7 +654,16 @@ pub fn pick_and_place_in(
     }
     // 5. Transport: up to a safe height, over the place.
     phases.push(("transport".into(), sim.time() - t0));
-    if let Err(why) = transport_over(sim, &mut reach, obj, &shape, [place.center[0], place.center[1]], table_z, place.wall_height, obs) {
+    if let Err(why) = transport_over(
+        sim,
+        &mut reach,
+        obj,
+        &shape,
+        [place.center[0], place.center[1]],
+        table_z,
+        place.wall_height,
+        obs,
+    ) {
         return Ok(report(sim, false, true, why, phases, weighed));
     }
     // 6. Place: lower until the support force reference is met (the bin carries half the weight).
@@ -684,7 +699,8 @@ pub fn pick_and_place_in(
 fn object_bottom_below_palm(sim: &DexterSim, reach: &mut ReachControl, obj: usize, shape: &Shape) -> f64 {
     let op = sim.object_state(obj).pose;
     let palm = reach.tool_pose(sim);
-    palm.translation.z - (op.translation.z - geometry::support_half_extent(shape, &(op.rotation.inverse() * -Vec3::z())))
+    palm.translation.z
+        - (op.translation.z - geometry::support_half_extent(shape, &(op.rotation.inverse() * -Vec3::z())))
 }
 
 /// Reach ◁ Grasp: carry grasped object `obj` up to a safe height (clearing walls of `wall_height`)

@@ -66,7 +66,10 @@ impl HandCommand {
     pub fn pose(&self) -> Iso3 {
         let [x, y, z, w] = self.orientation;
         let q = UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z));
-        Iso3::from_parts(Translation3::new(self.position[0], self.position[1], self.position[2]), q)
+        Iso3::from_parts(
+            Translation3::new(self.position[0], self.position[1], self.position[2]),
+            q,
+        )
     }
 }
 
@@ -97,7 +100,11 @@ impl TeleopStream {
             source: e,
         })?;
         let csv = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
-        let stream = if csv { Self::parse_csv(&text, path)? } else { Self::parse_jsonl(&text, path)? };
+        let stream = if csv {
+            Self::parse_csv(&text, path)?
+        } else {
+            Self::parse_jsonl(&text, path)?
+        };
         stream.validate(path)?;
         Ok(stream)
     }
@@ -105,7 +112,11 @@ impl TeleopStream {
     fn parse_csv(text: &str, path: &Path) -> Result<TeleopStream, SimError> {
         let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
         let Some((_, header)) = lines.next() else {
-            return Err(bad(path, 1, "empty file (expected the header `t,hand,x,y,z,qx,qy,qz,qw,flexion`)"));
+            return Err(bad(
+                path,
+                1,
+                "empty file (expected the header `t,hand,x,y,z,qx,qy,qz,qw,flexion`)",
+            ));
         };
         let header: String = header.chars().filter(|c| !c.is_whitespace()).collect();
         if header != CSV_HEADER {
@@ -116,9 +127,14 @@ impl TeleopStream {
             let n = i + 1;
             let cols: Vec<&str> = line.split(',').map(str::trim).collect();
             if cols.len() != 10 {
-                return Err(bad(path, n, format!("{} columns, expected 10 ({CSV_HEADER})", cols.len())));
+                return Err(bad(
+                    path,
+                    n,
+                    format!("{} columns, expected 10 ({CSV_HEADER})", cols.len()),
+                ));
             }
-            let hand = parse_arm(cols[1]).ok_or_else(|| bad(path, n, format!("hand `{}` is not left or right", cols[1])))?;
+            let hand =
+                parse_arm(cols[1]).ok_or_else(|| bad(path, n, format!("hand `{}` is not left or right", cols[1])))?;
             let mut v = [0.0; 9];
             for (k, (j, name)) in [0usize, 2, 3, 4, 5, 6, 7, 8, 9]
                 .into_iter()
@@ -168,17 +184,28 @@ impl TeleopStream {
             }
             let norm = s.orientation.iter().map(|v| v * v).sum::<f64>().sqrt();
             if (norm - 1.0).abs() > 1e-3 {
-                return Err(bad(path, n, format!("orientation is not a unit quaternion (norm {norm:.4})")));
+                return Err(bad(
+                    path,
+                    n,
+                    format!("orientation is not a unit quaternion (norm {norm:.4})"),
+                ));
             }
             if !(0.0..=FLEX_CLOSED + 1e-9).contains(&s.flexion) {
-                return Err(bad(path, n, format!("flexion {} outside [0, {FLEX_CLOSED}] rad", s.flexion)));
+                return Err(bad(
+                    path,
+                    n,
+                    format!("flexion {} outside [0, {FLEX_CLOSED}] rad", s.flexion),
+                ));
             }
             let k = hand_index(s.hand);
             if s.t < last[k] {
                 return Err(bad(
                     path,
                     n,
-                    format!("time {} goes backwards for the {} hand (previous {})", s.t, s.hand, last[k]),
+                    format!(
+                        "time {} goes backwards for the {} hand (previous {})",
+                        s.t, s.hand, last[k]
+                    ),
                 ));
             }
             last[k] = s.t;
@@ -292,8 +319,8 @@ impl TeleopDriver {
 
     /// One control tick: every hand with a command tracks it.
     pub fn tick(&mut self, sim: &mut DexterSim, commands: &[Option<HandCommand>; 2], dt: f64) {
-        for k in 0..2 {
-            if let Some(c) = commands[k] {
+        for (k, command) in commands.iter().enumerate() {
+            if let Some(c) = command {
                 self.reach[k].track(sim, c.pose());
                 self.hand[k].set(sim, c.flexion, 0.0);
             }
@@ -375,7 +402,10 @@ impl Move {
         let s = tau * tau * tau * (10.0 - 15.0 * tau + 6.0 * tau * tau);
         let p = self.from.translation.vector.lerp(&self.to.translation.vector, s);
         let r = self.from.rotation.slerp(&self.to.rotation, s);
-        (Iso3::from_parts(Translation3::from(p), r), self.flex_from + (self.flex_to - self.flex_from) * s)
+        (
+            Iso3::from_parts(Translation3::from(p), r),
+            self.flex_from + (self.flex_to - self.flex_from) * s,
+        )
     }
 
     fn end(&self) -> f64 {
@@ -468,10 +498,7 @@ impl Teacher {
             let hesitate = |rng: &mut SplitMix64| Step::Pause(0.2 + 0.6 * rng.next_f64());
             match task {
                 TeachTask::PickPlace {
-                    object,
-                    place,
-                    retry,
-                    ..
+                    object, place, retry, ..
                 } => {
                     let o = sim.object(object)?;
                     let p = place_index(scene, place)?;
@@ -486,7 +513,10 @@ impl Teacher {
                         steps.push(hesitate(&mut rng));
                         steps.push(Step::Hover { object: o });
                     }
-                    steps.push(Step::Descend { object: o, early: false });
+                    steps.push(Step::Descend {
+                        object: o,
+                        early: false,
+                    });
                     steps.push(Step::Close);
                     // Wait until the grasp feels firm.
                     steps.push(Step::Pause(0.5));
@@ -505,7 +535,10 @@ impl Teacher {
                     let o = sim.object(object)?;
                     steps.push(hesitate(&mut rng));
                     steps.push(Step::Hover { object: o });
-                    steps.push(Step::Descend { object: o, early: false });
+                    steps.push(Step::Descend {
+                        object: o,
+                        early: false,
+                    });
                     steps.push(Step::Close);
                     steps.push(Step::Lift { rise: 0.15 });
                     steps.push(Step::Pause(2.5));
@@ -514,7 +547,10 @@ impl Teacher {
                     let o = sim.object(object)?;
                     steps.push(hesitate(&mut rng));
                     steps.push(Step::Hover { object: o });
-                    steps.push(Step::Descend { object: o, early: false });
+                    steps.push(Step::Descend {
+                        object: o,
+                        early: false,
+                    });
                     steps.push(Step::Close);
                     steps.push(Step::Lift { rise: 0.15 });
                     steps.push(Step::Pause(0.8));
@@ -596,7 +632,12 @@ impl Teacher {
 
     /// The glove's output at time `t` (s): the latest sample, refreshed at 30 Hz. The teacher watches
     /// `sim` to decide (a human sees the scene).
-    pub fn command(&mut self, sim: &mut DexterSim, scene: &Scene, t: f64) -> Result<[Option<HandCommand>; 2], SimError> {
+    pub fn command(
+        &mut self,
+        sim: &mut DexterSim,
+        scene: &Scene,
+        t: f64,
+    ) -> Result<[Option<HandCommand>; 2], SimError> {
         self.advance(sim, scene, t)?;
         if t + 1e-12 >= self.next_sample {
             self.next_sample += self.glove_period;
@@ -673,7 +714,8 @@ impl Teacher {
                 if early {
                     // Closes too early: the fingers shut on air above the object.
                     g.translation.vector.z += 0.12;
-                    self.notes.push(format!("t={t:.1}s: grasp closed too early (to be retried)"));
+                    self.notes
+                        .push(format!("t={t:.1}s: grasp closed too early (to be retried)"));
                 }
                 self.begin(t, g, plan.preshape, 0.12);
             }
@@ -693,18 +735,22 @@ impl Teacher {
                 let z = sim.object_state(object).pose.translation.z;
                 let rest = scene.resolved[sim.objects()[object].scene_index].pose.translation.z;
                 if z < rest + 0.05 {
-                    self.notes.push(format!("t={t:.1}s: the object was not lifted; the teacher gives up on it"));
+                    self.notes.push(format!(
+                        "t={t:.1}s: the object was not lifted; the teacher gives up on it"
+                    ));
                     // Skip the rest of this task: open, back off, and go on with the next task.
                     let end = self.steps[self.index..]
                         .iter()
                         .position(|s| *s == Step::Park)
                         .map_or(self.steps.len(), |k| self.index + k);
-                    self.steps.splice(self.index..end, [Step::Open, Step::Retreat { rise: 0.1 }]);
+                    self.steps
+                        .splice(self.index..end, [Step::Open, Step::Retreat { rise: 0.1 }]);
                 } else {
                     let palm = self.pose.translation.z;
                     let op = sim.object_state(object).pose;
                     let shape = &scene.catalog.objects[sim.objects()[object].catalog_index].shape;
-                    let bottom = op.translation.z - geometry::support_half_extent(shape, &(op.rotation.inverse() * -Vec3::z()));
+                    let bottom =
+                        op.translation.z - geometry::support_half_extent(shape, &(op.rotation.inverse() * -Vec3::z()));
                     self.carry_depth = palm - bottom;
                 }
                 self.begin_pause(t, 0.05);
@@ -853,11 +899,31 @@ mod tests {
     fn bad_files_name_the_line() {
         for (name, text, needle) in [
             ("h.csv", "t,hand,x,y,z\n0,left,0,0,0\n", "header"),
-            ("c.csv", "t,hand,x,y,z,qx,qy,qz,qw,flexion\n0,left,0,0,0,0,0,0,1\n", "9 columns"),
-            ("m.csv", "t,hand,x,y,z,qx,qy,qz,qw,flexion\n1,left,0,0,0,0,0,0,1,0\n0.5,left,0,0,0,0,0,0,1,0\n", "backwards"),
-            ("q.csv", "t,hand,x,y,z,qx,qy,qz,qw,flexion\n0,left,0,0,0,0,0,0,2,0\n", "unit quaternion"),
-            ("n.csv", "t,hand,x,y,z,qx,qy,qz,qw,flexion\n0,left,0,nan,0,0,0,0,1,0\n", "finite"),
-            ("a.csv", "t,hand,x,y,z,qx,qy,qz,qw,flexion\n0,middle,0,0,0,0,0,0,1,0\n", "middle"),
+            (
+                "c.csv",
+                "t,hand,x,y,z,qx,qy,qz,qw,flexion\n0,left,0,0,0,0,0,0,1\n",
+                "9 columns",
+            ),
+            (
+                "m.csv",
+                "t,hand,x,y,z,qx,qy,qz,qw,flexion\n1,left,0,0,0,0,0,0,1,0\n0.5,left,0,0,0,0,0,0,1,0\n",
+                "backwards",
+            ),
+            (
+                "q.csv",
+                "t,hand,x,y,z,qx,qy,qz,qw,flexion\n0,left,0,0,0,0,0,0,2,0\n",
+                "unit quaternion",
+            ),
+            (
+                "n.csv",
+                "t,hand,x,y,z,qx,qy,qz,qw,flexion\n0,left,0,nan,0,0,0,0,1,0\n",
+                "finite",
+            ),
+            (
+                "a.csv",
+                "t,hand,x,y,z,qx,qy,qz,qw,flexion\n0,middle,0,0,0,0,0,0,1,0\n",
+                "middle",
+            ),
             ("e.jsonl", "", "no samples"),
             ("j.jsonl", "{\"t\":0}\n", "line 1"),
         ] {

@@ -101,10 +101,17 @@ impl Tracker {
         for a in 0..self.tracks.len() {
             for b in a + 1..self.tracks.len() {
                 if keep[a] && keep[b] && dist(&self.tracks[a].centroid, &self.tracks[b].centroid) < MERGE_GAP {
-                    let (old, new) = if self.tracks[a].id < self.tracks[b].id { (a, b) } else { (b, a) };
+                    let (old, new) = if self.tracks[a].id < self.tracks[b].id {
+                        (a, b)
+                    } else {
+                        (b, a)
+                    };
                     if self.tracks[new].seen && !self.tracks[old].seen {
                         let id = self.tracks[old].id;
-                        self.tracks[old] = SegmentPercept { id, ..self.tracks[new].clone() };
+                        self.tracks[old] = SegmentPercept {
+                            id,
+                            ..self.tracks[new].clone()
+                        };
                         self.last_seen[old] = self.last_seen[new];
                     }
                     keep[new] = false;
@@ -426,7 +433,7 @@ pub fn run_demonstration(
             sim.step();
         }
         sink.tick(sim, t);
-        if tick % percept_every == 0 {
+        if tick.is_multiple_of(percept_every) {
             // The head follows the working hand (the robot watches the teacher's hand at work).
             let palm = driver.palm_pose(sim, working).translation.vector;
             let target = Vec3::new(palm.x, palm.y, palm.z.max(watcher.table_z + 0.03));

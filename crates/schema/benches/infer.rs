@@ -59,8 +59,12 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("infer_10min_demo");
     g.sample_size(10);
     g.throughput(Throughput::Elements(obs.len() as u64));
-    g.bench_function("posterior_library_and_none", |b| b.iter(|| engine.posterior(&obs).unwrap()));
-    g.bench_function("segment_composite_viterbi", |b| b.iter(|| engine.segment(&obs, &[]).unwrap()));
+    g.bench_function("posterior_library_and_none", |b| {
+        b.iter(|| engine.posterior(&obs).unwrap())
+    });
+    g.bench_function("segment_composite_viterbi", |b| {
+        b.iter(|| engine.segment(&obs, &[]).unwrap())
+    });
     g.finish();
 }
 

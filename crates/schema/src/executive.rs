@@ -214,7 +214,13 @@ mod tests {
         }
         fn run(&mut self, action: &str, b: &Binding) -> Result<ActionOutcome, ToyError> {
             self.ran.push(format!("{action}:{}", b.arm.clone().unwrap_or_default()));
-            for n in self.lib.action_names().iter().map(|s| s.to_string()).collect::<Vec<_>>() {
+            for n in self
+                .lib
+                .action_names()
+                .iter()
+                .map(|s| s.to_string())
+                .collect::<Vec<_>>()
+            {
                 self.set(&n, false);
             }
             match action {

@@ -213,12 +213,20 @@ impl Engine {
     /// Builds the models of `library`.
     pub fn new(library: &Library, config: InferenceConfig) -> Result<Engine, SchemaError> {
         if !(config.rate_hz.is_finite() && config.rate_hz > 0.0) {
-            return Err(SchemaError::invalid("inference", "rate_hz", format!("must be positive, got {}", config.rate_hz)));
+            return Err(SchemaError::invalid(
+                "inference",
+                "rate_hz",
+                format!("must be positive, got {}", config.rate_hz),
+            ));
         }
         let q = config.background_switch;
         let r = config.background_on;
         if !(q > 0.0 && q < 0.5 && r > 0.0 && r < 1.0 && config.persistence > 0.0 && config.persistence < 1.0) {
-            return Err(SchemaError::invalid("inference", "background", "probabilities out of range"));
+            return Err(SchemaError::invalid(
+                "inference",
+                "background",
+                "probabilities out of range",
+            ));
         }
         let ln: Vec<Noise> = (0..library.actions.len())
             .map(|a| {
@@ -269,7 +277,7 @@ impl Engine {
         for (t, o) in obs.iter().enumerate() {
             // The gap (and "none"): every action not converged.
             let mut gap = [0.0, 0.0];
-            for a in 0..k {
+            for (a, row) in table.iter_mut().enumerate() {
                 let ln = self.ln[a];
                 let x = o.x[a];
                 let prev = if t == 0 { None } else { Some(obs[t - 1].x[a]) };
@@ -297,7 +305,7 @@ impl Engine {
                     (true, Some(true)) => ln.err_again,
                     _ => not_fresh,
                 };
-                table[a] = [conv_fresh, conv_burst, not_fresh, not_burst, bg];
+                *row = [conv_fresh, conv_burst, not_fresh, not_burst, bg];
                 gap[0] += not_fresh;
                 gap[1] += not_burst;
             }
@@ -339,8 +347,11 @@ impl Engine {
     /// log p(x | none): nothing intended; every convergence is a false alarm.
     fn none_evidence(&self, obs: &[Observation]) -> f64 {
         let gap_only = Composite {
-            hmm: Hmm::new(vec![0.0, f64::NEG_INFINITY], vec![f64::NEG_INFINITY, 0.0, f64::NEG_INFINITY, 0.0])
-                .expect("a two-state chain"),
+            hmm: Hmm::new(
+                vec![0.0, f64::NEG_INFINITY],
+                vec![f64::NEG_INFINITY, 0.0, f64::NEG_INFINITY, 0.0],
+            )
+            .expect("a two-state chain"),
             slots: vec![Slot::GapBefore, Slot::GapBefore],
             entry: vec![true, false],
             accept: vec![true, true],
@@ -348,7 +359,11 @@ impl Engine {
         let mut e = Vec::with_capacity(2 * obs.len());
         self.emissions(&gap_only, obs, &mut e);
         // Entry at the first step, dwell after.
-        e.iter().enumerate().filter(|(i, _)| (*i == 0) || (*i % 2 == 1 && *i > 1)).map(|(_, v)| v).sum()
+        e.iter()
+            .enumerate()
+            .filter(|(i, _)| (*i == 0) || (*i % 2 == 1 && *i > 1))
+            .map(|(_, v)| v)
+            .sum()
     }
 
     /// The posterior over the library and none for `obs` (each schema as S⁺).
@@ -361,7 +376,10 @@ impl Engine {
             return Err(SchemaError::invalid(
                 "observations",
                 format!("t={}", o.t),
-                format!("observation vector has {} entries, the library has {k} actions", o.x.len()),
+                format!(
+                    "observation vector has {} entries, the library has {k} actions",
+                    o.x.len()
+                ),
             ));
         }
         let mut names: Vec<String> = self.library.schemas.iter().map(|s| s.name.clone()).collect();
@@ -411,7 +429,12 @@ impl Engine {
         let posterior = self.posterior(obs)?;
         let mut state_path = Vec::new();
         if let Ok(s) = self.library.schema(&posterior.map) {
-            let si = self.library.schemas.iter().position(|x| x.name == s.name).expect("found");
+            let si = self
+                .library
+                .schemas
+                .iter()
+                .position(|x| x.name == s.name)
+                .expect("found");
             if let Some(path) = self.viterbi(&self.per_schema[si], obs)? {
                 state_path = self.visits(&path, obs);
             }
@@ -512,13 +535,20 @@ impl Engine {
         for (i, &(schema, a, b)) in runs.iter().enumerate() {
             // Score the instance on its window, extended into the neighbouring gaps halfway.
             let lo = if i == 0 { 0 } else { (runs[i - 1].2 + 1 + a) / 2 };
-            let hi = if i + 1 == runs.len() { obs.len() - 1 } else { (b + runs[i + 1].1) / 2 };
+            let hi = if i + 1 == runs.len() {
+                obs.len() - 1
+            } else {
+                (b + runs[i + 1].1) / 2
+            };
             let posterior = self.posterior(&obs[lo..=hi])?;
             let facts = facts(&self.library, &obs[a..=b]);
             let pick = |action: &str| facts.iter().filter(|f| f.action == action).max_by_key(|f| f.steps);
             let grasp = pick("grasp");
             let object = grasp.or(pick("touch")).or(pick("reach_object")).and_then(|f| f.segment);
-            let arm = grasp.or(pick("touch")).or(pick("reach_object")).and_then(|f| f.arm.clone());
+            let arm = grasp
+                .or(pick("touch"))
+                .or(pick("reach_object"))
+                .and_then(|f| f.arm.clone());
             let place = pick("place").or(pick("reach_place")).and_then(|f| f.place.clone());
             // Features at the grasp: the segment's percept when the grasp first converged (the last
             // frame it was seen before, if the hand hides it).
@@ -642,7 +672,10 @@ fn composite(library: &Library, schemas: &[usize], p_stay: f64, p_idle: f64) -> 
             accept_base[index(s, g)] = true;
         }
     }
-    let hmm = Hmm::new(start.iter().map(|p| p.ln()).collect(), trans.iter().map(|p| p.ln()).collect())?;
+    let hmm = Hmm::new(
+        start.iter().map(|p| p.ln()).collect(),
+        trans.iter().map(|p| p.ln()).collect(),
+    )?;
     Ok(Composite {
         hmm,
         slots: base.iter().flat_map(|&b| [b, b]).collect(),

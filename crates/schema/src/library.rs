@@ -201,19 +201,22 @@ impl Library {
         if raw.version != LIBRARY_VERSION {
             return Err(inv(
                 "version".into(),
-                format!("library format version {} is not supported (this build reads {LIBRARY_VERSION})", raw.version),
+                format!(
+                    "library format version {} is not supported (this build reads {LIBRARY_VERSION})",
+                    raw.version
+                ),
             ));
         }
-        for (field, v, lo, hi) in [
-            ("miss", raw.miss, 0.0, 0.5),
-            ("false_alarm", raw.false_alarm, 0.0, 0.5),
-        ] {
+        for (field, v, lo, hi) in [("miss", raw.miss, 0.0, 0.5), ("false_alarm", raw.false_alarm, 0.0, 0.5)] {
             if !(v > lo && v < hi) {
                 return Err(inv(field.into(), format!("must be in ({lo}, {hi}), got {v}")));
             }
         }
         if !(raw.dwell_secs.is_finite() && raw.dwell_secs > 0.0) {
-            return Err(inv("dwell_secs".into(), format!("must be positive, got {}", raw.dwell_secs)));
+            return Err(inv(
+                "dwell_secs".into(),
+                format!("must be positive, got {}", raw.dwell_secs),
+            ));
         }
         if raw.action.is_empty() {
             return Err(inv("action".into(), "the library declares no abstract actions".into()));
@@ -223,13 +226,19 @@ impl Library {
                 return Err(inv(format!("action[{i}].name"), "empty name".into()));
             }
             if raw.action[..i].iter().any(|b| b.name == a.name) {
-                return Err(inv(format!("action[{i}].name"), format!("duplicate action `{}`", a.name)));
+                return Err(inv(
+                    format!("action[{i}].name"),
+                    format!("duplicate action `{}`", a.name),
+                ));
             }
             for (field, v) in [("miss", a.miss), ("false_alarm", a.false_alarm)] {
                 if let Some(v) = v
                     && !(v > 0.0 && v < 0.5)
                 {
-                    return Err(inv(format!("action[{i}].{field}"), format!("must be in (0, 0.5), got {v}")));
+                    return Err(inv(
+                        format!("action[{i}].{field}"),
+                        format!("must be in (0, 0.5), got {v}"),
+                    ));
                 }
             }
             if !matches!(a.potential.as_str(), "quadratic" | "force_residual") {
@@ -268,21 +277,23 @@ impl Library {
             let mut states: Vec<State> = Vec::new();
             for (k, st) in rs.states.iter().enumerate() {
                 if states.iter().any(|s| s.name == st.name) {
-                    return Err(inv(f(&format!("states[{k}].name")), format!("duplicate state `{}`", st.name)));
+                    return Err(inv(
+                        f(&format!("states[{k}].name")),
+                        format!("duplicate state `{}`", st.name),
+                    ));
                 }
-                let z: Result<Vec<Expect>, SchemaError> = st
-                    .z
-                    .chars()
-                    .map(|c| match c {
-                        '1' => Ok(Expect::Converged),
-                        '0' => Ok(Expect::NotConverged),
-                        '*' => Ok(Expect::Either),
-                        other => Err(inv(
-                            f(&format!("states[{k}].z")),
-                            format!("`{other}` is not one of 1, 0, *"),
-                        )),
-                    })
-                    .collect();
+                let z: Result<Vec<Expect>, SchemaError> =
+                    st.z.chars()
+                        .map(|c| match c {
+                            '1' => Ok(Expect::Converged),
+                            '0' => Ok(Expect::NotConverged),
+                            '*' => Ok(Expect::Either),
+                            other => Err(inv(
+                                f(&format!("states[{k}].z")),
+                                format!("`{other}` is not one of 1, 0, *"),
+                            )),
+                        })
+                        .collect();
                 let z = z?;
                 if z.len() != actions.len() {
                     return Err(inv(
@@ -346,7 +357,10 @@ impl Library {
                 stack.extend(transitions.iter().filter(|t| t.from == s).map(|t| t.to));
             }
             if let Some(&g) = goal.iter().find(|&&g| !seen[g]) {
-                return Err(inv(f("goal"), format!("goal `{}` is unreachable from the start", states[g].name)));
+                return Err(inv(
+                    f("goal"),
+                    format!("goal `{}` is unreachable from the start", states[g].name),
+                ));
             }
             schemas.push(Schema {
                 name: rs.name.clone(),
@@ -388,7 +402,10 @@ impl Library {
     /// (miss, false alarm) of action `a`'s monitor set.
     pub fn noise(&self, a: usize) -> (f64, f64) {
         let act = &self.actions[a];
-        (act.miss.unwrap_or(self.miss), act.false_alarm.unwrap_or(self.false_alarm))
+        (
+            act.miss.unwrap_or(self.miss),
+            act.false_alarm.unwrap_or(self.false_alarm),
+        )
     }
 
     /// Names of the actions, in observation-vector order.
@@ -406,8 +423,16 @@ mod tests {
         let lib = Library::builtin();
         assert!(lib.schemas.len() >= 6);
         let pp = lib.schema("pick_and_place").unwrap();
-        assert!(pp.transitions.iter().any(|t| t.contingency.as_deref() == Some("transfer")));
-        assert!(pp.transitions.iter().any(|t| t.contingency.as_deref() == Some("regrasp")));
+        assert!(
+            pp.transitions
+                .iter()
+                .any(|t| t.contingency.as_deref() == Some("transfer"))
+        );
+        assert!(
+            pp.transitions
+                .iter()
+                .any(|t| t.contingency.as_deref() == Some("regrasp"))
+        );
     }
 
     #[test]
@@ -426,6 +451,11 @@ mod tests {
             let err = Library::parse(&text, "lib.toml").unwrap_err().to_string();
             assert!(err.contains("lib.toml") && err.contains(needle), "{err}");
         }
-        assert!(Library::parse("not toml [", "x.toml").unwrap_err().to_string().contains("x.toml"));
+        assert!(
+            Library::parse("not toml [", "x.toml")
+                .unwrap_err()
+                .to_string()
+                .contains("x.toml")
+        );
     }
 }

@@ -215,7 +215,15 @@ impl MonitorBank {
                     let loaded = f.iter().filter(|&&b| b).count();
                     if loaded >= 2 {
                         mem.grasp_flexion = mem.grasp_flexion.max(h.flexion);
-                        mem.grasp = Some((seg, z0, if h.palm[2] > z0 + c.hold_rise { load.max(h.load) } else { load }));
+                        mem.grasp = Some((
+                            seg,
+                            z0,
+                            if h.palm[2] > z0 + c.hold_rise {
+                                load.max(h.load)
+                            } else {
+                                load
+                            },
+                        ));
                     } else {
                         mem.grasp = None;
                         // Let go with the hand opening: Release; with the fingers still closed (or closing

@@ -84,7 +84,11 @@ impl Percept {
             return Err(bad("table_z".into()));
         }
         for (i, h) in self.hands.iter().enumerate() {
-            let nums = h.palm.iter().chain(&h.finger_force).chain([&h.palm_speed, &h.flexion, &h.load]);
+            let nums = h
+                .palm
+                .iter()
+                .chain(&h.finger_force)
+                .chain([&h.palm_speed, &h.flexion, &h.load]);
             if nums.into_iter().any(|v| !v.is_finite()) {
                 return Err(bad(format!("hands[{i}]")));
             }
@@ -96,7 +100,11 @@ impl Percept {
                 return Err(bad(format!("segments[{i}]")));
             }
             if self.segments[..i].iter().any(|o| o.id == s.id) {
-                return Err(SchemaError::invalid(origin, format!("segments[{i}].id"), format!("duplicate id {}", s.id)));
+                return Err(SchemaError::invalid(
+                    origin,
+                    format!("segments[{i}].id"),
+                    format!("duplicate id {}", s.id),
+                ));
             }
         }
         for (i, p) in self.places.iter().enumerate() {
