@@ -367,6 +367,17 @@ impl SchemaPlant for SimPlant<'_> {
         };
         // Let the monitors see the result.
         self.settle(0.3)?;
+        if std::env::var_os("PBD_DEBUG_EXEC").is_some()
+            && let Some(p) = self.percepts.last()
+        {
+            eprintln!("after {action}: x = {:?}", self.last_x);
+            for h in &p.hands {
+                eprintln!("  hand {} palm {:?} speed {:.3}", h.arm, h.palm, h.palm_speed);
+            }
+            for sg in &p.segments {
+                eprintln!("  segment {} at {:?} seen {}", sg.id, sg.centroid, sg.seen);
+            }
+        }
         Ok(outcome)
     }
 }
