@@ -28,7 +28,7 @@ use crate::perception::{Eyes, Pair, SearchTrack};
 use crate::physics::{DexterSim, SimSettings};
 use crate::scene::{ObjectPlacement, Scene, Shape};
 use crate::snapshot::{Arm, FingertipWrench};
-use crate::task::{CONTROL_HZ, park_robot};
+use crate::task::park_robot;
 
 /// Distance (m) of the approach pose behind the pre-grasp, along the palm normal.
 pub const APPROACH_DISTANCE: f64 = 0.10;
@@ -197,26 +197,15 @@ pub struct TrialOutcome {
 }
 
 /// Runs the simulation for up to `seconds`, ticking `reach` at the control rate; stops early when
-/// `until` returns true. Returns whether it did.
+/// `until` returns true. Returns whether it did. (The task layer's loop, with nobody observing.)
 fn run_until(
     sim: &mut DexterSim,
     reach: &mut ReachControl,
     seconds: f64,
-    mut until: impl FnMut(&mut DexterSim, &mut ReachControl) -> bool,
+    until: impl FnMut(&mut DexterSim, &mut ReachControl) -> bool,
 ) -> bool {
-    let dt_c = 1.0 / CONTROL_HZ;
-    let per = ((dt_c / sim.settings().dt).round() as usize).max(1);
-    let n = (seconds * CONTROL_HZ).ceil() as usize;
-    for _ in 0..n {
-        reach.tick(sim, dt_c);
-        for _ in 0..per {
-            sim.step();
-        }
-        if until(sim, reach) {
-            return true;
-        }
-    }
-    false
+    let mut nobody = |_: &DexterSim, _: &str| {};
+    crate::task::run_until(sim, reach, &mut crate::task::Observer::new(&mut nobody), seconds, until)
 }
 
 /// Whether `arm` can put its palm at `pose` (IK within the joint limits, from the parked posture).
@@ -571,7 +560,7 @@ mod tests {
 
     /// Probe (release, by hand): teacher demonstrations on a few presentations.
     #[test]
-    #[ignore]
+    #[ignore = "a probe to run by hand (release): the grasp teacher on a few presentations"]
     fn probe_teacher() {
         let base = Scene::builtin("pick-place").unwrap();
         let settings = SimSettings {

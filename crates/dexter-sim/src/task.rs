@@ -227,7 +227,7 @@ pub fn park_robot(sim: &mut DexterSim, table_z: f64) -> Result<(), SimError> {
 
 /// Runs the simulation for `seconds`, ticking `reach` at the control rate and calling `tick` after
 /// every control step; stops early when `until` returns true. Returns whether `until` fired.
-fn run_until(
+pub fn run_until(
     sim: &mut DexterSim,
     reach: &mut ReachControl,
     obs: &mut Observer<'_>,

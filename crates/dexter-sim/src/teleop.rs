@@ -534,25 +534,13 @@ impl Teacher {
                 TeachTask::PickHold { object, .. } => {
                     let o = sim.object(object)?;
                     steps.push(hesitate(&mut rng));
-                    steps.push(Step::Hover { object: o });
-                    steps.push(Step::Descend {
-                        object: o,
-                        early: false,
-                    });
-                    steps.push(Step::Close);
-                    steps.push(Step::Lift { rise: 0.15 });
+                    steps.extend(pick_up(o, 0.15));
                     steps.push(Step::Pause(2.5));
                 }
                 TeachTask::HandOver { object, .. } => {
                     let o = sim.object(object)?;
                     steps.push(hesitate(&mut rng));
-                    steps.push(Step::Hover { object: o });
-                    steps.push(Step::Descend {
-                        object: o,
-                        early: false,
-                    });
-                    steps.push(Step::Close);
-                    steps.push(Step::Lift { rise: 0.15 });
+                    steps.extend(pick_up(o, 0.15));
                     steps.push(Step::Pause(0.8));
                     steps.push(Step::Open);
                     steps.push(Step::TakeAway { object: o });
@@ -856,6 +844,19 @@ impl Teacher {
         }
         Ok(plan)
     }
+}
+
+/// Hover over object `o`, go down to the grasp, close, and lift by `rise` (m).
+fn pick_up(o: usize, rise: f64) -> [Step; 4] {
+    [
+        Step::Hover { object: o },
+        Step::Descend {
+            object: o,
+            early: false,
+        },
+        Step::Close,
+        Step::Lift { rise },
+    ]
 }
 
 fn place_index(scene: &Scene, name: &str) -> Result<usize, SimError> {
