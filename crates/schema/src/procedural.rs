@@ -9,14 +9,44 @@
 //! (§5.3.4):
 //!
 //! * **colour** — the kept bins of the object's 64-bin HSV histogram (the 20th-percentile rule of
-//!   §5.1.2.1), shared out as `D` weighted draws and mapped to 8 *colour classes* (black, three
-//!   greys, and the four hues; [`color_class_bin`]): shading moves a surface's pixels across the
-//!   value and saturation bins, not across hues. The draws of one object are not independent (they
-//!   are one surface), so each object counts as [`Hyper::color_object_weight`] observations (the
-//!   counts scaled by w/D) rather than D: the Occam factor of feature selection then counts
-//!   objects, not pixels. Per place a Dirichlet(α·m) prior around a base measure m (the colour
-//!   frequencies of the objects the robot may meet), counts as sufficient statistics, predictive
-//!   (5.18) and the product (5.16)–(5.17) for a new object;
+//!   §5.1.2.1), shared out as `D` weighted draws ([`Features::color_draws`]) and mapped to 8
+//!   *colour classes* (black, three greys, and the four hues; [`color_class_bin`]): shading moves
+//!   a surface's pixels across the value and saturation bins, not across hues. **Departure from
+//!   the seed** (whose (5.16)–(5.18) treat every colour observation of every object as an
+//!   independent draw from the place's one distribution): the draws of one object are one surface,
+//!   not independent evidence about the place, so the unit has two levels —
+//!
+//!   ```text
+//!   (P1)  π_k ~ Dirichlet(α·m)            the colour distribution of place k (m: base measure)
+//!   (P2)  θ_i ~ Dirichlet(a·π_k)           object i's own colours, around its place's
+//!         x_i ~ Multinomial(D, θ_i)        its D draws (counts x_il per colour l)
+//!   ```
+//!
+//!   with the object concentration a on a small grid, equally likely a priori
+//!   ([`Hyper::color_object_concentrations`]), shared by the places of one structure. Integrating
+//!   θ_i gives the Pólya factor Γ(a)/Γ(a+D) Πₗ Γ(aπₗ+xᵢₗ)/Γ(aπₗ), and expanding each rising
+//!   factorial Γ(aπ+x)/Γ(aπ) = Σₜ s(x,t) (aπ)ᵗ (unsigned Stirling numbers of the first kind; t
+//!   = the "tables" of colour l in object i, the draws of that object that were fresh picks from π)
+//!   makes π integrable against (P1): with Tₗ = Σᵢ tᵢₗ and T = Σₗ Tₗ,
+//!
+//!   ```text
+//!   (P3)  Z(X; a) = p(x_1..x_n | a) = Πᵢ Γ(a)/Γ(a+D)
+//!                   · Σ_T Q(T) Γ(α)/Γ(α+T),
+//!         Q = ⊛ₗ qₗ,  qₗ(Tₗ) = [zᵀˡ] Πᵢ (Σₜ s(xᵢₗ,t) aᵗ zᵗ) · Γ(αmₗ+Tₗ)/Γ(αmₗ)
+//!   ```
+//!
+//!   — exact, a product of polynomials (in logs) per colour convolved across colours, O((nD)²).
+//!   The evidence of objects X_1..X_K split over K places sharing a is
+//!   `(P4)  Σ_a p(a) Πₖ Z(X_k; a)`, and the predictive of a new object õ in place k is
+//!   `(P5)  p(õ | k, D) = Σ_a p(a) Πⱼ Z(X_j; a) · Z(X_k ∪ õ; a)/Z(X_k; a)  /  Σ_a p(a) Πⱼ Z(X_j; a)`,
+//!   the two-level counterpart of (5.16)–(5.17). As a → ∞ (objects identical to their place) this
+//!   is the seed's Dirichlet–multinomial over all draws; for small a one object is worth about one
+//!   pick per colour it shows, however many pixels (D) it has. Feature selection then asks whether
+//!   the objects of *each* place share colours (the evidence rewards colours found in every object
+//!   of a place, not in any), which is what tells a colour task from three random-coloured objects
+//!   per place. The place pmf (5.18) is E[π_k | X_k] = Σ_a p(a | X_k) Z(X_k ∪ {l}; a)/Z(X_k; a)
+//!   ([`ProceduralModel::color_pmf`]). The statistic is the sorted multiset of the objects' draw
+//!   vectors (exact integers);
 //! * **size** — the segment size in deci-pixels (§5.1.2.2), one observation per object (the mean of
 //!   the left and right cameras, whose sizes are highly correlated, Fig. 5.4); per place a
 //!   Normal–Inverse-Gamma prior with a Student-t predictive.
@@ -46,19 +76,24 @@
 //! # Task relevance (§5.1.3)
 //!
 //! ln B₁₀ = ln p₁(õ) − ln p₀(õ) (5.19) against a background model M₀ of "any object": the *prior*
-//! predictive of the feature units, i.e. colour from the base measure m (5.20)–(5.21) with m in
-//! place of the seed's uniform L⁻¹, so a colour every object shows (white highlights, dark shading)
-//! is no evidence of belonging to the task, and size from the NIG prior predictive (Fig. 5.7). The
+//! predictive of the feature units, i.e. for colour `(P6)  p₀(õ) = Σ_a p(a) Z({õ}; a)`, one object
+//! of a place whose π is drawn around the base measure m — the two-level form of (5.20)–(5.21) with
+//! m in place of the seed's uniform L⁻¹, so a colour every object shows (white highlights, dark
+//! shading) is no evidence of belonging to the task — and size from the NIG prior predictive
+//! (Fig. 5.7). The
 //! object is *relevant* when ln B₁₀ > [`Hyper::relevance_log_threshold`], by default
 //! [`DEFAULT_RELEVANCE_LOG_THRESHOLD`] = 2 (B₁₀ > e² ≈ 7.4, "substantial" evidence), calibrated on
 //! the rendered household catalog: with three examples per class it maximises the mean accuracy of
 //! the relevant/irrelevant decision over the colour-class pairs (B₁₀ > 1 accepts too many
 //! background objects, since p₁ is a mixture fitted to few examples).
+//! (That calibration was done for the version-2 colour unit and has not been redone for the
+//! two-level unit; the ROC AUC does not depend on it.)
 //!
 //! # Incremental learning (§5.2)
 //!
-//! Every statistic is an integer (colour draw counts, demonstrations, and the size sums Σx and Σx²
-//! in half-pixels; the object weight is applied when scoring, not when counting), so [`ProceduralModel::update`] one demonstration at a time gives *exactly* the
+//! Every statistic is an integer (each object's colour draw counts, kept as a sorted multiset,
+//! demonstrations, and the size sums Σx and Σx² in half-pixels), so
+//! [`ProceduralModel::update`] one demonstration at a time gives *exactly* the
 //! model [`ProceduralModel::learn`] builds from all of them, in any order, and
 //! [`ProceduralModel::merge`] adds two models.
 //!
@@ -91,7 +126,7 @@ pub use explain::{ColorMass, Explanation, PlaceExplanation, SyntheticInstance, b
 /// The `format` field of a model file.
 pub const MODEL_FORMAT: &str = "pbd-procedural-model";
 /// The model format version this crate reads and writes.
-pub const MODEL_VERSION: u32 = 2;
+pub const MODEL_VERSION: u32 = 3;
 /// Number of colours L of the HSV histogram (4 hue × 4 saturation × 4 value bins, §5.1.2.1).
 pub const COLOR_BINS: usize = 64;
 
@@ -400,17 +435,19 @@ impl StructureChoice {
 pub struct Hyper {
     /// The place prior ψ.
     pub place_prior: PlacePrior,
-    /// Concentration α of the Dirichlet(α·m) prior of each place's colour distribution (5.18).
+    /// Concentration α of the Dirichlet(α·m) prior of each place's colour distribution π (5.18).
     pub color_concentration: f64,
     /// Base measure m over the 64 bins (normalised when used; ≥ 0, and > 0 on every bin an object
     /// can show): the prior mean of a place's colour distribution and the background colour model
     /// of M₀.
     pub color_base: Vec<f64>,
-    /// Colour draws D per object (≥ 1); see [`Features::color_draws`].
+    /// Colour draws D per object (1..=[`MAX_COLOR_DRAWS`]); see [`Features::color_draws`].
     pub color_draws_per_object: u32,
-    /// How many independent colour observations one object is worth, w ∈ (0, D]: the counts are
-    /// scaled by w/D when scoring (module docs).
-    pub color_object_weight: f64,
+    /// The grid of object concentrations a (each finite and > 0, at most
+    /// [`MAX_OBJECT_CONCENTRATIONS`] values), equally likely a priori: an object's own colour
+    /// distribution is θ ~ Dirichlet(a·π) around its place's π (module docs). Small a: the objects
+    /// of a place vary; large a: they all look like π.
+    pub color_object_concentrations: Vec<f64>,
     /// Count every bin as its colour class ([`color_class_bin`]).
     pub color_classes: bool,
     /// NIG prior of each place's size distribution, in deci-pixels; its prior predictive is also
@@ -424,14 +461,21 @@ pub struct Hyper {
     pub relevance_log_threshold: f64,
 }
 
-/// Default α: a place's colour distribution is worth 3 objects of prior (chosen on rendered
-/// household-catalog features together with [`DEFAULT_COLOR_OBJECT_WEIGHT`]).
-pub const DEFAULT_COLOR_CONCENTRATION: f64 = 3.0;
+/// Default α = 1: a place's colour distribution π is worth one object-level draw of prior around
+/// the base measure, so a place may well be dominated by a single colour class.
+pub const DEFAULT_COLOR_CONCENTRATION: f64 = 1.0;
 
-/// Default object weight w: one object's 10 draws count as 3 independent observations. w = 10
-/// (independent draws) lets three random objects per place look colour-distinct by chance; w = 1
-/// (one observation per object) is too weak to find a real colour task from three examples.
-pub const DEFAULT_COLOR_OBJECT_WEIGHT: f64 = 3.0;
+/// Default grid of object concentrations a (log-uniform, 1 to 64): from "the objects of a place
+/// share little more than the place's palette" to "every object of the place has nearly the
+/// place's colour distribution". The data choose by the marginal likelihood (module docs).
+pub const DEFAULT_COLOR_OBJECT_CONCENTRATIONS: [f64; 4] = [1.0, 4.0, 16.0, 64.0];
+
+/// Largest number of colour draws per object (the cost of the exact colour evidence grows with
+/// the square of the draws per place).
+pub const MAX_COLOR_DRAWS: u32 = 200;
+
+/// Largest number of object concentrations in [`Hyper::color_object_concentrations`].
+pub const MAX_OBJECT_CONCENTRATIONS: usize = 16;
 
 /// Default ln B₁₀ threshold of task relevance (module docs).
 pub const DEFAULT_RELEVANCE_LOG_THRESHOLD: f64 = 2.0;
@@ -451,8 +495,11 @@ pub fn default_color_base() -> Vec<f64> {
     m
 }
 
-/// Default colour draws per object (see [`Features::color_draws`]).
-pub const DEFAULT_COLOR_DRAWS: u32 = 10;
+/// Default colour draws per object D = 30 (see [`Features::color_draws`]): enough for an object's
+/// own colour distribution to be seen well (its share of a colour to about ±0.1), which the
+/// two-level model needs to tell "objects of one place alike" from "objects of one place varied";
+/// the evidence an object gives about its place stays bounded however large D is.
+pub const DEFAULT_COLOR_DRAWS: u32 = 30;
 
 impl Default for Hyper {
     /// Defaults for Dexter's head cameras at 160×120 (the built-in scenes), where household objects
@@ -465,7 +512,7 @@ impl Default for Hyper {
             color_concentration: DEFAULT_COLOR_CONCENTRATION,
             color_base: default_color_base(),
             color_draws_per_object: DEFAULT_COLOR_DRAWS,
-            color_object_weight: DEFAULT_COLOR_OBJECT_WEIGHT,
+            color_object_concentrations: DEFAULT_COLOR_OBJECT_CONCENTRATIONS.to_vec(),
             color_classes: true,
             size_prior: default_size_prior(),
             structure_prior: [0.25; 4],
@@ -498,14 +545,23 @@ impl Hyper {
                 format!("{} must be finite and > 0", self.color_concentration),
             );
         }
-        if self.color_draws_per_object == 0 {
-            return bad("color.draws_per_object", "must be >= 1".into());
-        }
-        let w = self.color_object_weight;
-        if !(w.is_finite() && w > 0.0 && w <= f64::from(self.color_draws_per_object)) {
+        if !(1..=MAX_COLOR_DRAWS).contains(&self.color_draws_per_object) {
             return bad(
-                "color.object_weight",
-                format!("{w} must be in (0, draws_per_object = {}]", self.color_draws_per_object),
+                "color.draws_per_object",
+                format!("{} must be in 1..={MAX_COLOR_DRAWS}", self.color_draws_per_object),
+            );
+        }
+        let grid = &self.color_object_concentrations;
+        if grid.is_empty() || grid.len() > MAX_OBJECT_CONCENTRATIONS {
+            return bad(
+                "color.object_concentrations",
+                format!("{} values, expected 1..={MAX_OBJECT_CONCENTRATIONS}", grid.len()),
+            );
+        }
+        if let Some(i) = grid.iter().position(|a| !(a.is_finite() && *a > 0.0)) {
+            return bad(
+                &format!("color.object_concentrations[{i}]"),
+                format!("{} must be finite and > 0", grid[i]),
             );
         }
         if self.color_base.len() != COLOR_BINS {
@@ -562,70 +618,215 @@ impl Hyper {
     /// The colour unit of these hyper-parameters.
     pub(crate) fn color_unit(&self) -> ColorUnit {
         let total: f64 = self.color_base.iter().sum();
+        let d = self.color_draws_per_object as usize;
+        // ln s(x, t), unsigned Stirling numbers of the first kind, x, t ≤ D:
+        // s(x+1, t) = x·s(x, t) + s(x, t−1), in logs.
+        let mut ln_stirling = vec![vec![f64::NEG_INFINITY; d + 1]; d + 1];
+        ln_stirling[0][0] = 0.0;
+        for x in 0..d {
+            for t in 1..=x + 1 {
+                let grow = if x > 0 {
+                    (x as f64).ln() + ln_stirling[x][t]
+                } else {
+                    f64::NEG_INFINITY
+                };
+                ln_stirling[x + 1][t] = log_add(grow, ln_stirling[x][t - 1]);
+            }
+        }
         ColorUnit {
-            alpha: self
+            alpha_m: self
                 .color_base
                 .iter()
                 .map(|p| self.color_concentration * p / total)
                 .collect(),
             concentration: self.color_concentration,
-            scale: self.color_object_weight / f64::from(self.color_draws_per_object),
+            grid: self.color_object_concentrations.clone(),
+            ln_grid_prior: -(self.color_object_concentrations.len() as f64).ln(),
+            ln_stirling,
         }
     }
 }
 
-/// The colour feature unit: Dirichlet(α·m) over the bins, with counts scaled by w/D (module docs).
-/// Every function takes raw integer draw counts.
+/// ln(eˣ + eʸ).
+fn log_add(x: f64, y: f64) -> f64 {
+    let m = x.max(y);
+    if m == f64::NEG_INFINITY {
+        return m;
+    }
+    m + ((x - m).exp() + (y - m).exp()).ln()
+}
+
+/// The coefficients (in logs) of the product of two polynomials given by their coefficients in
+/// logs: `out[k] = ln Σ_{i+j=k} exp(a[i] + b[j])`, each sum taken relative to its own largest term.
+fn log_convolve(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let n = a.len() + b.len() - 1;
+    let mut max = vec![f64::NEG_INFINITY; n];
+    for (i, &x) in a.iter().enumerate().filter(|v| v.1.is_finite()) {
+        for (j, &y) in b.iter().enumerate().filter(|v| v.1.is_finite()) {
+            max[i + j] = max[i + j].max(x + y);
+        }
+    }
+    let mut sum = vec![0.0; n];
+    for (i, &x) in a.iter().enumerate().filter(|v| v.1.is_finite()) {
+        for (j, &y) in b.iter().enumerate().filter(|v| v.1.is_finite()) {
+            sum[i + j] += (x + y - max[i + j]).exp();
+        }
+    }
+    max.iter()
+        .zip(&sum)
+        .map(|(&m, &s)| if m.is_finite() { m + s.ln() } else { m })
+        .collect()
+}
+
+/// One object's colour draws, (bin, count) ascending by bin.
+pub type ObjectDraws = Vec<(usize, u64)>;
+
+/// The colour feature unit: the two-level model of the module docs, π ~ Dirichlet(α·m) per place,
+/// θ ~ Dirichlet(a·π) per object, the object's D draws ~ Multinomial(θ), with a on a grid.
 pub(crate) struct ColorUnit {
     /// α·m per bin.
-    alpha: Vec<f64>,
+    alpha_m: Vec<f64>,
     /// α = Σ α·m.
     concentration: f64,
-    /// w / D.
-    scale: f64,
+    /// The object concentrations a.
+    grid: Vec<f64>,
+    /// ln of the prior weight of each a (uniform).
+    ln_grid_prior: f64,
+    /// ln s(x, t) for x, t ≤ D.
+    ln_stirling: Vec<Vec<f64>>,
 }
 
 impl ColorUnit {
-    /// ln p(counts) under the prior: the Dirichlet–multinomial (Pólya) marginal of the scaled
-    /// counts, ln Γ(α) − ln Γ(α + X) + Σ ln Γ(αm_l + x_l) − ln Γ(αm_l).
-    fn log_marginal(&self, counts: &[u64]) -> f64 {
-        let mut x_total = 0.0;
-        let mut s = 0.0;
-        for (l, &c) in counts.iter().enumerate() {
-            if c == 0 {
-                continue;
-            }
-            let x = c as f64 * self.scale;
-            x_total += x;
-            s += ln_gamma(self.alpha[l] + x) - ln_gamma(self.alpha[l]);
+    /// ln Z(X; a) = ln p(X | a), the exact marginal likelihood of the objects X of one place for
+    /// object concentration `a` (module docs, eq. (P3)).
+    fn log_z(&self, objects: &[&ObjectDraws], a: f64) -> f64 {
+        if objects.is_empty() {
+            return 0.0;
         }
-        s + ln_gamma(self.concentration) - ln_gamma(self.concentration + x_total)
+        let ln_a = a.ln();
+        let mut per_object = 0.0;
+        let mut by_bin: BTreeMap<usize, Vec<u64>> = BTreeMap::new();
+        for o in objects {
+            let n: u64 = o.iter().map(|d| d.1).sum();
+            per_object += ln_gamma(a) - ln_gamma(a + n as f64);
+            for &(b, x) in o.iter() {
+                if x > 0 {
+                    by_bin.entry(b).or_default().push(x);
+                }
+            }
+        }
+        let mut total = vec![0.0];
+        for (b, xs) in by_bin {
+            // P_b(z) = Π_i Σ_t s(x_ib, t) aᵗ zᵗ: the distribution of the tables T_b of colour b.
+            let mut poly = vec![0.0];
+            for x in xs {
+                let x = x as usize;
+                let row = &self.ln_stirling[x.min(self.ln_stirling.len() - 1)];
+                let term: Vec<f64> = (0..=x)
+                    .map(|t| row.get(t).copied().unwrap_or(f64::NEG_INFINITY) + t as f64 * ln_a)
+                    .collect();
+                poly = log_convolve(&poly, &term);
+            }
+            let am = self.alpha_m[b];
+            let lg_am = ln_gamma(am);
+            for (t, c) in poly.iter_mut().enumerate() {
+                if c.is_finite() {
+                    *c += ln_gamma(am + t as f64) - lg_am;
+                }
+            }
+            total = log_convolve(&total, &poly);
+        }
+        let lg_alpha = ln_gamma(self.concentration);
+        let terms: Vec<f64> = total
+            .iter()
+            .enumerate()
+            .map(|(t, &c)| c + lg_alpha - ln_gamma(self.concentration + t as f64))
+            .collect();
+        per_object + log_sum_exp(&terms)
     }
 
-    /// The posterior-predictive pmf (5.18) given a place's counts.
-    pub(crate) fn predictive(&self, counts: &[u64]) -> Vec<f64> {
-        let x_total: f64 = counts.iter().map(|&c| c as f64 * self.scale).sum();
-        let z = self.concentration + x_total;
-        counts
+    /// ln Z(X; a) for every a of the grid.
+    fn log_z_grid(&self, objects: &[&ObjectDraws]) -> Vec<f64> {
+        self.grid.iter().map(|&a| self.log_z(objects, a)).collect()
+    }
+
+    /// ln Σ_a p(a) Π_groups Z(X_g; a) given the per-group ln Z grids: the evidence of groups of
+    /// objects that share a but each have their own π (eq. (P4)).
+    fn log_evidence(&self, groups: &[Vec<f64>]) -> f64 {
+        let terms: Vec<f64> = (0..self.grid.len())
+            .map(|i| self.ln_grid_prior + groups.iter().map(|g| g[i]).sum::<f64>())
+            .collect();
+        log_sum_exp(&terms)
+    }
+
+    /// The posterior-predictive pmf (5.18) over the bins given one place's objects: the
+    /// probability that a new object's draw has colour l, E[π_l | X] = Σ_a p(a | X)
+    /// Z(X ∪ {l}; a) / Z(X; a).
+    pub(crate) fn predictive(&self, objects: &[ObjectDraws]) -> Vec<f64> {
+        let refs: Vec<&ObjectDraws> = objects.iter().collect();
+        let z = self.log_z_grid(&refs);
+        let ev = self.log_evidence(std::slice::from_ref(&z));
+        let mut p: Vec<f64> = (0..self.alpha_m.len())
+            .map(|l| {
+                if self.alpha_m[l] <= 0.0 {
+                    return 0.0;
+                }
+                let one = vec![(l, 1u64)];
+                let mut with = refs.clone();
+                with.push(&one);
+                let terms: Vec<f64> = self
+                    .grid
+                    .iter()
+                    .zip(&z)
+                    .map(|(&a, &zx)| self.ln_grid_prior + zx + self.log_z(&with, a) - zx)
+                    .collect();
+                (log_sum_exp(&terms) - ev).exp()
+            })
+            .collect();
+        let s: f64 = p.iter().sum();
+        if s > 0.0 {
+            p.iter_mut().for_each(|v| *v /= s);
+        }
+        p
+    }
+
+    /// ln p(õ | X_k) for each group k, where all groups share a (eq. (P5)): `groups[k]` are the
+    /// objects of group k and `z[k]` their ln Z grid.
+    fn log_scores(&self, groups: &[Vec<&ObjectDraws>], z: &[Vec<f64>], draws: &ObjectDraws) -> Vec<f64> {
+        if draws.is_empty() {
+            return vec![0.0; groups.len()];
+        }
+        let ev = self.log_evidence(z);
+        let joint: Vec<f64> = self
+            .grid
             .iter()
-            .zip(&self.alpha)
-            .map(|(&c, a)| (a + c as f64 * self.scale) / z)
+            .enumerate()
+            .map(|(i, _)| self.ln_grid_prior + z.iter().map(|g| g[i]).sum::<f64>())
+            .collect();
+        groups
+            .iter()
+            .enumerate()
+            .map(|(k, objs)| {
+                let mut with = objs.clone();
+                with.push(draws);
+                let terms: Vec<f64> = self
+                    .grid
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &a)| joint[i] + self.log_z(&with, a) - z[k][i])
+                    .collect();
+                log_sum_exp(&terms) - ev
+            })
             .collect()
     }
 
-    /// ln p(õ | counts) of an object's draws: the product (5.16)–(5.17) of the predictive, each draw
-    /// weighted w/D.
-    fn log_score(&self, counts: &[u64], draws: &[(usize, u64)]) -> f64 {
-        let p = self.predictive(counts);
-        draws.iter().map(|&(b, n)| n as f64 * self.scale * p[b].ln()).sum()
-    }
-
-    /// ln p₀(õ): the same product under the prior predictive m (the background model M₀).
-    fn log_background(&self, draws: &[(usize, u64)]) -> f64 {
-        draws
-            .iter()
-            .map(|&(b, n)| n as f64 * self.scale * (self.alpha[b] / self.concentration).ln())
-            .sum()
+    /// ln p₀(õ): the prior predictive of one object (the background model M₀, eq. (P6)).
+    fn log_background(&self, draws: &ObjectDraws) -> f64 {
+        if draws.is_empty() {
+            return 0.0;
+        }
+        let z = self.log_z_grid(&[draws]);
+        self.log_evidence(&[z])
     }
 }
 
@@ -701,13 +902,16 @@ impl SizeStats {
     }
 }
 
-/// One place's statistics: demonstrations, colour counts, size sums.
+/// One place's statistics: demonstrations, colour draws per object, size sums.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PlaceStats {
     /// Number of demonstrations that used this place.
     pub demonstrations: u64,
-    /// Colour counts over the 64 bins.
+    /// Colour draw counts over the 64 bins, summed over the objects (for display).
     pub color: CategoryCounts,
+    /// Every object's colour draws, as a sorted multiset (so the order of the demonstrations does
+    /// not matter): the sufficient statistic of the two-level colour model.
+    pub objects: Vec<ObjectDraws>,
     /// Size statistics.
     pub size: SizeStats,
 }
@@ -717,8 +921,31 @@ impl PlaceStats {
         PlaceStats {
             demonstrations: 0,
             color: CategoryCounts::new(COLOR_BINS).unwrap_or_else(|_| unreachable_counts()),
+            objects: Vec::new(),
             size: SizeStats::default(),
         }
+    }
+
+    /// Adds one object's colour draws, keeping the multiset sorted.
+    fn add_object(&mut self, draws: ObjectDraws) -> Result<(), SchemaError> {
+        for &(b, n) in &draws {
+            for _ in 0..n {
+                self.color.update(b)?;
+            }
+        }
+        let at = self.objects.partition_point(|o| *o <= draws);
+        self.objects.insert(at, draws);
+        Ok(())
+    }
+
+    /// Adds another place's statistics.
+    fn absorb(&mut self, o: &PlaceStats) -> Result<(), SchemaError> {
+        for d in &o.objects {
+            self.add_object(d.clone())?;
+        }
+        self.size = self.size.merged(&o.size)?;
+        self.demonstrations += o.demonstrations;
+        Ok(())
     }
 }
 
@@ -870,11 +1097,7 @@ impl ProceduralModel {
             ));
         };
         let mut stats = self.places.get(&e.reference).cloned().unwrap_or_else(PlaceStats::empty);
-        for (b, n) in draws {
-            for _ in 0..n {
-                stats.color.update(b)?;
-            }
-        }
+        stats.add_object(draws)?;
         stats.size.add(x)?;
         stats.demonstrations += 1;
         self.places.insert(e.reference.clone(), stats);
@@ -892,10 +1115,7 @@ impl ProceduralModel {
         }
         let mut places = self.places.clone();
         for (name, o) in &other.places {
-            let p = places.entry(name.clone()).or_insert_with(PlaceStats::empty);
-            p.color.merge(&o.color)?;
-            p.size = p.size.merged(&o.size)?;
-            p.demonstrations += o.demonstrations;
+            places.entry(name.clone()).or_insert_with(PlaceStats::empty).absorb(o)?;
         }
         self.places = places;
         Ok(())
@@ -941,9 +1161,7 @@ impl ProceduralModel {
     fn pooled(&self) -> Result<PlaceStats, SchemaError> {
         let mut all = PlaceStats::empty();
         for p in self.places.values() {
-            all.color.merge(&p.color)?;
-            all.size = all.size.merged(&p.size)?;
-            all.demonstrations += p.demonstrations;
+            all.absorb(p)?;
         }
         Ok(all)
     }
@@ -954,14 +1172,15 @@ impl ProceduralModel {
         let unit = self.hyper.color_unit();
         let nig = &self.hyper.size_prior;
         let pooled = self.pooled()?;
-        let mut color_split = 0.0;
         let mut size_split = 0.0;
+        let mut z_split = Vec::with_capacity(self.places.len());
         for p in self.places.values() {
-            color_split += unit.log_marginal(p.color.counts());
+            z_split.push(unit.log_z_grid(&p.objects.iter().collect::<Vec<_>>()));
             size_split += nig.log_marginal_likelihood(&p.size.gaussian());
         }
+        let z_pooled = unit.log_z_grid(&pooled.objects.iter().collect::<Vec<_>>());
         Ok([
-            [unit.log_marginal(pooled.color.counts()), color_split],
+            [unit.log_evidence(&[z_pooled]), unit.log_evidence(&z_split)],
             [nig.log_marginal_likelihood(&pooled.size.gaussian()), size_split],
         ])
     }
@@ -1027,12 +1246,12 @@ impl ProceduralModel {
         let draws = self.hyper.draws(f);
         let pooled = self.pooled()?;
         let size = f.deci_pixels();
-        let color_k = self
-            .places
-            .values()
-            .map(|p| unit.log_score(p.color.counts(), &draws))
-            .collect();
-        let color_all = unit.log_score(pooled.color.counts(), &draws);
+        let groups: Vec<Vec<&ObjectDraws>> = self.places.values().map(|p| p.objects.iter().collect()).collect();
+        let z: Vec<Vec<f64>> = groups.iter().map(|g| unit.log_z_grid(g)).collect();
+        let color_k = unit.log_scores(&groups, &z, &draws);
+        let all: Vec<&ObjectDraws> = pooled.objects.iter().collect();
+        let z_all = unit.log_z_grid(&all);
+        let color_all = unit.log_scores(&[all], &[z_all], &draws)[0];
         let size_score = |s: &SizeStats| size.map_or(0.0, |x| self.size_predictive(s).log_pdf(x));
         let size_k = self.places.values().map(|p| size_score(&p.size)).collect();
         let size_all = size_score(&pooled.size);
@@ -1116,7 +1335,7 @@ impl ProceduralModel {
     /// The posterior-predictive colour pmf (5.18) of a place over the 64 bins.
     pub fn color_pmf(&self, place: &str) -> Result<Vec<f64>, SchemaError> {
         let p = self.place_or_err(place)?;
-        Ok(self.hyper.color_unit().predictive(p.color.counts()))
+        Ok(self.hyper.color_unit().predictive(&p.objects))
     }
 
     /// The posterior-predictive size density (Student-t, deci-pixels) of a place.

@@ -206,11 +206,14 @@ fn acceptance_size_sorting_three_examples_per_class() {
 /// remaining presentations against every other presentation, colour structure, mean over the
 /// colour-class pairs and the seed's red + blue task (Fig. 5.8).
 ///
-/// NOT MET (issue 5): measured 0.852 mean over pairs, 0.769 for red + blue vs others. Orange
-/// shares the red–yellow hue class with red, and white/black highlights and shading are in every
-/// object, so the remaining gap is in the features, not the threshold (AUC does not depend on it).
+/// NOT MET (issue 5): measured 0.820 mean over pairs, 0.813 for red + blue vs others (model
+/// version 3, two-level colour unit; version 2 gave 0.852 / 0.769). Orange shares the red–yellow
+/// hue cell of the 4×4×4 histogram with red, pink "red" objects fall in the purple–pink cell, and
+/// white/black highlights and shading are in every object: a nearest-neighbour score on the same
+/// features reaches only about 0.86 / 0.79, so the gap is in the features (three examples of a
+/// class that is not one histogram cell), not the threshold (AUC does not depend on it).
 #[test]
-#[ignore = "issue 5 acceptance not met: relevance AUC 0.852 (mean over pairs) / 0.769 (red+blue) < 0.9"]
+#[ignore = "issue 5 acceptance not met: relevance AUC 0.820 (mean over pairs) / 0.813 (red+blue) < 0.9"]
 fn acceptance_relevance_roc_auc_three_examples_per_class() {
     let b = bank();
     let mut aucs = Vec::new();
@@ -278,11 +281,13 @@ fn acceptance_feature_selection_color_and_color_size_tasks() {
     }
 }
 
-/// NOT MET (issue 5): measured 0.45 — three random-coloured objects per place still often look
-/// colour-distinct, so colour is connected too (color+size). A smaller object weight helps here
-/// but loses the colour task (w = 2: size 0.60, colour 0.90; w = 1: colour ≈ 0.2).
+/// NOT MET (issue 5): measured 0.80 with the two-level colour unit of model version 3 (n = 1, 2,
+/// 3: 0.05, 0.45, 0.80; version 2 with a per-object weight gave 0.45). The remaining trials draw
+/// three objects per place whose colours happen to agree within each place (e.g. two green and a
+/// black against a black, an orange and a blue), where connecting colour is a fair reading of
+/// three examples.
 #[test]
-#[ignore = "issue 5 acceptance not met: size-only feature selection 0.45 < 0.9"]
+#[ignore = "issue 5 acceptance not met: size-only feature selection 0.80 < 0.9"]
 fn acceptance_feature_selection_size_task() {
     let rate = selection_rates(&bank(), &["size"])["size"];
     assert!(rate >= 0.9, "size: {rate}");
@@ -387,29 +392,47 @@ fn model_file_round_trips_and_names_bad_fields() {
     assert!(json.contains("\"format\": \"pbd-procedural-model\""));
     assert_eq!(ProceduralModel::from_json(&json, "m.json").unwrap(), m);
 
-    let other_version = json.replace(&format!("\"version\": {MODEL_VERSION}"), "\"version\": 3");
+    let other_version = json.replace(&format!("\"version\": {MODEL_VERSION}"), "\"version\": 4");
     let e = field_of(ProceduralModel::from_json(&other_version, "m.json").unwrap_err());
-    assert!(e.starts_with("version") && e.contains("version 3"), "{e}");
-    // Version 1 counted every colour draw as independent: refused with a pointer to re-learn.
-    let v1 = json.replace(&format!("\"version\": {MODEL_VERSION}"), "\"version\": 1");
-    let e = field_of(ProceduralModel::from_json(&v1, "m.json").unwrap_err());
-    assert!(
-        e.starts_with("version") && e.contains("version 1") && e.contains("pbd learn"),
-        "{e}"
-    );
+    assert!(e.starts_with("version") && e.contains("version 4"), "{e}");
+    // Versions 1 and 2 kept only summed colour counts: refused with a pointer to re-learn.
+    for old in [1, 2] {
+        let v = json.replace(&format!("\"version\": {MODEL_VERSION}"), &format!("\"version\": {old}"));
+        let e = field_of(ProceduralModel::from_json(&v, "m.json").unwrap_err());
+        assert!(
+            e.starts_with("version") && e.contains(&format!("version {old}")) && e.contains("pbd learn"),
+            "{e}"
+        );
+    }
 
     let other_format = json.replace("pbd-procedural-model", "something-else");
     assert!(field_of(ProceduralModel::from_json(&other_format, "m.json").unwrap_err()).starts_with("format"));
 
     let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
-    v["places"][1].as_object_mut().unwrap().remove("color_counts");
+    v["places"][1].as_object_mut().unwrap().remove("color_objects");
     let e = field_of(ProceduralModel::from_json(&v.to_string(), "m.json").unwrap_err());
-    assert!(e.starts_with("places[1]") && e.contains("color_counts"), "{e}");
+    assert!(e.starts_with("places[1]") && e.contains("color_objects"), "{e}");
 
     let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
-    v["places"][0]["color_counts"] = serde_json::json!([1, 2, 3]);
+    v["places"][0]["color_objects"][0] = serde_json::json!([[15, 1], [63, 2]]);
     let e = field_of(ProceduralModel::from_json(&v.to_string(), "m.json").unwrap_err());
-    assert!(e.starts_with("places[0].color_counts"), "{e}");
+    assert!(
+        e.starts_with("places[0].color_objects[0]") && e.contains("draws"),
+        "{e}"
+    );
+
+    let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    v["places"][0]["color_objects"][0] = serde_json::json!([[14, 30]]);
+    let e = field_of(ProceduralModel::from_json(&v.to_string(), "m.json").unwrap_err());
+    assert!(
+        e.starts_with("places[0].color_objects[0]") && e.contains("bin 14"),
+        "{e}"
+    );
+
+    let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    v["places"][0]["color_objects"].as_array_mut().unwrap().pop();
+    let e = field_of(ProceduralModel::from_json(&v.to_string(), "m.json").unwrap_err());
+    assert!(e.starts_with("places[0].color_objects"), "{e}");
 
     let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
     v["hyper"].as_object_mut().unwrap().remove("size");

@@ -161,7 +161,7 @@ impl ProceduralModel {
         let size_src = if structure.size { own } else { &pooled };
         // The colour pmf of the synthetic object: the place's predictive (5.18) (the posterior mean
         // of its colour distribution).
-        let theta = self.hyper.color_unit().predictive(color_src.color.counts());
+        let theta = self.hyper.color_unit().predictive(&color_src.objects);
         // As many draws as a demonstrated object gives, with replacement; the histogram is their
         // shares (the kept bins of a synthetic object).
         let per_demo = color_src.color.total() as f64 / color_src.demonstrations.max(1) as f64;

@@ -1,13 +1,12 @@
 //! The model file: versioned JSON with the hyper-parameters and every place's sufficient statistics.
 
-use bayes::dirichlet::CategoryCounts;
 use bayes::univariate::NormalInverseGamma;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use super::{
     COLOR_BINS, Connectivity, Hyper, MODEL_FORMAT, MODEL_VERSION, PlacePrior, PlaceStats, ProceduralModel, SizeStats,
-    StructureChoice,
+    StructureChoice, color_class_bin,
 };
 use crate::error::SchemaError;
 
@@ -29,7 +28,7 @@ struct ColorHyper {
     concentration: f64,
     base: Vec<f64>,
     draws_per_object: u32,
-    object_weight: f64,
+    object_concentrations: Vec<f64>,
     classes: bool,
 }
 
@@ -58,12 +57,12 @@ struct StructurePriorFile {
 struct PlaceFile {
     name: String,
     demonstrations: u64,
-    color_counts: Vec<u64>,
+    color_objects: Vec<Vec<(usize, u64)>>,
     size: SizeStats,
 }
 
 #[derive(Serialize)]
-struct FileV2<'a> {
+struct FileV3<'a> {
     format: &'a str,
     version: u32,
     hyper: HyperFile,
@@ -78,14 +77,14 @@ impl ProceduralModel {
     /// ```json
     /// {
     ///   "format": "pbd-procedural-model",
-    ///   "version": 2,
+    ///   "version": 3,
     ///   "hyper": {
     ///     "place_prior": { "kind": "uniform" },            // or { "kind": "dirichlet", "beta": 1.0 }
     ///     "color": { "bins": 64,
-    ///                "concentration": 3.0,                  // α of Dirichlet(α·m) per place (5.18)
-    ///                "base": [0.111, 0.033, …],             // m over the 64 bins (also M₀'s colour)
-    ///                "draws_per_object": 10,                // D draws per object
-    ///                "object_weight": 3.0,                  // one object = w observations
+    ///                "concentration": 1.0,                  // α of π ~ Dirichlet(α·m) per place
+    ///                "base": [0.111, 0.033, …],             // m over the 64 bins
+    ///                "draws_per_object": 30,                // D draws per object
+    ///                "object_concentrations": [1, 4, 16, 64], // grid of a, θ ~ Dirichlet(a·π)
     ///                "classes": true },                     // bins count as their colour class
     ///     "size": { "unit": "deci-pixels", "mu": 25.0, "kappa": 0.05, "alpha": 2.0, "beta": 128.0 },
     ///     "structure_prior": { "neither": 0.25, "color": 0.25, "size": 0.25, "color+size": 0.25 },
@@ -94,21 +93,23 @@ impl ProceduralModel {
     ///   },
     ///   "places": [                                        // sorted by name
     ///     { "name": "bin_left", "demonstrations": 3,
-    ///       "color_counts": [0, 2, …],                     // 64 counts of colour draws (D per object)
+    ///       "color_objects": [[[3, 12], [15, 18]], …],      // per object its (bin, draws), D in all
     ///       "size": { "n": 3, "sum_half_pixels": 9001, "sum_sq_half_pixels": 27012345 } }
     ///   ]
     /// }
     /// ```
     ///
-    /// Version 1 (independent colour draws, symmetric Dirichlet, uniform background) is refused
-    /// with an error that says to re-learn: its counts cannot be converted (they may hold one draw
-    /// per kept bin and are not per colour class).
+    /// Versions 1 (independent colour draws, symmetric Dirichlet, uniform background) and 2 (one
+    /// Dirichlet per place over the summed colour draws, weighted per object) are refused with an
+    /// error that says to re-learn: their summed counts lose which draws came from which object,
+    /// which the two-level colour model of version 3 needs. The objects of a place are listed in
+    /// sorted order.
     ///
     /// Size statistics are in half-pixels (left + right pixel counts), exact integers; the size
     /// observation in deci-pixels is x / 20.
     pub fn to_json(&self) -> String {
         let h = &self.hyper;
-        let file = FileV2 {
+        let file = FileV3 {
             format: MODEL_FORMAT,
             version: MODEL_VERSION,
             hyper: HyperFile {
@@ -118,7 +119,7 @@ impl ProceduralModel {
                     concentration: h.color_concentration,
                     base: h.color_base.clone(),
                     draws_per_object: h.color_draws_per_object,
-                    object_weight: h.color_object_weight,
+                    object_concentrations: h.color_object_concentrations.clone(),
                     classes: h.color_classes,
                 },
                 size: SizeHyper {
@@ -143,7 +144,7 @@ impl ProceduralModel {
                 .map(|(name, p)| PlaceFile {
                     name: name.clone(),
                     demonstrations: p.demonstrations,
-                    color_counts: p.color.counts().to_vec(),
+                    color_objects: p.objects.clone(),
                     size: p.size,
                 })
                 .collect(),
@@ -179,13 +180,18 @@ impl ProceduralModel {
         }
         match obj.get("version") {
             Some(Value::Number(n)) if n.as_u64() == Some(u64::from(MODEL_VERSION)) => {}
-            Some(Value::Number(n)) if n.as_u64() == Some(1) => {
+            Some(Value::Number(n)) if matches!(n.as_u64(), Some(1 | 2)) => {
+                let what = if n.as_u64() == Some(1) {
+                    "independent colour draws"
+                } else {
+                    "summed colour draws with a per-object weight"
+                };
                 return Err(invalid(
                     "version",
                     format!(
-                        "model version 1 (independent colour draws) is no longer supported; this build reads \
-                         version {MODEL_VERSION} (colour classes, per-object weight): re-run `pbd learn` on the \
-                         demonstrations"
+                        "model version {n} ({what}) is no longer supported; this build reads version \
+                         {MODEL_VERSION} (two-level colour model, per-object colour draws): re-run `pbd learn` on \
+                         the demonstrations"
                     ),
                 ));
             }
@@ -234,7 +240,7 @@ impl ProceduralModel {
             color_concentration: hf.color.concentration,
             color_base: hf.color.base,
             color_draws_per_object: hf.color.draws_per_object,
-            color_object_weight: hf.color.object_weight,
+            color_object_concentrations: hf.color.object_concentrations,
             color_classes: hf.color.classes,
             size_prior,
             structure_prior: [sp.neither, sp.color, sp.size, sp.color_size],
@@ -262,12 +268,6 @@ impl ProceduralModel {
                     format!("duplicate place {:?}", pf.name),
                 ));
             }
-            if pf.color_counts.len() != COLOR_BINS {
-                return Err(invalid(
-                    &format!("{field}.color_counts"),
-                    format!("{} counts, expected {COLOR_BINS}", pf.color_counts.len()),
-                ));
-            }
             if pf.demonstrations == 0 {
                 return Err(invalid(&format!("{field}.demonstrations"), "must be >= 1".into()));
             }
@@ -281,26 +281,44 @@ impl ProceduralModel {
                 ));
             }
             pf.size.check().map_err(|m| invalid(&format!("{field}.size"), m))?;
-            let color = CategoryCounts::from_counts(pf.color_counts)
-                .map_err(|e| invalid(&format!("{field}.color_counts"), e.to_string()))?;
-            if color.total() < pf.demonstrations {
+            if pf.color_objects.len() as u64 != pf.demonstrations {
                 return Err(invalid(
-                    &format!("{field}.color_counts"),
+                    &format!("{field}.color_objects"),
                     format!(
-                        "{} colour observations for {} demonstrations (each has at least one)",
-                        color.total(),
+                        "{} objects for {} demonstrations",
+                        pf.color_objects.len(),
                         pf.demonstrations
                     ),
                 ));
             }
-            model.places.insert(
-                pf.name,
-                PlaceStats {
-                    demonstrations: pf.demonstrations,
-                    color,
-                    size: pf.size,
-                },
-            );
+            let d = u64::from(model.hyper.color_draws_per_object);
+            let mut stats = PlaceStats::empty();
+            for (j, o) in pf.color_objects.into_iter().enumerate() {
+                let of = format!("{field}.color_objects[{j}]");
+                if o.windows(2).any(|w| w[0].0 >= w[1].0) {
+                    return Err(invalid(&of, "bins must be strictly ascending".into()));
+                }
+                for &(b, n) in &o {
+                    let reachable = b < COLOR_BINS && (!model.hyper.color_classes || color_class_bin(b) == b);
+                    if !reachable {
+                        return Err(invalid(&of, format!("bin {b} is not a colour this model counts")));
+                    }
+                    if n == 0 {
+                        return Err(invalid(&of, format!("bin {b} has 0 draws")));
+                    }
+                }
+                let total: u64 = o.iter().map(|x| x.1).sum();
+                if total != d {
+                    return Err(invalid(
+                        &of,
+                        format!("{total} colour draws, expected draws_per_object = {d}"),
+                    ));
+                }
+                stats.add_object(o).map_err(|e| invalid(&of, e.to_string()))?;
+            }
+            stats.demonstrations = pf.demonstrations;
+            stats.size = pf.size;
+            model.places.insert(pf.name, stats);
         }
         Ok(model)
     }
