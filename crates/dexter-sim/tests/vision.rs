@@ -195,7 +195,7 @@ fn on_table() -> StereoConfig {
 /// | cameras | triangulated silhouette centroid | support-plane centroid (default on the table) |
 /// |---|---|---|
 /// | 160×120, hfov 60° (default) | 4.5 / 8.4 / 13.1 mm, 90/96 | 1.3 / 2.6 / 4.0 mm, 96/96 |
-/// | 320×240 | 2.8 / 6.5 / 11.2 mm, 95/96 | 0.7 / 1.4 / 2.0 mm, 96/96 |
+/// | 320×240 | 2.8 / 6.5 / 11.2 mm, 95/96 | 0.7 / 1.4 / 1.9 mm, 96/96 |
 /// | 640×480 | 2.6 / 6.1 / 11.8 mm, 94/96 | 0.4 / 0.7 / 1.2 mm, 96/96 |
 ///
 /// Over 500 objects at 160×120 the support-plane centroid is within 1 cm for all (mean 1.3 mm,
@@ -915,4 +915,183 @@ fn builtin_sorting_scene() {
         scene.resolved.len()
     );
     assert!(errors.iter().all(|&e| e < 0.01), "{errors:?}");
+}
+
+/// Objects with a dark (black) top: the shading step between side and top of a black lid is
+/// about 0.06 in RGB, under the pixel-noise level of a pixel pair, so it is found by averaging
+/// (windows along each column) and checked to be a shading step (the side just below has the
+/// top's colour, darker). Each upright prism is measured at its true height — the black mug not
+/// at its white band's edge (it once measured 5 cm instead of 9.5 cm) — and within 1 cm; the
+/// black ball with a white stripe is not taken for a prism ending at its stripe. Fixated a few cm
+/// off the object, as the head's Search-Track leaves it.
+///
+/// Before the averaged step test, every dark-topped object kept its triangulated centroid (the
+/// tea tin 23.5 mm off at the first pose).
+#[test]
+fn dark_topped_objects() {
+    let black = [220.0, 0.15, 0.10];
+    let white = [40.0, 0.04, 0.96];
+    let band = |hsv: [f64; 3], fraction: f64| dexter_sim::scene::ColorPatch { hsv, fraction };
+    let objects: [(&str, Shape, Vec<dexter_sim::scene::ColorPatch>); 4] = [
+        (
+            "tea tin (box, black with a gold band)",
+            Shape::Box {
+                size: [0.08, 0.08, 0.12],
+            },
+            vec![band(black, 0.45), band([45.0, 0.7, 0.75], 0.15), band(black, 0.4)],
+        ),
+        (
+            "black mug (cylinder, white band)",
+            Shape::Cylinder {
+                radius: 0.04,
+                height: 0.095,
+            },
+            vec![band(black, 0.4), band(white, 0.15), band(black, 0.45)],
+        ),
+        (
+            "spice jar (cylinder, black cap)",
+            Shape::Cylinder {
+                radius: 0.024,
+                height: 0.09,
+            },
+            vec![band([122.0, 0.7, 0.6], 0.7), band(black, 0.3)],
+        ),
+        (
+            "black ball (white stripe)",
+            Shape::Sphere { radius: 0.029 },
+            vec![band(black, 0.42), band(white, 0.16), band(black, 0.42)],
+        ),
+    ];
+    let spec = CameraSpec::default();
+    let mut sv = StereoVision::new(&spec, &LightSpec::default(), 3).unwrap();
+    sv.set_config(on_table());
+    for (name, shape, colors) in &objects {
+        for (k, (x, y, yaw, off)) in [
+            (0.55, 0.0, 0.0, [0.0, 0.0, 0.0]),
+            (0.55, 0.0, 0.0, [0.02, -0.02, 0.03]),
+            (0.5, 0.12, 0.6, [-0.02, 0.01, 0.0]),
+            (0.65, -0.1, 1.2, [0.01, 0.02, -0.02]),
+            (0.45, -0.2, 0.3, [0.0, 0.03, 0.0]),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let mut scene = table_and_bins();
+            let pose = resting_pose(shape, x, y, yaw);
+            scene.push(RenderItem::from_catalog(shape, pose, colors, ItemLabel::Object(0)));
+            let truth = pose.translation.vector;
+            let cams = head_cameras(&spec, truth + Vec3::from(off)).unwrap();
+            sv.reseed(10 + k as u64);
+            let blobs = sv.perceive(&cams, &scene).unwrap();
+            assert_eq!(blobs.len(), 1, "{name} #{k}");
+            let b = blobs[0];
+            let e = (b.centroid.unwrap() - truth).norm();
+            eprintln!("{name} #{k}: {:?}, error {:.1} mm", b.source, 1e3 * e);
+            assert!(e < 0.01, "{name} #{k}: error {e}");
+            match (shape, b.source) {
+                (Shape::Sphere { .. }, source) => {
+                    assert!(
+                        !matches!(source, CentroidSource::Prism { .. }),
+                        "{name} #{k}: {source:?}"
+                    )
+                }
+                (_, CentroidSource::Prism { height }) => {
+                    assert!(
+                        (height - 2.0 * (truth.z - TABLE_TOP)).abs() < 0.01,
+                        "{name} #{k}: height {height}"
+                    )
+                }
+                (_, source) => panic!("{name} #{k}: {source:?}, not measured as a prism"),
+            }
+        }
+    }
+}
+
+/// Every presentation of the household catalog alone on the pick-place scene's table, at a few
+/// places and yaws, the head verged on it or a few cm off (as Search-Track leaves it): the
+/// centroid of every object in its default (upright) presentation, the one the pick-and-place
+/// catalog sweep uses, is within 1 cm horizontally. Objects lying on their side are reported,
+/// not checked: a lying cylinder or a box with its bands across the top is neither a prism with
+/// a uniform top nor round, keeps its triangulated centroid and misses by up to 2 cm.
+///
+/// Measured (horizontal error): default presentations 172/172 within 1 cm, median 1.1 mm,
+/// max 3.4 mm (before the averaged step test: tea tin 11.8 and 13.8 mm, black mug 4.8 mm,
+/// spice jar with a black cap 8.3 mm, all triangulated); all presentations 236/260.
+#[test]
+fn catalog_objects_on_the_table() {
+    if cfg!(debug_assertions) {
+        eprintln!("SKIPPED: 260 stereo frames; run in release mode (cargo test --release)");
+        return;
+    }
+    let base = dexter_sim::scene::Scene::builtin("pick-place").unwrap();
+    let spec = base.spec.camera.clone();
+    let mut sv = StereoVision::new(&spec, &base.spec.light, base.spec.seed).unwrap();
+    sv.set_config(StereoConfig {
+        support: Some(SupportPlane::at(base.spec.table.height)),
+        ..StereoConfig::default()
+    });
+    let names: Vec<String> = base
+        .catalog
+        .presentation_names()
+        .into_iter()
+        .map(String::from)
+        .collect();
+    let mut all = Vec::new();
+    let mut upright = Vec::new();
+    for name in &names {
+        let mut line = format!("{name:>16}:");
+        for (k, (xy, yaw, off)) in [
+            ([0.55, 0.0], 0.0, [0.0, 0.0, 0.0]),
+            ([0.55, 0.0], 0.0, [0.02, -0.02, 0.03]),
+            ([0.5, 0.12], 35.0, [-0.02, 0.01, 0.0]),
+            ([0.65, -0.1], 70.0, [0.01, 0.02, -0.02]),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let scene = base
+                .with_objects(vec![dexter_sim::scene::ObjectPlacement {
+                    presentation: name.clone(),
+                    xy,
+                    yaw_deg: yaw,
+                    z: None,
+                }])
+                .unwrap();
+            let truth = scene.resolved[0].pose.translation.vector;
+            let cams = head_cameras(&spec, truth + Vec3::from(off)).unwrap();
+            sv.reseed(k as u64 + 1);
+            let blobs = sv.perceive(&cams, &RenderScene::from_scene(&scene)).unwrap();
+            let best = blobs
+                .iter()
+                .filter_map(|b| b.centroid.map(|c| ((c.xy() - truth.xy()).norm(), b.source)))
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            let (e, src) = best.unwrap_or((f64::INFINITY, CentroidSource::Triangulated));
+            let tag = match src {
+                CentroidSource::Triangulated => "T".to_string(),
+                CentroidSource::Prism { height } => format!("P{:.1}", 100.0 * height),
+                CentroidSource::Round { radius } => format!("R{:.1}", 100.0 * radius),
+            };
+            line += &format!(" {:5.1} mm {tag:<6}", 1e3 * e);
+            all.push((e, name.clone()));
+            if base.catalog.objects.iter().any(|o| &o.name == name) {
+                upright.push((e, name.clone()));
+            }
+        }
+        eprintln!("{line}");
+    }
+    for (label, errs) in [("all presentations", &mut all), ("default presentations", &mut upright)] {
+        errs.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let within = errs.iter().filter(|e| e.0 <= 0.01).count();
+        let worst = &errs[errs.len() - 1];
+        eprintln!(
+            "catalog on the table, {label}: n {} median {:.1} mm, max {:.1} mm ({}), within 1 cm {within}/{}",
+            errs.len(),
+            1e3 * errs[errs.len() / 2].0,
+            1e3 * worst.0,
+            worst.1,
+            errs.len()
+        );
+    }
+    let over: Vec<_> = upright.iter().filter(|e| e.0 > 0.01).collect();
+    assert!(over.is_empty(), "over 1 cm: {over:?}");
 }

@@ -15,11 +15,21 @@
 //! * **Prism** (upright boxes, cylinders and other vertical extrusions with a flat top): the lowest
 //!   silhouette pixel of each image column lies on the table's plane, so back-projecting it gives
 //!   a 3-D point on the near bottom edge. The object's side above that point is vertical; walking
-//!   up the image of the vertical line through it, the first step in colour (Lambert shading
-//!   differs between the side and the horizontal top face) is the top face's near edge, and its
-//!   height above the bottom point is `h`. The median over the columns of both images is used.
-//!   Accepted when most columns show a step and the region above the steps is uniform in colour
-//!   (a flat face under a directional light); otherwise the object is taken as
+//!   down the image of the vertical line through it from the silhouette's top, the first step in
+//!   colour is the top face's near edge (Lambert shading differs between the horizontal top and
+//!   the sides), and its height above the bottom point is `h`. The median over the columns of
+//!   both images is used. A step is found by two tests, the upper hit winning: neighbouring
+//!   pixels (exact for bright faces), and windows of three rows on either side, whose means have
+//!   √3 less noise, so the weak step of a dark top shows (a black lid: about 0.06 in RGB, where a
+//!   pixel pair's noise is 0.024); the windowed hit is then located pixel by pixel against the
+//!   mean of the rows above. A column's step counts only if it is a *shading* step: the side just
+//!   below the edge has the top's colour (the topmost colour band runs up to the edge), only
+//!   darker (0.25–0.85 of it; the default light gives 0.57–0.66) — a band edge has another hue or
+//!   brightness. Accepted when most columns show such a step, the pixels above the steps are
+//!   uniform in colour (within 0.06 in RGB or 15 % of the top's colour, but not below the noise)
+//!   and their upper and lower halves agree in mean colour (a flat face under a directional light;
+//!   a sphere's cap shades gradually, which the pooled halves show even when dark); otherwise the
+//!   object is taken as
 //! * **Round** (spheres, or anything without a flat, uniformly lit top): a sphere of the segment's
 //!   apparent radius resting on the table, centre at `table + r`; `r` from the segment area
 //!   (an off-axis sphere images as an ellipse of area `π f² α² / cos³θ`, `α = asin(r / D)`).
@@ -28,9 +38,12 @@
 //! (whose sideways bias reaches 5–13 mm for tall objects): the cells of the table whose bottom and
 //! top points (at the measured height) project into both silhouettes.
 //!
-//! A top too dark for its shading step to stand out of the pixel noise (black lids: RGB norm below
-//! `step_threshold / top_contrast`) gives no estimate: a dark top above a dark side band would
-//! pass for a lower prism (a black-lidded mug measured 5 cm instead of 9.5 cm).
+//! A dark top above a dark side band once passed for a lower prism (a black-lidded mug measured
+//! 5 cm instead of 9.5 cm: its lid's step was not seen and its white band's edge was taken), so
+//! dark tops were given no estimate at all. The windowed test sees their step, and the shading
+//! test rejects a band edge taken for it; a top darker than the smallest significant windowed step
+//! over [`SupportPlane::top_contrast`] (RGB norm below about 0.12; black lids are 0.15) still
+//! gives no estimate.
 //!
 //! The result is checked against the triangulated point: if they disagree by more than
 //! [`SupportPlane::max_disagreement`] (the object is not on the table, lies in a bin, is held, is
@@ -52,33 +65,73 @@ pub struct SupportPlane {
     /// Added tolerance per metre of prism height: the triangulated silhouette centroid of a tall
     /// box or cylinder is biased (measured up to 0.34 h over 500 objects); that of a sphere is not.
     pub disagreement_per_height: f64,
-    /// Smallest RGB distance (channels in [0, 1]) between neighbouring pixels that counts as the
-    /// edge between a side and the top face.
-    pub step_threshold: f64,
+    /// Standard deviation of the cameras' pixel noise on each RGB channel in [0, 1]
+    /// ([`crate::scene::CameraSpec::pixel_noise`]): sets how small a step can be told from noise.
+    pub pixel_noise: f64,
+    /// Rows averaged on each side of a candidate step by the windowed test (fewer where the
+    /// column ends).
+    pub step_window: usize,
+    /// A step is significant when the RGB distance between the mean colours above and below it
+    /// exceeds this many standard deviations of that distance's noise
+    /// (`pixel_noise · √(1/n_above + 1/n_below)` per channel) …
+    pub step_sigmas: f64,
+    /// … and this share of the brighter mean colour: smooth shading (a sphere's) changes by less
+    /// between neighbouring pixels than the side-to-top step, which is at least
+    /// [`SupportPlane::top_contrast`].
+    pub step_contrast: f64,
+    /// Once the windowed test has found a step, the first pixel farther than this many noise
+    /// standard deviations from the mean of the pixels above it is the first below the step.
+    pub locate_sigmas: f64,
     /// Shading contrast assumed between the top face and the sides (share of the top's colour):
-    /// a top darker than `step_threshold / top_contrast` (RGB norm) cannot show its edge, so its
-    /// height is not measured and the triangulated point is kept.
+    /// a top darker than the smallest significant step (at full windows) / `top_contrast` (RGB
+    /// norm) cannot show its edge, so its height is not measured and the triangulated point is kept.
     pub top_contrast: f64,
     /// Share of the walked image columns (both images) that must show a step for the prism model.
     pub min_step_share: f64,
-    /// A top-face pixel is uniform when its RGB distance to the top face's mean colour is below this.
+    /// A top-face pixel is uniform when its RGB distance to the top face's mean colour is below
+    /// this, or below [`SupportPlane::uniform_share`] of that colour's RGB norm if that is smaller
+    /// (a dark sphere's shading spans less than this absolute tolerance) …
     pub uniform_tolerance: f64,
+    /// … but never below [`SupportPlane::uniform_sigmas`] × `pixel_noise`.
+    pub uniform_share: f64,
+    /// See [`SupportPlane::uniform_share`].
+    pub uniform_sigmas: f64,
+    /// Range of the side-to-top brightness ratio at the step (the colour just below the step over
+    /// the top's, which must be of the same hue): the default light, 70° above the horizon, gives
+    /// 0.57–0.66; the range fits lights steeper than about 55°.
+    pub side_ratio: [f64; 2],
+    /// The colour just below the step may deviate from the top's colour × that ratio by this
+    /// share of its RGB norm (plus the noise of its mean).
+    pub shading_tolerance: f64,
     /// Share of uniform top-face pixels required for the prism model.
     pub min_uniform_share: f64,
+    /// The mean colours of the upper and lower halves of the top-face pixels may differ by
+    /// [`SupportPlane::step_sigmas`] noise standard deviations or this share of the top's colour
+    /// (RGB norm), whichever is larger; more, and the top is not a flat face.
+    pub flat_share: f64,
 }
 
 impl SupportPlane {
-    /// The default settings for a plane at `height` (pixel noise σ ≈ 0.01).
+    /// The default settings for a plane at `height`, for the default camera (pixel noise σ = 0.01).
     pub fn at(height: f64) -> Self {
         Self {
             height,
             max_disagreement: 0.02,
             disagreement_per_height: 0.4,
-            step_threshold: 0.12,
+            pixel_noise: 0.01,
+            step_window: 3,
+            step_sigmas: 4.5,
+            locate_sigmas: 3.3,
+            step_contrast: 0.15,
             top_contrast: 0.3,
             min_step_share: 0.5,
             uniform_tolerance: 0.06,
+            uniform_share: 0.15,
+            uniform_sigmas: 3.5,
             min_uniform_share: 0.9,
+            side_ratio: [0.25, 0.85],
+            shading_tolerance: 0.15,
+            flat_share: 0.02,
         }
     }
 }
@@ -120,15 +173,56 @@ pub struct View<'a> {
 /// Estimates centroids of objects resting on a [`SupportPlane`]; holds its scratch buffers.
 #[derive(Debug, Clone, Default)]
 pub struct SupportEstimator {
+    /// The walked columns of both images.
+    columns: Vec<Column>,
+    /// Their pixels' colours, top down, column after column.
+    pixels: Vec<[f64; 3]>,
     heights: Vec<f64>,
     top: Vec<[f32; 3]>,
 }
 
-/// What one image says about the prism model.
+/// One walked image column: the image of the vertical line over a bottom-edge point `b`, from its
+/// topmost silhouette pixel down to (not including) its lowest one.
+#[derive(Debug, Clone, Copy)]
+struct Column {
+    /// Index of its first (topmost) pixel in [`SupportEstimator::pixels`].
+    start: usize,
+    /// Number of pixels (≥ 2).
+    len: usize,
+    /// Image row of its first pixel.
+    vt: f64,
+    /// The image row of `b + z·ẑ` is `(a1 + c1 z) / (a3 + c3 z)` (rows of the projection matrix
+    /// applied to `b` and to `ẑ`).
+    a1: f64,
+    c1: f64,
+    a3: f64,
+    c3: f64,
+}
+
+impl Column {
+    /// The height whose image is row `v` (continuous).
+    fn height_at(&self, v: f64) -> f64 {
+        (self.a1 - v * self.a3) / (v * self.c3 - self.c1)
+    }
+
+    /// The height of the boundary above pixel `j` (between pixels `j − 1` and `j`).
+    fn boundary_height(&self, j: usize) -> f64 {
+        self.height_at(self.vt + j as f64 - 0.5)
+    }
+}
+
+/// What the columns say about the prism model.
 #[derive(Debug, Clone, Copy, Default)]
 struct ColumnStats {
     columns: usize,
     steps: usize,
+    /// Summed colours and counts of the upper and lower halves of the top pixels of each column.
+    upper: [f64; 3],
+    lower: [f64; 3],
+    /// Summed colour of the first pixel below the step of each column.
+    below: [f64; 3],
+    n_upper: usize,
+    n_lower: usize,
 }
 
 impl SupportEstimator {
@@ -149,14 +243,14 @@ impl SupportEstimator {
         if views.iter().any(|v| v.segment.touches_border) || !triangulated.iter().all(|x| x.is_finite()) {
             return None;
         }
+        self.columns.clear();
+        self.pixels.clear();
         self.heights.clear();
         self.top.clear();
-        let mut stats = ColumnStats::default();
         for v in &views {
-            let s = self.prism_columns(v, plane);
-            stats.columns += s.columns;
-            stats.steps += s.steps;
+            self.walk_columns(v, plane);
         }
+        let stats = self.find_step(plane);
         let prism = self.prism_height(&stats, plane)?;
         let (zc, source) = match prism {
             Some(h) => (plane.height + 0.5 * h, CentroidSource::Prism { height: h }),
@@ -185,10 +279,11 @@ impl SupportEstimator {
         ((p - triangulated).norm() <= tolerance).then_some((p, source))
     }
 
-    /// `Some(Some(h))` if the prism model applies: most columns show a step, the top face above
-    /// the steps is uniform, and there are at least three height samples; `Some(None)` if it does
-    /// not; `None` if the top is too dark for its edge to be seen (no estimate at all: a dark top
-    /// above a dark side band would pass for a lower prism).
+    /// `Some(Some(h))` if the prism model applies: at least three and most columns show a shading
+    /// step, which the pooled colours below the steps confirm, and the top face above the steps is
+    /// uniform and flat; `Some(None)` if it does not; `None` if the top is too dark for its edge
+    /// to be seen (no estimate at all: a dark top above a dark side band would pass for a lower
+    /// prism).
     fn prism_height(&mut self, stats: &ColumnStats, plane: &SupportPlane) -> Option<Option<f64>> {
         if self.heights.len() < 3 || (stats.steps as f64) < plane.min_step_share * stats.columns as f64 {
             return Some(None);
@@ -198,25 +293,44 @@ impl SupportEstimator {
             [a[0] + p[0] as f64, a[1] + p[1] as f64, a[2] + p[2] as f64]
         });
         let mean = mean.map(|x| x / n);
-        if rgb_dist(&mean, &[0.0; 3]) * plane.top_contrast < plane.step_threshold {
+        if rgb_dist(&mean, &[0.0; 3]) * plane.top_contrast < plane.min_step() {
             return None;
         }
+        // A shading step: the side just below the top edge has the top's colour (the topmost band
+        // runs up to the edge), only darker — unlike a band edge, where a dark top over a light
+        // band (a sphere's dark cap over its stripe) would pass for a lower prism.
+        let below = stats.below.map(|x| x / stats.steps as f64);
+        if !plane.is_shading_step(&mean, &below, stats.steps as f64) {
+            return Some(None);
+        }
+        let tolerance = (plane.uniform_share * rgb_dist(&mean, &[0.0; 3]))
+            .min(plane.uniform_tolerance)
+            .max(plane.uniform_sigmas * plane.pixel_noise);
         let uniform = self
             .top
             .iter()
-            .filter(|p| rgb_dist(&[p[0] as f64, p[1] as f64, p[2] as f64], &mean) < plane.uniform_tolerance)
+            .filter(|p| rgb_dist(&[p[0] as f64, p[1] as f64, p[2] as f64], &mean) < tolerance)
             .count();
         if (uniform as f64) < plane.min_uniform_share * n {
             return Some(None);
+        }
+        // Flat and evenly lit: the upper and lower halves of the top pixels agree in mean colour
+        // (pooled over the columns, so a gentle shading gradient — a dark sphere's — shows).
+        if stats.n_upper > 0 && stats.n_lower > 0 {
+            let (nu, nl) = (stats.n_upper as f64, stats.n_lower as f64);
+            let d = rgb_dist(&stats.upper.map(|x| x / nu), &stats.lower.map(|x| x / nl));
+            let noise = plane.step_sigmas * plane.pixel_noise * (1.0 / nu + 1.0 / nl).sqrt();
+            if d > noise.max(plane.flat_share * rgb_dist(&mean, &[0.0; 3])) {
+                return Some(None);
+            }
         }
         self.heights.sort_unstable_by(f64::total_cmp);
         Some(Some(self.heights[self.heights.len() / 2]))
     }
 
     /// Walks the image of the vertical line over each bottom-edge point of `view`'s segment (all
-    /// columns but the outermost), appending one height per column with a side/top step and the
-    /// top-face pixels above the steps.
-    fn prism_columns(&mut self, view: &View<'_>, plane: &SupportPlane) -> ColumnStats {
+    /// columns but the outermost), storing each column's colours top down.
+    fn walk_columns(&mut self, view: &View<'_>, plane: &SupportPlane) {
         let (img, cam) = (view.image, view.camera);
         let (w, h) = (img.width as i64, img.height as i64);
         let inside =
@@ -227,7 +341,6 @@ impl SupportEstimator {
         };
         let [u0, v0, u1, v1] = view.segment.bbox;
         let proj = Projection::of(cam);
-        let mut stats = ColumnStats::default();
         for u in (u0 as i64 + 1)..(u1 as i64) {
             let Some(vb) = (v0 as i64..=v1 as i64).rev().find(|&v| inside(u, v)) else {
                 continue;
@@ -252,30 +365,115 @@ impl SupportEstimator {
             if vb - vt < 2 {
                 continue;
             }
-            stats.columns += 1;
-            let Some(ve) =
-                (vt + 1..vb).find(|&v| rgb_dist(&rgb(u_at(v), v), &rgb(u_at(v - 1), v - 1)) > plane.step_threshold)
-            else {
+            let m = &proj.0;
+            let row = |r: &[f64; 4]| r[0] * b.x + r[1] * b.y + r[2] * b.z + r[3];
+            let start = self.pixels.len();
+            // The lowest pixel is left out: it may straddle the bottom edge.
+            self.pixels.extend((vt..vb).map(|v| rgb(u_at(v), v)));
+            self.columns.push(Column {
+                start,
+                len: (vb - vt) as usize,
+                vt: vt as f64,
+                a1: row(&m[1]),
+                c1: m[1][2],
+                a3: row(&m[2]),
+                c3: m[2][2],
+            });
+        }
+    }
+
+    /// Finds the side/top step in each walked column ([`topmost_step`]), filling `heights` (the
+    /// height of the step over the column's bottom point) and `top` (the pixels above it).
+    fn find_step(&mut self, plane: &SupportPlane) -> ColumnStats {
+        let mut stats = ColumnStats {
+            columns: self.columns.len(),
+            ..ColumnStats::default()
+        };
+        for c in &self.columns {
+            let col = &self.pixels[c.start..c.start + c.len];
+            let Some(j) = topmost_step(col, plane) else {
                 continue;
             };
+            if !plane.is_shading_step(&mean_rgb(&col[..j]).0, &col[j], 1.0) {
+                continue;
+            }
             stats.steps += 1;
-            for v in vt..ve {
-                let p = rgb(u_at(v), v);
+            for (s, x) in stats.below.iter_mut().zip(col[j]) {
+                *s += x;
+            }
+            self.heights.push(c.boundary_height(j));
+            for p in &col[..j] {
                 self.top.push([p[0] as f32, p[1] as f32, p[2] as f32]);
             }
-            // The height over b whose image is the step (between rows ve − 1 and ve).
-            let target = ve as f64 - 0.5;
-            let (mut lo, mut hi) = (0.0, 0.4);
-            for _ in 0..30 {
-                let m = 0.5 * (lo + hi);
-                match proj.project(&(b + Vec3::new(0.0, 0.0, m))) {
-                    Some((_, vm)) if vm > target => lo = m,
-                    _ => hi = m,
+            // The top's upper and lower halves (flatness test).
+            let half = j / 2;
+            for (k, p) in col[..j].iter().enumerate() {
+                let (sum, n) = if k < half {
+                    (&mut stats.upper, &mut stats.n_upper)
+                } else if k >= j - half {
+                    (&mut stats.lower, &mut stats.n_lower)
+                } else {
+                    continue;
+                };
+                for (s, x) in sum.iter_mut().zip(p) {
+                    *s += x;
                 }
+                *n += 1;
             }
-            self.heights.push(0.5 * (lo + hi));
         }
         stats
+    }
+}
+
+/// The significance of a step between `col[..j]` and `col[j..]`: the RGB distance between the
+/// mean colours of up to `k` rows above and `k` below, over the larger of its noise threshold
+/// ([`SupportPlane::step_sigmas`] standard deviations) and its contrast threshold
+/// ([`SupportPlane::step_contrast`] of the brighter mean); a step when > 1.
+fn step_score(col: &[[f64; 3]], j: usize, k: usize, plane: &SupportPlane) -> f64 {
+    let (a, na) = mean_rgb(&col[j.saturating_sub(k)..j]);
+    let (b, nb) = mean_rgb(&col[j..(j + k).min(col.len())]);
+    let noise = plane.step_sigmas * plane.pixel_noise * (1.0 / na + 1.0 / nb).sqrt();
+    let contrast = plane.step_contrast * rgb_dist(&a, &[0.0; 3]).max(rgb_dist(&b, &[0.0; 3]));
+    rgb_dist(&a, &b) / noise.max(contrast)
+}
+
+fn mean_rgb(rows: &[[f64; 3]]) -> ([f64; 3], f64) {
+    let n = rows.len() as f64;
+    let s = rows
+        .iter()
+        .fold([0.0; 3], |a, p| [a[0] + p[0], a[1] + p[1], a[2] + p[2]]);
+    (s.map(|x| x / n), n)
+}
+
+/// The first significant step walking down a column's colours `col` (index 0 the topmost pixel):
+/// the index `j` of the first pixel below it. Two tests, the upper hit wins:
+///
+/// * neighbouring pixels: exact where the step stands clear of the noise (bright faces), and
+///   right even where a thin band lies just below the top edge;
+/// * windows of [`SupportPlane::step_window`] rows on either side: the noise of their means falls
+///   by √n, so the weaker shading step of a dark top is seen (a black lid's is about 0.06 in RGB,
+///   a pixel pair's noise 0.024). The windowed score rises a few rows before a step, and a band
+///   edge just below adds to it, so the step is then located pixel by pixel: the first pixel from
+///   one row above the first significant window on that differs from the mean of the rows above
+///   it by more than [`SupportPlane::locate_sigmas`] noise standard deviations and the contrast
+///   threshold.
+fn topmost_step(col: &[[f64; 3]], plane: &SupportPlane) -> Option<usize> {
+    let k = plane.step_window.max(1);
+    let pixel = (1..col.len()).find(|&j| step_score(col, j, 1, plane) > 1.0);
+    let limit = pixel.unwrap_or(col.len());
+    let first = (1..limit).find(|&j| step_score(col, j, k, plane) > 1.0);
+    let windowed = first.and_then(|first| {
+        let from = first.saturating_sub(1).max(1);
+        (from..(first + k).min(col.len())).find(|&j| {
+            let (a, na) = mean_rgb(&col[..j]);
+            let noise = plane.locate_sigmas * plane.pixel_noise * (1.0 + 1.0 / na).sqrt();
+            let contrast = plane.step_contrast * rgb_dist(&a, &[0.0; 3]);
+            rgb_dist(&col[j], &a) > noise.max(contrast)
+        })
+    });
+    match (pixel, windowed) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
     }
 }
 
@@ -383,6 +581,27 @@ impl Projection {
     }
 }
 
+impl SupportPlane {
+    /// Whether the colour `below` (the mean of `n` pixels) just under a step is the colour
+    /// `above` it darkened by shading: `below ≈ ratio · above` with `ratio` in
+    /// [`SupportPlane::side_ratio`], within [`SupportPlane::shading_tolerance`] of its norm plus
+    /// [`SupportPlane::uniform_sigmas`] noise standard deviations of the mean.
+    fn is_shading_step(&self, above: &[f64; 3], below: &[f64; 3], n: f64) -> bool {
+        let a2 = (0..3).map(|k| above[k] * above[k]).sum::<f64>();
+        let ratio = (0..3).map(|k| below[k] * above[k]).sum::<f64>() / a2;
+        let off = rgb_dist(below, &above.map(|x| x * ratio));
+        (self.side_ratio[0]..=self.side_ratio[1]).contains(&ratio)
+            && off
+                <= self.shading_tolerance * rgb_dist(below, &[0.0; 3])
+                    + self.uniform_sigmas * self.pixel_noise / n.sqrt()
+    }
+
+    /// The smallest step (RGB distance) that is significant between full windows.
+    fn min_step(&self) -> f64 {
+        self.step_sigmas * self.pixel_noise * (2.0 / self.step_window.max(1) as f64).sqrt()
+    }
+}
+
 fn rgb_dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
@@ -432,6 +651,39 @@ fn round_radius(views: &[View<'_>; 2], triangulated: &Vec3, table: f64) -> Optio
 mod tests {
     use super::*;
     use crate::scene::CameraSpec;
+
+    /// A black lid's step (top 0.15, side 0.6 of it: 0.06 in RGB) with ±0.012 of noise: no pixel
+    /// pair stands out, the windows do, and the step is put at the first side pixel, not at the
+    /// white band's edge below; that edge is no shading step, the lid's is.
+    #[test]
+    fn dark_step_is_found_and_located() {
+        let top = [0.085, 0.09, 0.1];
+        let side = top.map(|x| 0.6 * x);
+        let white = [0.55, 0.54, 0.53];
+        let noise = [0.012, -0.012, 0.006, -0.006, 0.0, 0.012, -0.012];
+        let col: Vec<[f64; 3]> = (0..12)
+            .map(|i| {
+                let base = if i < 5 {
+                    top
+                } else if i < 8 {
+                    side
+                } else {
+                    white
+                };
+                let n = noise[i % noise.len()];
+                [base[0] + n, base[1] - n, base[2] + n]
+            })
+            .collect();
+        let plane = SupportPlane::at(0.75);
+        assert!((1..5).all(|j| step_score(&col, j, 1, &plane) <= 1.0));
+        assert_eq!(topmost_step(&col, &plane), Some(5));
+        assert!(plane.is_shading_step(&top, &side, 1.0));
+        assert!(!plane.is_shading_step(&side, &white, 1.0));
+        // A bright step is found pixel by pixel, even with a thin band just below it.
+        let red = [0.8, 0.12, 0.12];
+        let col: Vec<[f64; 3]> = [red, red, red, red.map(|x| 0.6 * x), white, white, white].to_vec();
+        assert_eq!(topmost_step(&col, &plane), Some(3));
+    }
 
     #[test]
     fn projection_matrix_matches_camera() {
