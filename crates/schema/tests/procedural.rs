@@ -212,6 +212,15 @@ fn acceptance_size_sorting_three_examples_per_class() {
 /// white/black highlights and shading are in every object: a nearest-neighbour score on the same
 /// features reaches only about 0.86 / 0.79, so the gap is in the features (three examples of a
 /// class that is not one histogram cell), not the threshold (AUC does not depend on it).
+///
+/// A finer hue partition does not close it (measured with the fixture re-rendered in each layout,
+/// still 64 uniform bins, colour classes = black, the greys by value, and one class per hue cell,
+/// base measure re-estimated from the catalog; mean over pairs / red + blue): 4×4×4 0.827 / 0.823,
+/// 8 hue × 2 sat × 4 val 0.820 / 0.822 (0.787 / 0.805 with the hue cells centred on 0°), 16 × 2 × 2
+/// 0.752 / 0.786 (0.764 / 0.759 centred). Finer hue separates red from orange but splits the
+/// catalog's colour families (green objects span hues 95°–140°, blue 200°–220°, "red" includes
+/// pink), so three examples cover less of their class; colour sorting with one example also drops
+/// (mean 0.77–0.82 against 0.86).
 #[test]
 #[ignore = "issue 5 acceptance not met: relevance AUC 0.820 (mean over pairs) / 0.813 (red+blue) < 0.9"]
 fn acceptance_relevance_roc_auc_three_examples_per_class() {
@@ -286,6 +295,14 @@ fn acceptance_feature_selection_color_and_color_size_tasks() {
 /// three objects per place whose colours happen to agree within each place (e.g. two green and a
 /// black against a black, an orange and a blue), where connecting colour is a fair reading of
 /// three examples.
+///
+/// Every remaining failure picks colour+size, which differs from size only in the colour term, so
+/// no change to the size unit can fix it. Measured alternatives (n = 3, these seeds / seeds +5000):
+/// size on a log scale with an empirical-Bayes NIG prior whose predictive is the catalog's spread
+/// (ln pixels: mean 5.19, sd 0.55; κ₀ = 0.1–1) leaves the size task at 0.80 / 0.90 but lets size
+/// connect by chance in the colour task (0.80–0.90 / 0.45–0.70, from 1.0 / 0.75); a grid over the
+/// place concentration α ∈ {¼, 1, 4} gives 0.70 / 0.85; a fixed smaller α = ¼ gives 0.90 but the
+/// colour task 0.95. The rates move by ±0.1 between seed sets (20 trials: binomial sd ≈ 0.09).
 #[test]
 #[ignore = "issue 5 acceptance not met: size-only feature selection 0.80 < 0.9"]
 fn acceptance_feature_selection_size_task() {
