@@ -374,12 +374,12 @@ impl Watcher {
             [v.x, v.y, v.z]
         };
         let mut occluders: Vec<([f64; 3], f64)> = Vec::with_capacity(10);
-        for k in 0..2 {
-            occluders.push((palms[k], OCCLUSION_RADIUS));
-            let e = sim.link_pose(self.elbow_links[k]).translation.vector;
+        for (palm, &elbow) in palms.iter().zip(&self.elbow_links) {
+            occluders.push((*palm, OCCLUSION_RADIUS));
+            let e = sim.link_pose(elbow).translation.vector;
             for i in 0..4 {
                 let s = f64::from(i) / 4.0;
-                occluders.push((std::array::from_fn(|j| e[j] + s * (palms[k][j] - e[j])), FOREARM_RADIUS));
+                occluders.push((std::array::from_fn(|j| e[j] + s * (palm[j] - e[j])), FOREARM_RADIUS));
             }
         }
         self.tracker
