@@ -35,6 +35,8 @@ struct Tracker {
     whole_pixels: Vec<f64>,
     /// Per hand: the carried track's id and the palm position at the last update.
     carried: [Option<(u32, [f64; 3])>; 2],
+    /// Per hand: frames in a row the carrying hand did not hold.
+    unheld: [u32; 2],
     next_id: u32,
 }
 
@@ -52,6 +54,8 @@ const FOREARM_RADIUS: f64 = 0.10;
 /// A segment near an arm showing fewer than this share of the largest pixel count (both cameras) its
 /// track had with no arm near is taken as partly hidden by the arm (pixel noise is ≈ ±5 %).
 const OCCLUDED_SHARE: f64 = 0.85;
+/// A carried track stays latched to its hand until the hand has not held for this many frames.
+const UNHELD_FRAMES: u32 = 3;
 /// An unmatched segment this close (m) to a palm that carries something is a piece of that object.
 const CARRIED_RADIUS: f64 = 0.12;
 /// The association gate for a track near a palm (m): a partly hidden segment's centroid moves by up
@@ -62,6 +66,9 @@ impl Tracker {
     /// Moves carried tracks with their palms; `holding[k]` says whether hand k holds something.
     fn predict(&mut self, palms: &[[f64; 3]; 2], holding: [bool; 2]) {
         for k in 0..2 {
+            if holding[k] {
+                self.unheld[k] = 0;
+            }
             match (self.carried[k], holding[k]) {
                 (Some((id, prev)), true) => {
                     if let Some(t) = self.tracks.iter_mut().find(|t| t.id == id) {
@@ -81,7 +88,15 @@ impl Tracker {
                         .min_by(|a, b| a.0.total_cmp(&b.0))
                         .map(|(_, id)| (id, palms[k]));
                 }
-                (_, false) => self.carried[k] = None,
+                (Some(_), false) => {
+                    // The holding test flickers while the load passes to a support: let go of the
+                    // latch only after a few frames without it.
+                    self.unheld[k] += 1;
+                    if self.unheld[k] >= UNHELD_FRAMES {
+                        self.carried[k] = None;
+                    }
+                }
+                (None, false) => {}
             }
         }
     }
@@ -156,7 +171,14 @@ impl Tracker {
         let mut keep = vec![true; self.tracks.len()];
         for a in 0..self.tracks.len() {
             for b in a + 1..self.tracks.len() {
-                if keep[a] && keep[b] && dist(&self.tracks[a].centroid, &self.tracks[b].centroid) < MERGE_GAP {
+                // What a hand carries is never a piece of something else (it may be put down
+                // right beside another object).
+                let carried_pair = carried.contains(&self.tracks[a].id) || carried.contains(&self.tracks[b].id);
+                if keep[a]
+                    && keep[b]
+                    && !carried_pair
+                    && dist(&self.tracks[a].centroid, &self.tracks[b].centroid) < MERGE_GAP
+                {
                     let (old, new) = if self.tracks[a].id < self.tracks[b].id {
                         (a, b)
                     } else {
