@@ -319,6 +319,7 @@ pub fn main(args: ExecuteArgs, out: &mut dyn Write) -> Result<()> {
         sink.progress.set_message(format!("{} → {place}", d.object));
         let mut plant = SimPlant::new(&mut sim, &scene, &library, seed, &mut sink)?;
         let at = plant.sim.object_state(obj).pose.translation.vector;
+        plant.plan_handoff(&at)?;
         let policy = PickPlacePolicy::decide(plant.sim, &scene, &d.object, &at, &place, plant.handoff())?;
         let Some(mut policy) = policy else {
             drop(plant);
@@ -339,6 +340,7 @@ pub fn main(args: ExecuteArgs, out: &mut dyn Write) -> Result<()> {
             continue;
         };
         let transfer = policy.is_transfer();
+        plant.bind_arms(&[policy.pick_arm, policy.place_arm]);
         let exec = schema::execute(&library, &schema, &mut plant, &mut policy, 20)?;
         let arms: Vec<String> = plant.arms_used.iter().map(|a| a.prefix().to_string()).collect();
         drop(plant);

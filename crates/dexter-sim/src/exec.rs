@@ -23,12 +23,23 @@ use crate::scene::Scene;
 use crate::snapshot::Arm;
 use crate::task::{
     GraspPlan, Observer, approach_grasp, close_grasp, finger_arc, lift_and_weigh, lower_until_supported, park_pose,
-    plan_top_grasp, reachable, release_and_retreat, transport_over,
+    plan_top_grasp, reachable, release_and_retreat, run_until, transport_over,
 };
 use crate::watch::Watcher;
 
 /// The handoff spot of a hand-to-hand transfer: a table region both arms reach.
 pub const HANDOFF: &str = "handoff";
+
+/// Smallest horizontal distance (m) from the handoff spot to another object's seen centroid: room
+/// for the transferred object, the other object and the open fingers between them.
+pub const HANDOFF_CLEARANCE: f64 = 0.16;
+
+/// The other arm's palm within this horizontal distance (m) of an object to reach is moved away
+/// first.
+const CLEAR_RADIUS: f64 = 0.25;
+
+/// Segments within this distance (m) of the transferred object's position are that object.
+const MERGE_RADIUS: f64 = 0.05;
 
 /// Arms whose palm can reach 15 cm above `point` pointing down (IK within limits).
 pub fn arms_reaching(sim: &DexterSim, table_z: f64, point: &Vec3) -> Result<Vec<Arm>, SimError> {
@@ -41,6 +52,20 @@ pub fn arms_reaching(sim: &DexterSim, table_z: f64, point: &Vec3) -> Result<Vec<
         }
     }
     Ok(out)
+}
+
+/// The set predicates (4.17) over the monitors bound to `arms` (all when `None`).
+fn bound_x(o: &schema::monitor::Observation, arms: Option<&[String]>) -> Vec<bool> {
+    let Some(arms) = arms else {
+        return o.x.clone();
+    };
+    let mut x = vec![false; o.x.len()];
+    for h in &o.hits {
+        if h.arm.as_ref().is_none_or(|a| arms.contains(a)) {
+            x[h.action] = true;
+        }
+    }
+    x
 }
 
 /// Receives what happens during an execution (for logs).
@@ -64,6 +89,10 @@ pub struct SimPlant<'a> {
     /// The physics object being manipulated, once a reach bound it.
     object: Option<usize>,
     plan: Option<GraspPlan>,
+    /// The arms the procedural policy bound (None: all); see [`SimPlant::bind_arms`].
+    bound_arms: Option<Vec<String>>,
+    /// Height of the object when the last grasp converged.
+    grasped_z: Option<f64>,
     handoff: [f64; 2],
     sink: &'a mut dyn ExecSink,
     t0: f64,
@@ -121,6 +150,8 @@ impl<'a> SimPlant<'a> {
             hand,
             object: None,
             plan: None,
+            grasped_z: None,
+            bound_arms: None,
             handoff: [scene.spec.table.center[0].min(0.55), 0.0],
             sink,
             t0,
@@ -133,9 +164,124 @@ impl<'a> SimPlant<'a> {
         Ok(p)
     }
 
+    /// Observe only the monitors bound to `arms` (and those of no arm, e.g. the head's): the
+    /// executive estimates the state of *this* instance of the schema from the controllers ψ bound
+    /// (§3.3.1: convergence is a property of a controller with its procedural resources), so a hand
+    /// still holding something from an earlier task does not pass for this task's grasp.
+    pub fn bind_arms(&mut self, arms: &[Arm]) {
+        self.bound_arms = Some(arms.iter().map(|a| a.prefix().to_string()).collect());
+        if let Some(p) = self.percepts.last() {
+            // Recompute from the monitors' last view.
+            let p = p.clone();
+            let o = self.bank.observe(&p);
+            self.last_x = bound_x(&o, self.bound_arms.as_deref());
+        }
+    }
+
+    /// Where in a place region (centre, size) to put an object of horizontal radius `radius`: the
+    /// point of a 1 cm grid inside the region (the object clear of the walls by 1 cm) farthest from
+    /// the objects seen in it, nearest the centre among equals — so objects already in a bin are
+    /// not landed on. Segments near `carrying_palm` are the carried object itself.
+    fn free_spot(&self, center: [f64; 2], size: [f64; 2], radius: f64, carrying_palm: Option<[f64; 3]>) -> [f64; 2] {
+        let half = [size[0] / 2.0 - radius - 0.01, size[1] / 2.0 - radius - 0.01];
+        if half[0] <= 0.0 || half[1] <= 0.0 {
+            return center;
+        }
+        let inside: Vec<[f64; 2]> = self
+            .percepts
+            .last()
+            .map(|p| {
+                p.segments
+                    .iter()
+                    .filter(|s| {
+                        (s.centroid[0] - center[0]).abs() <= size[0] / 2.0 + 0.05
+                            && (s.centroid[1] - center[1]).abs() <= size[1] / 2.0 + 0.05
+                            && carrying_palm.is_none_or(|h| {
+                                (0..3).map(|i| (s.centroid[i] - h[i]).powi(2)).sum::<f64>().sqrt() > 0.15
+                            })
+                    })
+                    .map(|s| [s.centroid[0], s.centroid[1]])
+                    .collect()
+            })
+            .unwrap_or_default();
+        if inside.is_empty() {
+            return center;
+        }
+        let n = [(half[0] / 0.01).floor() as i32, (half[1] / 0.01).floor() as i32];
+        let mut best = (f64::NEG_INFINITY, f64::INFINITY, center);
+        for i in -n[0]..=n[0] {
+            for j in -n[1]..=n[1] {
+                let c = [center[0] + 0.01 * f64::from(i), center[1] + 0.01 * f64::from(j)];
+                let clear = inside
+                    .iter()
+                    .map(|o| (o[0] - c[0]).hypot(o[1] - c[1]))
+                    .fold(f64::INFINITY, f64::min);
+                let off = (c[0] - center[0]).hypot(c[1] - center[1]);
+                // Clearance counts to the nearest centimetre; then the centre wins.
+                let clear = (clear * 100.0).round();
+                if (clear, -off) > (best.0, -best.1) {
+                    best = (clear, off, c);
+                }
+            }
+        }
+        best.2
+    }
+
     /// The handoff spot (x, y).
     pub fn handoff(&self) -> [f64; 2] {
         self.handoff
+    }
+
+    /// Chooses the handoff spot for a transfer of the object seen near `object_at` (5.32): a free
+    /// patch of table that both arms reach pointing down, as seen now — at least
+    /// [`HANDOFF_CLEARANCE`] from every other segment the cameras see and clear of the places'
+    /// walls — preferring the table's centre line at a comfortable reach (x = 0.55 m). Candidates
+    /// lie on a 5 cm grid; the first free one both arms reach is taken. Keeps the previous spot and
+    /// returns `None` if none is free.
+    pub fn plan_handoff(&mut self, object_at: &Vec3) -> Result<Option<[f64; 2]>, SimError> {
+        let table = &self.scene.spec.table;
+        let table_z = table.height;
+        let others: Vec<[f64; 2]> = self
+            .percepts
+            .last()
+            .map(|p| {
+                p.segments
+                    .iter()
+                    .filter(|s| (s.centroid[0] - object_at.x).hypot(s.centroid[1] - object_at.y) > MERGE_RADIUS)
+                    .map(|s| [s.centroid[0], s.centroid[1]])
+                    .collect()
+            })
+            .unwrap_or_default();
+        let margin = 0.12;
+        let (x0, x1) = (
+            table.center[0] - table.size[0] / 2.0 + margin,
+            table.center[0] + table.size[0] / 2.0 - margin,
+        );
+        let mut candidates = Vec::new();
+        for i in 0..=((x1 - x0) / 0.05).floor() as i32 {
+            for j in -4..=4 {
+                let c = [x0 + 0.05 * f64::from(i), table.center[1] + 0.05 * f64::from(j)];
+                let free = others
+                    .iter()
+                    .all(|o| (o[0] - c[0]).hypot(o[1] - c[1]) >= HANDOFF_CLEARANCE)
+                    && self.scene.spec.places.iter().all(|p| {
+                        (c[0] - p.center[0]).abs() > p.size[0] / 2.0 + p.wall_thickness + 0.08
+                            || (c[1] - p.center[1]).abs() > p.size[1] / 2.0 + p.wall_thickness + 0.08
+                    });
+                if free {
+                    candidates.push(c);
+                }
+            }
+        }
+        let cost = |c: &[f64; 2]| (c[1] - table.center[1]).abs() + 0.5 * (c[0] - 0.55).abs();
+        candidates.sort_by(|a, b| cost(a).total_cmp(&cost(b)));
+        for c in candidates {
+            if arms_reaching(self.sim, table_z, &Vec3::new(c[0], c[1], table_z))?.len() == 2 {
+                self.handoff = c;
+                return Ok(Some(c));
+            }
+        }
+        Ok(None)
     }
 
     /// The latest percept.
@@ -148,7 +294,7 @@ impl<'a> SimPlant<'a> {
         // The handoff spot is where ψ puts objects, not a place of the task: no monitor watches it.
         let p = self.watcher.percept(self.sim, t)?;
         let o = self.bank.observe(&p);
-        self.last_x = o.x;
+        self.last_x = bound_x(&o, self.bound_arms.as_deref());
         self.sink.percept(self.sim, self.watcher.eyes(), &p);
         self.percepts.push(p);
         self.next_percept = t + self.percept_period;
@@ -181,6 +327,7 @@ impl<'a> SimPlant<'a> {
         let percepts = &mut self.percepts;
         let next = &mut self.next_percept;
         let sink = &mut *self.sink;
+        let bound_arms = self.bound_arms.clone();
         let mut callback = |s: &DexterSim, activity: &str| {
             sink.tick(s, activity);
             let t = s.time() - t0;
@@ -188,7 +335,7 @@ impl<'a> SimPlant<'a> {
                 match watcher.percept(s, t) {
                     Ok(p) => {
                         let o = bank.observe(&p);
-                        *last_x = o.x;
+                        *last_x = bound_x(&o, bound_arms.as_deref());
                         sink.percept(s, watcher.eyes(), &p);
                         percepts.push(p);
                     }
@@ -274,9 +421,20 @@ impl SchemaPlant for SimPlant<'_> {
                     pose.translation.vector.y = seg.centroid[1];
                 }
                 let target = pose.translation.vector;
+                let k = arm_index(arm);
+                // The other arm, if it hovers near the object (it just let go of it at the handoff),
+                // is in this arm's way and in the head's view: back to its parked pose first.
+                let other = 1 - k;
+                let other_palm = self.reach[other].tool_pose(self.sim).translation.vector;
+                if (other_palm.x - target.x).hypot(other_palm.y - target.y) < CLEAR_RADIUS {
+                    let park = park_pose(Arm::BOTH[other], table_z);
+                    self.with_observer(|sim, reach, _, obs| {
+                        reach[other].set_goal(sim, park);
+                        run_until(sim, &mut reach[other], obs, 3.0, |s, r| r.at_goal(s, 0.02, 0.1));
+                    })?;
+                }
                 self.watcher.look_at(self.sim, &target)?;
                 let arc = finger_arc(self.sim, arm)?;
-                let k = arm_index(arm);
                 let current = self.reach[k].tool_pose(self.sim);
                 let plan = plan_top_grasp(&arc, &shape, &pose, table_z, &current);
                 let r = self.with_observer(|sim, reach, hand, obs| {
@@ -300,7 +458,10 @@ impl SchemaPlant for SimPlant<'_> {
                             close_grasp(sim, &mut reach[k], &hand[k], obj, obs)
                         })?;
                         match r {
-                            Ok(_) => ActionOutcome::Converged,
+                            Ok(_) => {
+                                self.grasped_z = Some(self.sim.object_state(obj).pose.translation.z);
+                                ActionOutcome::Converged
+                            }
                             Err(why) => ActionOutcome::Failed(why),
                         }
                     }
@@ -313,7 +474,13 @@ impl SchemaPlant for SimPlant<'_> {
                     return Ok(ActionOutcome::Failed("nothing grasped to hold (no reach yet)".into()));
                 };
                 let g = self.with_observer(|sim, reach, _, obs| lift_and_weigh(sim, &mut reach[k], obj, &plan, obs))?;
-                if g.lifted {
+                // A hold asked for again while the object is already up (the monitors had not yet
+                // seen the first one converge) rises no further: judge it from where it was grasped.
+                let (_, _, parts) = self.sim.hand_wrench_on_object(arm, obj);
+                let already_up = self
+                    .grasped_z
+                    .is_some_and(|z0| self.sim.object_state(obj).pose.translation.z - z0 > 0.08);
+                if g.lifted || (already_up && parts >= 2) {
                     ActionOutcome::Converged
                 } else {
                     // Let go of whatever is left so that a re-grasp starts from an open hand.
@@ -338,7 +505,16 @@ impl SchemaPlant for SimPlant<'_> {
                         .as_deref()
                         .ok_or_else(|| SimError::Task("place without a place".into()))?;
                     let p = self.scene.place(name)?;
-                    (p.center, p.wall_height)
+                    let palm = self.percepts.last().map(|q| q.hands[k].palm);
+                    let r = (0..8)
+                        .map(|i| {
+                            let a = std::f64::consts::PI * f64::from(i) / 8.0;
+                            let d = Vec3::new(a.cos(), a.sin(), 0.0);
+                            let rot = self.sim.object_state(obj).pose.rotation;
+                            crate::geometry::support_half_extent(&shape, &(rot.inverse() * d))
+                        })
+                        .fold(0.0, f64::max);
+                    (self.free_spot(p.center, p.size, r, palm), p.wall_height)
                 };
                 self.watcher
                     .look_at(self.sim, &Vec3::new(target[0], target[1], table_z + 0.05))?;

@@ -17,12 +17,26 @@ use crate::snapshot::{Arm, FingertipWrench};
 /// the palm (the robot knows what it holds), so it keeps its id while the hand hides it; two tracks
 /// closer than [`MERGE_GAP`] are one object seen in pieces; a track not seen for [`FORGET_SECS`] that
 /// nothing carries is forgotten.
+///
+/// **Self-occlusion.** The robot's own pixels are never foreground, so a hand over an object cuts
+/// its segment to the part still visible, whose centroid is off by the hidden part (a block under
+/// the palm measured 6 cm off, and the palm then never looked "at" it). A resting object does not
+/// move until something touches it, so while a hand or forearm is near a line of sight from a head
+/// camera to an uncarried track ([`OCCLUSION_RADIUS`], [`FOREARM_RADIUS`]) and the segment shows markedly fewer pixels than when it was last seen
+/// whole ([`OCCLUDED_SHARE`] of its largest unhidden view), the track keeps its unoccluded centroid and features and is only
+/// marked seen; a track an arm may be hiding entirely is not forgotten. A pushed object is seen
+/// where it was until the hand leaves; then it is re-acquired (the gate near a palm is
+/// [`OCCLUDED_GATE`]).
 #[derive(Debug, Clone, Default)]
 struct Tracker {
     tracks: Vec<SegmentPercept>,
     last_seen: Vec<f64>,
+    /// Per track: its largest pixel count (both cameras) seen with no arm near a line of sight.
+    whole_pixels: Vec<f64>,
     /// Per hand: the carried track's id and the palm position at the last update.
     carried: [Option<(u32, [f64; 3])>; 2],
+    /// Per hand: frames in a row the carrying hand did not hold.
+    unheld: [u32; 2],
     next_id: u32,
 }
 
@@ -32,11 +46,29 @@ const TRACK_GATE: f64 = 0.08;
 const MERGE_GAP: f64 = 0.04;
 /// Unseen, uncarried tracks are dropped after this long (s).
 const FORGET_SECS: f64 = 2.0;
+/// A palm within this distance (m) of a line of sight from a head camera to a track may hide part
+/// of it (the open hand reaches about this far from the palm).
+const OCCLUSION_RADIUS: f64 = 0.16;
+/// The same for points on the forearm (its radius and a margin, m).
+const FOREARM_RADIUS: f64 = 0.10;
+/// A segment near an arm showing fewer than this share of the largest pixel count (both cameras) its
+/// track had with no arm near is taken as partly hidden by the arm (pixel noise is ≈ ±5 %).
+const OCCLUDED_SHARE: f64 = 0.85;
+/// A carried track stays latched to its hand until the hand has not held for this many frames.
+const UNHELD_FRAMES: u32 = 3;
+/// An unmatched segment this close (m) to a palm that carries something is a piece of that object.
+const CARRIED_RADIUS: f64 = 0.12;
+/// The association gate for a track near a palm (m): a partly hidden segment's centroid moves by up
+/// to the size of the hidden part.
+const OCCLUDED_GATE: f64 = 0.12;
 
 impl Tracker {
     /// Moves carried tracks with their palms; `holding[k]` says whether hand k holds something.
     fn predict(&mut self, palms: &[[f64; 3]; 2], holding: [bool; 2]) {
         for k in 0..2 {
+            if holding[k] {
+                self.unheld[k] = 0;
+            }
             match (self.carried[k], holding[k]) {
                 (Some((id, prev)), true) => {
                     if let Some(t) = self.tracks.iter_mut().find(|t| t.id == id) {
@@ -56,21 +88,42 @@ impl Tracker {
                         .min_by(|a, b| a.0.total_cmp(&b.0))
                         .map(|(_, id)| (id, palms[k]));
                 }
-                (_, false) => self.carried[k] = None,
+                (Some(_), false) => {
+                    // The holding test flickers while the load passes to a support: let go of the
+                    // latch only after a few frames without it.
+                    self.unheld[k] += 1;
+                    if self.unheld[k] >= UNHELD_FRAMES {
+                        self.carried[k] = None;
+                    }
+                }
+                (None, false) => {}
             }
         }
     }
 
-    fn update(&mut self, seen: Vec<SegmentPercept>, t: f64) {
+    fn update(&mut self, seen: Vec<SegmentPercept>, t: f64, occluders: &[([f64; 3], f64)], eyes: &[[f64; 3]; 2]) {
         for tr in &mut self.tracks {
             tr.seen = false;
         }
+        let carried_ids: Vec<u32> = self.carried.iter().flatten().map(|c| c.0).collect();
+        // Uncarried tracks a hand may be hiding part of: a palm near a line of sight.
+        let near_palm: Vec<bool> = self
+            .tracks
+            .iter()
+            .map(|tr| {
+                !carried_ids.contains(&tr.id)
+                    && occluders
+                        .iter()
+                        .any(|(p, r)| eyes.iter().any(|e| sight_distance(e, &tr.centroid, p) < *r))
+            })
+            .collect();
         // Greedy nearest-first assignment.
         let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
         for (i, s) in seen.iter().enumerate() {
             for (j, tr) in self.tracks.iter().enumerate() {
                 let d = dist(&s.centroid, &tr.centroid);
-                if d < TRACK_GATE {
+                let gate = if near_palm[j] { OCCLUDED_GATE } else { TRACK_GATE };
+                if d < gate {
                     pairs.push((d, i, j));
                 }
             }
@@ -85,22 +138,47 @@ impl Tracker {
             used_s[i] = true;
             used_t[j] = true;
             let id = self.tracks[j].id;
-            self.tracks[j] = SegmentPercept { id, ..seen[i].clone() };
+            let px = pixels(&seen[i]);
+            if near_palm[j] && px < OCCLUDED_SHARE * self.whole_pixels[j] {
+                // Partly hidden by the hand: keep what was seen whole.
+                self.tracks[j].seen = true;
+            } else {
+                self.tracks[j] = SegmentPercept { id, ..seen[i].clone() };
+                if !near_palm[j] {
+                    // The largest view: an arm not yet near a line of sight may already hide a little.
+                    self.whole_pixels[j] = self.whole_pixels[j].max(px);
+                }
+            }
             self.last_seen[j] = t;
         }
         for (i, s) in seen.into_iter().enumerate() {
-            if !used_s[i] {
+            // The hand splits what it carries into pieces: a piece near a carrying palm is part of
+            // the carried object, not a new one.
+            let carried_piece = self
+                .carried
+                .iter()
+                .flatten()
+                .any(|(_, palm)| dist(&s.centroid, palm) < CARRIED_RADIUS);
+            if !used_s[i] && !carried_piece {
+                self.whole_pixels.push(pixels(&s));
                 self.tracks.push(SegmentPercept { id: self.next_id, ..s });
                 self.last_seen.push(t);
                 self.next_id += 1;
             }
         }
         // Merge pieces of one object (keep the older id) and forget stale tracks.
-        let carried: Vec<u32> = self.carried.iter().flatten().map(|c| c.0).collect();
+        let carried = carried_ids;
         let mut keep = vec![true; self.tracks.len()];
         for a in 0..self.tracks.len() {
             for b in a + 1..self.tracks.len() {
-                if keep[a] && keep[b] && dist(&self.tracks[a].centroid, &self.tracks[b].centroid) < MERGE_GAP {
+                // What a hand carries is never a piece of something else (it may be put down
+                // right beside another object).
+                let carried_pair = carried.contains(&self.tracks[a].id) || carried.contains(&self.tracks[b].id);
+                if keep[a]
+                    && keep[b]
+                    && !carried_pair
+                    && dist(&self.tracks[a].centroid, &self.tracks[b].centroid) < MERGE_GAP
+                {
                     let (old, new) = if self.tracks[a].id < self.tracks[b].id {
                         (a, b)
                     } else {
@@ -113,13 +191,16 @@ impl Tracker {
                             ..self.tracks[new].clone()
                         };
                         self.last_seen[old] = self.last_seen[new];
+                        self.whole_pixels[old] = self.whole_pixels[new];
                     }
                     keep[new] = false;
                 }
             }
         }
         for (j, k) in keep.iter_mut().enumerate() {
-            if t - self.last_seen[j] > FORGET_SECS && !carried.contains(&self.tracks[j].id) {
+            // Object permanence: a track an arm may be hiding is kept.
+            let hidden = near_palm.get(j).copied().unwrap_or(false);
+            if t - self.last_seen[j] > FORGET_SECS && !carried.contains(&self.tracks[j].id) && !hidden {
                 *k = false;
             }
         }
@@ -133,7 +214,31 @@ impl Tracker {
             j += 1;
             keep[j - 1]
         });
+        let mut j = 0;
+        self.whole_pixels.retain(|_| {
+            j += 1;
+            keep[j - 1]
+        });
     }
+}
+
+/// Distance from `p` to the line of sight from `eye` to `target` (the segment between them).
+fn sight_distance(eye: &[f64; 3], target: &[f64; 3], p: &[f64; 3]) -> f64 {
+    let d: [f64; 3] = std::array::from_fn(|i| target[i] - eye[i]);
+    let w: [f64; 3] = std::array::from_fn(|i| p[i] - eye[i]);
+    let dd: f64 = d.iter().map(|v| v * v).sum();
+    let s = if dd > 0.0 {
+        (d.iter().zip(&w).map(|(a, b)| a * b).sum::<f64>() / dd).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let q: [f64; 3] = std::array::from_fn(|i| eye[i] + s * d[i]);
+    dist(&q, p)
+}
+
+/// A segment's pixel count in both cameras.
+fn pixels(s: &SegmentPercept) -> f64 {
+    f64::from(s.pixels[0]) + f64::from(s.pixels[1])
 }
 
 fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
@@ -151,6 +256,7 @@ pub struct Watcher {
     last: Option<(f64, [[f64; 3]; 2])>,
     tips: [FingertipWrench; 6],
     palm_links: [usize; 2],
+    elbow_links: [usize; 2],
     flex: [[usize; 3]; 2],
     /// Where the head looked last.
     pub gaze_point: Option<Vec3>,
@@ -189,6 +295,7 @@ impl Watcher {
                 link("left/bhand/palm_surface_link")?,
                 link("right/bhand/palm_surface_link")?,
             ],
+            elbow_links: [link("left/forearm_link")?, link("right/forearm_link")?],
             flex: [
                 [dof(Arm::Left, 1)?, dof(Arm::Left, 2)?, dof(Arm::Left, 3)?],
                 [dof(Arm::Right, 1)?, dof(Arm::Right, 2)?, dof(Arm::Right, 3)?],
@@ -284,7 +391,21 @@ impl Watcher {
             gaze_candidates.push((o, seg.centroid));
             seen.push(seg);
         }
-        self.tracker.update(seen, t);
+        let eye = |c: &crate::vision::Camera| {
+            let v = c.world_from_optical.translation.vector;
+            [v.x, v.y, v.z]
+        };
+        let mut occluders: Vec<([f64; 3], f64)> = Vec::with_capacity(10);
+        for (palm, &elbow) in palms.iter().zip(&self.elbow_links) {
+            occluders.push((*palm, OCCLUSION_RADIUS));
+            let e = sim.link_pose(elbow).translation.vector;
+            for i in 0..4 {
+                let s = f64::from(i) / 4.0;
+                occluders.push((std::array::from_fn(|j| e[j] + s * (palm[j] - e[j])), FOREARM_RADIUS));
+            }
+        }
+        self.tracker
+            .update(seen, t, &occluders, &[eye(&cams.left), eye(&cams.right)]);
         let gaze = gaze_candidates
             .iter()
             .filter(|(o, _)| *o < 0.12)
