@@ -9,6 +9,9 @@
 //!    one only the right arm reaches, a red one whose bin needs a hand-to-hand transfer, and a green one
 //!    that belongs to no bin.
 //!
+//! The demonstrated red object is the red block: the jar (`jif`) is red only from the side — from
+//! Dexter's head its blue lid dominates the colour feature.
+//!
 //! Every file is written to `--out` (default `pbd-demo/`).
 
 use std::io::Write;
@@ -62,7 +65,7 @@ pub fn main(args: DemoArgs, out: &mut dyn Write) -> Result<()> {
             teleop: None,
             object: None,
             place: None,
-            assign: Some("jif=bin-right,blue_mug=bin-left".into()),
+            assign: Some("red_block=bin-right,blue_mug=bin-left".into()),
             arm: ArmChoice::Auto,
             retry: false,
             seed: Some(args.seed),

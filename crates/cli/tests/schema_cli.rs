@@ -204,7 +204,7 @@ fn a_right_arm_demonstration_is_executed_with_the_left_arm_where_the_object_need
     assert!(o.status.success(), "{}", stderr(&o));
     let j: Value = serde_json::from_str(&std::fs::read_to_string(&inf).unwrap()).unwrap();
     assert_eq!(j["inference"]["instances"][0]["arm"], "right");
-    // blue_block lies on the left edge of sorting-demo: only the left arm reaches it and bin-left. The
+    // blue_mug-1 lies on the left edge of sorting-demo: only the left arm reaches it and bin-left. The
     // declarative schema is the demonstration's; the arm is bound now, in the new scene.
     let o = pbd(&[
         "execute",
@@ -213,7 +213,7 @@ fn a_right_arm_demonstration_is_executed_with_the_left_arm_where_the_object_need
         "--scene",
         "sorting-demo",
         "--object",
-        "blue_block",
+        "blue_mug-1",
         "--place",
         "bin-left",
         "--json",
@@ -426,4 +426,56 @@ fn bad_input_is_refused_with_a_clear_message() {
     let o = pbd(&["learn", "--explain", old.to_str().unwrap()]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("version"), "{}", stderr(&o));
+}
+
+/// Issue 5: learn from the five-object sort, execute in `sorting-demo` (objects never shown), over
+/// two seeds: ≥ 90 % of the relevant objects end in the right bin, the green block is ignored, the
+/// red can on the left edge goes to bin-right by a hand-to-hand transfer, the blue mug on the left
+/// edge is done by the left arm. Measured: 6/6 placed.
+#[test]
+fn a_learned_sort_is_executed_in_a_new_scene_with_the_other_arm_and_a_transfer() {
+    let pairs = "jif=bin-right,blue_mug=bin-left,tomato_soup-1=bin-right,glass_cleaner=bin-left,red_block=bin-right";
+    let demo = recorded("sort5", &["--scene", "sorting", "--script", "sort", "--assign", pairs]);
+    let inf = dir().join("sort5-exec.infer.json");
+    let model = dir().join("sort5-exec.model.json");
+    let o = pbd(&["infer", demo.to_str().unwrap(), "-o", inf.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = pbd(&["learn", inf.to_str().unwrap(), "-o", model.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (mut placed, mut relevant) = (0, 0);
+    for seed in ["1", "2"] {
+        let o = pbd(&[
+            "execute",
+            "--model",
+            model.to_str().unwrap(),
+            "--scene",
+            "sorting-demo",
+            "--seed",
+            seed,
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let r: Value = serde_json::from_str(&stdout(&o)).unwrap();
+        placed += r["placed"].as_u64().unwrap();
+        relevant += r["relevant"].as_u64().unwrap();
+        let by = |name: &str| {
+            r["objects"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|x| x["object"] == name)
+                .unwrap()
+                .clone()
+        };
+        assert_eq!(by("green_block")["decision"], "ignore", "{r:#}");
+        let can = by("cola_can");
+        assert_eq!(can["place"], "bin-right", "{can:#}");
+        assert_eq!(can["transfer"], true, "{can:#}");
+        let mug = by("blue_mug-1");
+        assert_eq!(mug["place"], "bin-left", "{mug:#}");
+        assert_eq!(mug["arms"][0], "left", "{mug:#}");
+        eprintln!("seed {seed}: placed {}/{}", r["placed"], r["relevant"]);
+    }
+    assert_eq!(relevant, 6);
+    assert!(placed as f64 >= 0.9 * relevant as f64, "placed {placed}/{relevant}");
 }

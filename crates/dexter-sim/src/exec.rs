@@ -38,6 +38,10 @@ pub const HANDOFF_CLEARANCE: f64 = 0.16;
 /// first.
 const CLEAR_RADIUS: f64 = 0.25;
 
+/// Room (m) between a placed object and a place's walls: for the opening fingers, and so that a
+/// rolling object is not let go on the wall.
+const WALL_ROOM: f64 = 0.03;
+
 /// Segments within this distance (m) of the transferred object's position are that object.
 const MERGE_RADIUS: f64 = 0.05;
 
@@ -179,11 +183,11 @@ impl<'a> SimPlant<'a> {
     }
 
     /// Where in a place region (centre, size) to put an object of horizontal radius `radius`: the
-    /// point of a 1 cm grid inside the region (the object clear of the walls by 1 cm) farthest from
+    /// point of a 1 cm grid inside the region (the object clear of the walls by [`WALL_ROOM`]) farthest from
     /// the objects seen in it, nearest the centre among equals — so objects already in a bin are
     /// not landed on. Segments near `carrying_palm` are the carried object itself.
     fn free_spot(&self, center: [f64; 2], size: [f64; 2], radius: f64, carrying_palm: Option<[f64; 3]>) -> [f64; 2] {
-        let half = [size[0] / 2.0 - radius - 0.01, size[1] / 2.0 - radius - 0.01];
+        let half = [size[0] / 2.0 - radius - WALL_ROOM, size[1] / 2.0 - radius - WALL_ROOM];
         if half[0] <= 0.0 || half[1] <= 0.0 {
             return center;
         }
@@ -537,7 +541,25 @@ impl SchemaPlant for SimPlant<'_> {
                 let arm = parse_arm(binding.arm.as_deref())?;
                 let k = arm_index(arm);
                 self.with_observer(|sim, reach, hand, obs| release_and_retreat(sim, &mut reach[k], &hand[k], obs))?;
-                ActionOutcome::Converged
+                // An object wedged between the half-opened fingers came up with the hand: open
+                // fully, let it drop, and retreat again.
+                if let Some(obj) = self.object
+                    && self.sim.hand_wrench_on_object(arm, obj).2 > 0
+                {
+                    self.with_observer(|sim, reach, hand, obs| {
+                        hand[k].set(sim, 0.0, 0.0);
+                        run_until(sim, &mut reach[k], obs, 0.6, |_, _| false);
+                        release_and_retreat(sim, &mut reach[k], &hand[k], obs);
+                    })?;
+                }
+                if self
+                    .object
+                    .is_some_and(|obj| self.sim.hand_wrench_on_object(arm, obj).2 > 0)
+                {
+                    ActionOutcome::Failed("the object stays in the hand after opening".into())
+                } else {
+                    ActionOutcome::Converged
+                }
             }
             other => ActionOutcome::Failed(format!("Dexter has no controller for `{other}`")),
         };

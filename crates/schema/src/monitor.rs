@@ -10,7 +10,7 @@
 //! | action | monitor instance | converged when |
 //! |---|---|---|
 //! | search_track | segment k | the head foveates k |
-//! | reach_object | arm × segment k (k not held) | palm at k (horizontal ≤ `reach_radius`, height band) and still |
+//! | reach_object | arm × segment k (k not held) | the hand holds nothing, palm at k (horizontal ≤ `reach_radius`, height band) and still |
 //! | grasp | arm × segment k | F3 and F1 or F2 loaded (opposing contacts) with the hand still, latched on k while held |
 //! | hold | arm × grasped k | the grasp holds and the palm is `hold_rise` above where it grasped, still |
 //! | reach_place | arm × place p | palm over p and still |
@@ -246,8 +246,11 @@ impl MonitorBank {
             if mem.released_at.is_some() {
                 hit(ix.release, arm, None, None);
             }
-            // Reach to an object that is not held.
+            // Reach to an object that is not held, with a hand that holds nothing (a full hand
+            // cannot be reaching to grasp: a fragment of what it holds, seen beside it, is not a
+            // reach).
             if still
+                && grasp.is_none()
                 && let Some(seg) = near(c.reach_radius)
                 && !held.contains(&seg)
             {
