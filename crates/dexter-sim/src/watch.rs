@@ -22,9 +22,9 @@ use crate::snapshot::{Arm, FingertipWrench};
 /// its segment to the part still visible, whose centroid is off by the hidden part (a block under
 /// the palm measured 6 cm off, and the palm then never looked "at" it). A resting object does not
 /// move until something touches it, so while a hand or forearm is near a line of sight from a head
-/// camera to an uncarried track ([`OCCLUSION_RADIUS`], [`FOREARM_RADIUS`]) and the segment shows markedly fewer pixels than when it was last seen
-/// whole ([`OCCLUDED_SHARE`] of its largest unhidden view), the track keeps its unoccluded centroid and features and is only
-/// marked seen; a track an arm may be hiding entirely is not forgotten. A pushed object is seen
+/// camera to an uncarried track ([`OCCLUSION_RADIUS`], [`FOREARM_RADIUS`]) and the segment shows
+/// markedly fewer pixels than when it was last seen whole ([`OCCLUDED_SHARE`] of its largest
+/// unhidden view), the track keeps its unoccluded centroid and features and is only marked seen; a track an arm may be hiding entirely is not forgotten. A pushed object is seen
 /// where it was until the hand leaves; then it is re-acquired (the gate near a palm is
 /// [`OCCLUDED_GATE`]).
 #[derive(Debug, Clone, Default)]
@@ -106,7 +106,7 @@ impl Tracker {
             tr.seen = false;
         }
         let carried_ids: Vec<u32> = self.carried.iter().flatten().map(|c| c.0).collect();
-        // Uncarried tracks a hand may be hiding part of: a palm near a line of sight.
+        // Uncarried tracks an arm may be hiding part of: a hand or forearm near a line of sight.
         let near_palm: Vec<bool> = self
             .tracks
             .iter()
@@ -204,22 +204,19 @@ impl Tracker {
                 *k = false;
             }
         }
-        let mut j = 0;
-        self.tracks.retain(|_| {
-            j += 1;
-            keep[j - 1]
-        });
-        let mut j = 0;
-        self.last_seen.retain(|_| {
-            j += 1;
-            keep[j - 1]
-        });
-        let mut j = 0;
-        self.whole_pixels.retain(|_| {
-            j += 1;
-            keep[j - 1]
-        });
+        retain_mask(&mut self.tracks, &keep);
+        retain_mask(&mut self.last_seen, &keep);
+        retain_mask(&mut self.whole_pixels, &keep);
     }
+}
+
+/// Keeps the elements of `v` whose entry in `keep` is true (the tracker's per-track vectors).
+fn retain_mask<T>(v: &mut Vec<T>, keep: &[bool]) {
+    let mut i = 0;
+    v.retain(|_| {
+        i += 1;
+        keep[i - 1]
+    });
 }
 
 /// Distance from `p` to the line of sight from `eye` to `target` (the segment between them).
