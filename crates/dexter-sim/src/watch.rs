@@ -377,6 +377,7 @@ impl Watcher {
                 pixels: [l.features.pixel_count as u32, r.features.pixel_count as u32],
                 histogram,
                 covariance: [cov[0][0], cov[0][1], cov[1][0], cov[1][1]],
+                colors: schema::percept::kept_color_terms(&l.features.color_terms),
             };
             // Foveated: the segment's image centroid near the principal point in both cameras.
             let off = |s: &crate::vision::Segment, cam: &crate::vision::Camera| {

@@ -402,6 +402,14 @@ fn sphere_segment_moments_and_colour() {
         "{:?}",
         f.mean_hsv
     );
+    // Colour terms: every pixel of the red sphere is red, or black/grey where shading darkens it.
+    let red = usize::from(schema::percept::color_term([0.0, 0.85, 0.85]));
+    let total: u32 = f.color_terms.iter().sum();
+    assert_eq!(total as usize, f.pixel_count);
+    assert!(f.color_terms[red] as f64 > 0.6 * total as f64, "{:?}", f.color_terms);
+    for (t, &n) in f.color_terms.iter().enumerate() {
+        assert!(n == 0 || [0, 1, 2, red].contains(&t), "term {t}: {n} pixels");
+    }
     // §6.2.1 appearance feature: average of left and right second moments.
     let m = blobs[0].mean_covariance();
     let r = blobs[0].right.unwrap().features.covariance;

@@ -114,7 +114,7 @@ use bayes::univariate::{GaussianStats, NormalInverseGamma, StudentT};
 use serde::{Deserialize, Serialize};
 
 use crate::error::SchemaError;
-use crate::percept::SegmentPercept;
+use crate::percept::{COLOR_TERMS, SegmentPercept};
 
 pub mod effector;
 pub mod explain;
@@ -145,6 +145,11 @@ pub struct Features {
     pub histogram: Vec<(u8, f64)>,
     /// Segment size in pixels in the left and right camera; 0 = not seen by that camera.
     pub pixels: [u32; 2],
+    /// The kept colour terms as (term, share) ([`SegmentPercept::colors`],
+    /// [`crate::percept::color_term`]). Carried with the features for inspection and for colour
+    /// units over named colours; the version-3 colour unit reads [`Features::histogram`] only.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub colors: Vec<(u8, f64)>,
 }
 
 impl From<&SegmentPercept> for Features {
@@ -152,6 +157,7 @@ impl From<&SegmentPercept> for Features {
         Features {
             histogram: s.histogram.clone(),
             pixels: s.pixels,
+            colors: s.colors.clone(),
         }
     }
 }
@@ -181,6 +187,18 @@ impl Features {
                     INPUT,
                     format!("{field}histogram[{i}]"),
                     format!("weight {w} is not a finite number >= 0"),
+                ));
+            }
+        }
+        for (i, &(term, w)) in self.colors.iter().enumerate() {
+            if usize::from(term) >= COLOR_TERMS.len() || !(w.is_finite() && w >= 0.0) {
+                return Err(SchemaError::invalid(
+                    INPUT,
+                    format!("{field}colors[{i}]"),
+                    format!(
+                        "({term}, {w}): the term must be < {} and the share a finite number >= 0",
+                        COLOR_TERMS.len()
+                    ),
                 ));
             }
         }
@@ -1379,6 +1397,7 @@ mod tests {
             features: Features {
                 histogram: bins.iter().map(|&b| (b, 1.0 / bins.len() as f64)).collect(),
                 pixels: px,
+                colors: Vec::new(),
             },
             reference: place.into(),
         }

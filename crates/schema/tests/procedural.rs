@@ -321,6 +321,7 @@ fn arb_example() -> impl Strategy<Value = Example> {
             features: Features {
                 histogram: bins.iter().map(|&b| (b, 1.0 / 8.0)).collect(),
                 pixels: [l, r],
+                colors: Vec::new(),
             },
             reference: ["bin_a", "bin_b", "table"][place].to_string(),
         })
@@ -381,6 +382,7 @@ fn small_model() -> ProceduralModel {
         features: Features {
             histogram: bins.iter().map(|&b| (b, 0.5)).collect(),
             pixels: [px, px + 20],
+            colors: Vec::new(),
         },
         reference: place.into(),
     };
@@ -509,6 +511,7 @@ fn fixed_structure_ignores_the_other_feature() {
     let f = Features {
         histogram: vec![(15, 1.0)],
         pixels: [2500, 2500],
+        colors: Vec::new(),
     };
     assert_eq!(m.predict(&f).unwrap().map_place, "blue_bin");
 }

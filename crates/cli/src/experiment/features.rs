@@ -115,6 +115,7 @@ pub fn render_bank(
                 ],
                 histogram,
                 covariance: [0.0; 4],
+                colors: schema::percept::kept_color_terms(&seg.features.color_terms),
             };
             views.push(Features::from(&percept));
             tick();

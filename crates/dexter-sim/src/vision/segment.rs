@@ -1,8 +1,9 @@
 //! Background subtraction, connected components and per-segment features (§5.1.2.1, §5.1.2.2, §6.2.1).
 
 use crate::error::SimError;
-use crate::vision::color::{ColorHistogram, rgb_to_hsv, rgb8_bin};
+use crate::vision::color::{ColorHistogram, hsv_bin, rgb_to_hsv};
 use crate::vision::render::{Image, ItemLabel};
+use schema::percept::color_term;
 
 /// Settings of [`Segmenter`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -53,6 +54,8 @@ pub struct SegmentFeatures {
     pub mean_rgb: [f64; 3],
     /// HSV of the mean RGB colour.
     pub mean_hsv: [f64; 3],
+    /// Pixel count per colour term ([`schema::percept::color_term`]).
+    pub color_terms: [u32; 10],
 }
 
 impl SegmentFeatures {
@@ -266,6 +269,7 @@ fn features_of(pixels: &[u32], image: &Image, w: usize, h: usize) -> Segment {
     let (mut su, mut sv) = (0.0, 0.0);
     let mut rgb = [0.0f64; 3];
     let mut hist = ColorHistogram::default();
+    let mut terms = [0u32; 10];
     let mut bbox = [u32::MAX, u32::MAX, 0, 0];
     for &p in pixels {
         let (u, v) = (p as usize % w, p as usize / w);
@@ -275,7 +279,9 @@ fn features_of(pixels: &[u32], image: &Image, w: usize, h: usize) -> Segment {
         for k in 0..3 {
             rgb[k] += c[k] as f64;
         }
-        hist.counts[rgb8_bin(c)] += 1;
+        let hsv = rgb_to_hsv(c.map(|x| f64::from(x) / 255.0));
+        hist.counts[hsv_bin(hsv)] += 1;
+        terms[usize::from(color_term(hsv))] += 1;
         bbox = [
             bbox[0].min(u as u32),
             bbox[1].min(v as u32),
@@ -301,6 +307,7 @@ fn features_of(pixels: &[u32], image: &Image, w: usize, h: usize) -> Segment {
             histogram: hist,
             mean_rgb,
             mean_hsv: rgb_to_hsv(mean_rgb),
+            color_terms: terms,
         },
         bbox,
         touches_border,

@@ -190,6 +190,7 @@ impl ProceduralModel {
             features: Features {
                 histogram,
                 pixels: [px, px],
+                colors: Vec::new(),
             },
         })
     }
