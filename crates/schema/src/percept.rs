@@ -120,17 +120,35 @@ pub fn color_term(hsv: [f64; 3]) -> u8 {
     }
 }
 
+/// The count threshold of the 20th-percentile rule of §5.1.2.1: the 20th percentile (nearest
+/// rank, the ⌈0.2·n⌉-th smallest) of the n non-zero counts; 0 when every count is 0. No
+/// allocation (a rank count per value, for the few dozen bins of a colour feature).
+pub fn percentile20_threshold(counts: &[u32]) -> u32 {
+    let n = counts.iter().filter(|&&c| c > 0).count();
+    if n == 0 {
+        return 0;
+    }
+    let rank = (0.2 * n as f64).ceil().max(1.0) as usize;
+    counts
+        .iter()
+        .copied()
+        .filter(|&c| {
+            let below = counts.iter().filter(|&&o| o > 0 && o < c).count();
+            let upto = counts.iter().filter(|&&o| o > 0 && o <= c).count();
+            c > 0 && below < rank && rank <= upto
+        })
+        .min()
+        .unwrap_or(0)
+}
+
 /// The kept colour terms of per-term pixel counts: the 20th-percentile rule of §5.1.2.1 (terms
 /// whose count is below the ⌈0.2·n⌉-th smallest of the n non-zero counts are dropped), as
 /// (term, share of the kept pixels), ascending by term.
 pub fn kept_color_terms(counts: &[u32; 10]) -> Vec<(u8, f64)> {
-    let mut nz: Vec<u32> = counts.iter().copied().filter(|&c| c > 0).collect();
-    if nz.is_empty() {
+    let threshold = percentile20_threshold(counts);
+    if threshold == 0 {
         return Vec::new();
     }
-    nz.sort_unstable();
-    let rank = (0.2 * nz.len() as f64).ceil().max(1.0) as usize;
-    let threshold = nz[rank - 1];
     let kept: Vec<(u8, u32)> = counts
         .iter()
         .enumerate()

@@ -117,19 +117,7 @@ impl ColorHistogram {
     /// The count threshold of the 20th-percentile rule: the 20th percentile (nearest rank,
     /// ⌈0.2·n⌉-th smallest) of the n non-zero bin counts; 0 if the histogram is empty.
     pub fn percentile20_threshold(&self) -> u32 {
-        let mut nz = [0u32; HISTOGRAM_BINS];
-        let mut n = 0;
-        for &c in self.counts.iter().filter(|&&c| c > 0) {
-            nz[n] = c;
-            n += 1;
-        }
-        if n == 0 {
-            return 0;
-        }
-        let nz = &mut nz[..n];
-        nz.sort_unstable();
-        let rank = (0.2 * n as f64).ceil().max(1.0) as usize;
-        nz[rank - 1]
+        schema::percept::percentile20_threshold(&self.counts)
     }
 
     /// The colours kept by the 20th-percentile rule of §5.1.2.1, as a bit mask (bit l = colour l).
