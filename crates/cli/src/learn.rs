@@ -1,7 +1,7 @@
 //! `pbd learn`: the procedural model of a task from one to a few demonstrations (ch. 5).
 //!
 //! Each Pick-And-Place instance found by `pbd infer` gives one example: the features the robot saw of
-//! the object when its grasp converged (colour histogram, size in pixels) and the place where Place
+//! the object when its grasp converged (colour terms and histogram, size in pixels) and the place where Place
 //! converged. The model (`schema::procedural`) keeps sufficient statistics, so `--update` adds new
 //! demonstrations to an existing model with the same result as learning from all at once (§5.2).
 //! `--explain` says in plain words (and pictures) what was learned.
@@ -136,17 +136,17 @@ pub fn main(args: LearnArgs, out: &mut dyn Write) -> Result<()> {
     for d in &args.demos {
         let ex = examples_from(d)?;
         for e in &ex {
-            let bins: Vec<String> = e
-                .features
-                .histogram
+            let mut colors = e.features.colors.clone();
+            colors.sort_by(|x, y| y.1.total_cmp(&x.1));
+            let colors: Vec<String> = colors
                 .iter()
                 .take(3)
-                .map(|(b, _)| b.to_string())
+                .map(|&(t, w)| format!("{} {w:.2}", schema::procedural::color_name(usize::from(t))))
                 .collect();
             listing.push((
                 d.display().to_string(),
                 e.reference.clone(),
-                format!("bins {} px {:?}", bins.join(","), e.features.pixels),
+                format!("colours {} px {:?}", colors.join(", "), e.features.pixels),
             ));
         }
         examples.extend(ex);

@@ -7,7 +7,7 @@ use std::path::Path;
 use bayes::univariate::StudentT;
 use dexter_sim::vision::color::hsv_to_rgb;
 use plotters::prelude::*;
-use schema::procedural::{COLOR_BINS, Features, bin_center_hsv};
+use schema::procedural::{COLORS, Features, term_hsv};
 
 /// One line of a [`LineChart`]: points (x, y) with an optional (low, high) error bar each.
 #[derive(Debug, Clone)]
@@ -50,8 +50,9 @@ const PALETTE: [RGBColor; 6] = [
     RGBColor(23, 190, 207),
 ];
 
-fn bin_rgb(bin: usize) -> RGBColor {
-    let [r, g, b] = hsv_to_rgb(bin_center_hsv(bin));
+/// The drawing colour of a colour term.
+fn term_rgb(term: usize) -> RGBColor {
+    let [r, g, b] = hsv_to_rgb(term_hsv(term));
     let c = |x: f64| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
     RGBColor(c(r), c(g), c(b))
 }
@@ -124,8 +125,9 @@ pub fn line_chart(path: &Path, chart: &LineChart) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Colour pmfs over the 64 bins as a grid of bar charts (Fig. 5.11): one row per place, one
-/// column per step; each bar is drawn in its bin's colour.
+/// Colour pmfs over the colour terms as a grid of bar charts (Fig. 5.11): one row per place, one
+/// column per step; each bar is drawn in its term's colour, in term order (black, grey, white,
+/// red, orange, yellow, green, blue, purple, pink).
 pub fn pmf_grid(path: &Path, title: &str, rows: &[(String, Vec<Vec<f64>>)]) -> anyhow::Result<()> {
     let cols = rows.iter().map(|r| r.1.len()).max().unwrap_or(1).max(1);
     let nrows = rows.len().max(1);
@@ -145,12 +147,12 @@ pub fn pmf_grid(path: &Path, title: &str, rows: &[(String, Vec<Vec<f64>>)]) -> a
                 .margin(4)
                 .x_label_area_size(16)
                 .y_label_area_size(30)
-                .build_cartesian_2d(0f64..COLOR_BINS as f64, 0f64..ymax)?;
+                .build_cartesian_2d(0f64..COLORS as f64, 0f64..ymax)?;
             ctx.configure_mesh().disable_mesh().x_labels(3).y_labels(3).draw()?;
             ctx.draw_series(
                 pmf.iter()
                     .enumerate()
-                    .map(|(b, &p)| Rectangle::new([(b as f64, 0.0), (b as f64 + 0.9, p)], bin_rgb(b).filled())),
+                    .map(|(b, &p)| Rectangle::new([(b as f64, 0.0), (b as f64 + 0.9, p)], term_rgb(b).filled())),
             )?;
         }
     }
@@ -159,7 +161,7 @@ pub fn pmf_grid(path: &Path, title: &str, rows: &[(String, Vec<Vec<f64>>)]) -> a
 }
 
 /// Colour swatches of synthetic instances (Fig. 5.12): one row per place, one block per instance,
-/// each block striped by the instance's colour bins in proportion to their weights.
+/// each block striped by the instance's colour terms in proportion to their shares.
 pub fn swatches(path: &Path, places: &[(String, Vec<Features>)]) -> anyhow::Result<()> {
     let per_row = places.iter().map(|p| p.1.len()).max().unwrap_or(1).clamp(1, 36);
     let block = 28i32;
@@ -174,15 +176,15 @@ pub fn swatches(path: &Path, places: &[(String, Vec<Features>)]) -> anyhow::Resu
         root.draw(&Text::new(name.clone(), (10, y + block / 3), ("sans-serif", 13)))?;
         for (i, f) in inst.iter().take(per_row).enumerate() {
             let x = label_w + i as i32 * (block + 4);
-            let total: f64 = f.histogram.iter().map(|h| h.1).sum::<f64>().max(1e-12);
+            let total: f64 = f.colors.iter().map(|h| h.1).sum::<f64>().max(1e-12);
             let mut acc = 0.0;
-            for &(b, wgt) in &f.histogram {
+            for &(b, wgt) in &f.colors {
                 let a = y + (acc / total * block as f64) as i32;
                 acc += wgt;
                 let e = y + (acc / total * block as f64).round() as i32;
                 root.draw(&Rectangle::new(
                     [(x, a), (x + block, e.max(a + 1))],
-                    bin_rgb(usize::from(b)).filled(),
+                    term_rgb(usize::from(b)).filled(),
                 ))?;
             }
             root.draw(&Rectangle::new([(x, y), (x + block, y + block)], BLACK.mix(0.3)))?;

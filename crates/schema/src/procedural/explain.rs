@@ -7,38 +7,29 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use serde::Serialize;
 
-use super::{COLOR_BINS, Connectivity, FeatureType, Features, PlacePrior, ProceduralModel, StructurePosterior};
+use super::{COLORS, Connectivity, FeatureType, Features, PlacePrior, ProceduralModel, StructurePosterior};
 use crate::error::SchemaError;
+use crate::percept::{COLOR_TERM_HSV, COLOR_TERMS};
 
-/// HSV centre of a histogram bin (`16·h + 4·s + v`, each axis in 4 equal intervals; hue in degrees).
-pub fn bin_center_hsv(bin: usize) -> [f64; 3] {
-    let c = |i: usize| (i as f64 + 0.5) / 4.0;
-    [360.0 * c((bin / 16) % 4), c((bin / 4) % 4), c(bin % 4)]
+/// A representative HSV colour (hue in degrees, s and v in [0, 1]) of colour term `term`, for
+/// drawing; out-of-range terms are black.
+pub fn term_hsv(term: usize) -> [f64; 3] {
+    COLOR_TERM_HSV.get(term).copied().unwrap_or([0.0, 0.0, 0.0])
 }
 
-/// A plain-words name of a histogram bin, e.g. `bright vivid red–yellow`, `dark grey`, `black`.
-pub fn color_name(bin: usize) -> String {
-    let (h, s, v) = ((bin / 16) % 4, (bin / 4) % 4, bin % 4);
-    if v == 0 {
-        return "black".into();
-    }
-    if s == 0 {
-        return ["black", "dark grey", "grey", "white"][v].into();
-    }
-    let hue = ["red–yellow", "green", "cyan–blue", "purple–pink"][h];
-    let sat = ["", "greyish ", "", "vivid "][s];
-    let val = ["", "dark ", "", "bright "][v];
-    format!("{val}{sat}{hue}")
+/// The name of colour term `term` (`"red"`, `"grey"`, …; `"?"` out of range).
+pub fn color_name(term: usize) -> &'static str {
+    COLOR_TERMS.get(term).copied().unwrap_or("?")
 }
 
-/// One colour bin's predictive probability.
+/// One colour term's predictive probability.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ColorMass {
-    /// Bin index 0..64.
-    pub bin: u8,
+    /// Term index ([`COLOR_TERMS`]).
+    pub term: u8,
     /// Its name ([`color_name`]).
     pub name: String,
-    /// HSV of its centre (hue in degrees, s and v in [0, 1]).
+    /// Its representative HSV ([`term_hsv`]; hue in degrees, s and v in [0, 1]).
     pub hsv: [f64; 3],
     /// Predictive probability (5.18).
     pub probability: f64,
@@ -53,7 +44,7 @@ pub struct PlaceExplanation {
     pub demonstrations: u64,
     /// The most probable colours of its predictive pmf (up to 5, those above uniform).
     pub top_colors: Vec<ColorMass>,
-    /// The whole predictive colour pmf over the 64 bins.
+    /// The whole predictive colour pmf over the colour terms.
     pub color_pmf: Vec<f64>,
     /// Predictive size location (deci-pixels).
     pub size_mean: f64,
@@ -166,17 +157,16 @@ impl ProceduralModel {
         // shares (the kept bins of a synthetic object).
         let per_demo = color_src.color.total() as f64 / color_src.demonstrations.max(1) as f64;
         let m = (per_demo.round() as usize).clamp(1, 1000);
-        let mut counts = [0u32; COLOR_BINS];
+        let mut counts = [0u32; COLORS];
         for _ in 0..m {
             counts[categorical(rng, &theta)] += 1;
         }
-        let mut histogram: Vec<(u8, f64)> = counts
+        let colors: Vec<(u8, f64)> = counts
             .iter()
             .enumerate()
             .filter(|c| *c.1 > 0)
             .map(|(b, &c)| (b as u8, f64::from(c) / m as f64))
             .collect();
-        histogram.sort_by_key(|h| h.0);
         let x = self
             .hyper
             .size_prior
@@ -188,9 +178,9 @@ impl ProceduralModel {
             place: place.to_string(),
             structure,
             features: Features {
-                histogram,
+                histogram: Vec::new(),
                 pixels: [px, px],
-                colors: Vec::new(),
+                colors,
             },
         })
     }
@@ -206,16 +196,16 @@ impl ProceduralModel {
         let mut places = Vec::new();
         for (name, p) in &self.places {
             let pmf = self.color_pmf(name)?;
-            let mut order: Vec<usize> = (0..COLOR_BINS).collect();
+            let mut order: Vec<usize> = (0..COLORS).collect();
             order.sort_by(|&a, &b| pmf[b].total_cmp(&pmf[a]).then(a.cmp(&b)));
             let top_colors: Vec<ColorMass> = order
                 .iter()
                 .take(5)
-                .filter(|&&b| pmf[b] > 1.0 / COLOR_BINS as f64)
+                .filter(|&&b| pmf[b] > 1.0 / COLORS as f64)
                 .map(|&b| ColorMass {
-                    bin: b as u8,
-                    name: color_name(b),
-                    hsv: bin_center_hsv(b),
+                    term: b as u8,
+                    name: color_name(b).to_string(),
+                    hsv: term_hsv(b),
                     probability: pmf[b],
                 })
                 .collect();
@@ -313,10 +303,9 @@ mod tests {
     #[test]
     fn colour_names() {
         assert_eq!(color_name(0), "black");
-        assert_eq!(color_name(3), "white");
-        assert_eq!(color_name(15), "bright vivid red–yellow");
-        assert_eq!(color_name(16 * 2 + 4 * 2 + 2), "cyan–blue");
-        let hsv = bin_center_hsv(63);
-        assert!((hsv[0] - 315.0).abs() < 1e-12 && (hsv[1] - 0.875).abs() < 1e-12);
+        assert_eq!(color_name(2), "white");
+        assert_eq!(color_name(3), "red");
+        assert_eq!(color_name(99), "?");
+        assert_eq!(term_hsv(7)[0], 220.0);
     }
 }

@@ -5,10 +5,11 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use super::{
-    COLOR_BINS, Connectivity, Hyper, MODEL_FORMAT, MODEL_VERSION, PlacePrior, PlaceStats, ProceduralModel, SizeStats,
-    StructureChoice, color_class_bin,
+    COLORS, Connectivity, Hyper, MODEL_FORMAT, MODEL_VERSION, PlacePrior, PlaceStats, ProceduralModel, SizeStats,
+    StructureChoice,
 };
 use crate::error::SchemaError;
+use crate::percept::COLOR_TERMS;
 
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -24,12 +25,12 @@ struct HyperFile {
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ColorHyper {
-    bins: usize,
-    concentration: f64,
+    terms: Vec<String>,
+    concentrations: Vec<f64>,
     base: Vec<f64>,
     draws_per_object: u32,
     object_concentrations: Vec<f64>,
-    classes: bool,
+    chromatic_share: f64,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -62,7 +63,7 @@ struct PlaceFile {
 }
 
 #[derive(Serialize)]
-struct FileV3<'a> {
+struct FileV4<'a> {
     format: &'a str,
     version: u32,
     hyper: HyperFile,
@@ -77,50 +78,50 @@ impl ProceduralModel {
     /// ```json
     /// {
     ///   "format": "pbd-procedural-model",
-    ///   "version": 3,
+    ///   "version": 4,
     ///   "hyper": {
     ///     "place_prior": { "kind": "uniform" },            // or { "kind": "dirichlet", "beta": 1.0 }
-    ///     "color": { "bins": 64,
-    ///                "concentration": 1.0,                  // α of π ~ Dirichlet(α·m) per place
-    ///                "base": [0.111, 0.033, …],             // m over the 64 bins
+    ///     "color": { "terms": ["black", "grey", …, "pink"],  // the colour terms, in index order
+    ///                "concentrations": [1, 16, 256, 4096],  // grid of α, π ~ Dirichlet(α·m) per place
+    ///                "base": [0.119, 0.156, …],             // m over the terms
     ///                "draws_per_object": 30,                // D draws per object
     ///                "object_concentrations": [1, 4, 16, 64], // grid of a, θ ~ Dirichlet(a·π)
-    ///                "classes": true },                     // bins count as their colour class
+    ///                "chromatic_share": 0.3 },              // the chromatic rule
     ///     "size": { "unit": "deci-pixels", "mu": 25.0, "kappa": 0.05, "alpha": 2.0, "beta": 128.0 },
-    ///     "structure_prior": { "neither": 0.25, "color": 0.25, "size": 0.25, "color+size": 0.25 },
+    ///     "structure_prior": { "neither": 0.328, "color": 0.328, "size": 0.328, "color+size": 0.016 },
     ///     "structure": "inferred",                         // or a fixed structure name
     ///     "relevance_log_threshold": 2.0                   // relevant when ln B10 > this
     ///   },
     ///   "places": [                                        // sorted by name
     ///     { "name": "bin_left", "demonstrations": 3,
-    ///       "color_objects": [[[3, 12], [15, 18]], …],      // per object its (bin, draws), D in all
+    ///       "color_objects": [[[3, 21], [9, 9]], …],        // per object its (term, draws), D in all
     ///       "size": { "n": 3, "sum_half_pixels": 9001, "sum_sq_half_pixels": 27012345 } }
     ///   ]
     /// }
     /// ```
     ///
-    /// Versions 1 (independent colour draws, symmetric Dirichlet, uniform background) and 2 (one
-    /// Dirichlet per place over the summed colour draws, weighted per object) are refused with an
-    /// error that says to re-learn: their summed counts lose which draws came from which object,
-    /// which the two-level colour model of version 3 needs. The objects of a place are listed in
-    /// sorted order.
+    /// Versions 1 (independent colour draws, symmetric Dirichlet, uniform background), 2 (one
+    /// Dirichlet per place over the summed colour draws, weighted per object) and 3 (the two-level
+    /// model over 8 classes of the 64-bin histogram) are refused with an error that says to
+    /// re-learn: their colour observations are histogram bins, not colour terms. The objects of a
+    /// place are listed in sorted order.
     ///
     /// Size statistics are in half-pixels (left + right pixel counts), exact integers; the size
     /// observation in deci-pixels is x / 20.
     pub fn to_json(&self) -> String {
         let h = &self.hyper;
-        let file = FileV3 {
+        let file = FileV4 {
             format: MODEL_FORMAT,
             version: MODEL_VERSION,
             hyper: HyperFile {
                 place_prior: h.place_prior,
                 color: ColorHyper {
-                    bins: COLOR_BINS,
-                    concentration: h.color_concentration,
+                    terms: COLOR_TERMS.iter().map(|t| t.to_string()).collect(),
+                    concentrations: h.color_concentrations.clone(),
                     base: h.color_base.clone(),
                     draws_per_object: h.color_draws_per_object,
                     object_concentrations: h.color_object_concentrations.clone(),
-                    classes: h.color_classes,
+                    chromatic_share: h.color_chromatic_share,
                 },
                 size: SizeHyper {
                     unit: SIZE_UNIT.into(),
@@ -180,17 +181,17 @@ impl ProceduralModel {
         }
         match obj.get("version") {
             Some(Value::Number(n)) if n.as_u64() == Some(u64::from(MODEL_VERSION)) => {}
-            Some(Value::Number(n)) if matches!(n.as_u64(), Some(1 | 2)) => {
-                let what = if n.as_u64() == Some(1) {
-                    "independent colour draws"
-                } else {
-                    "summed colour draws with a per-object weight"
+            Some(Value::Number(n)) if matches!(n.as_u64(), Some(1..=3)) => {
+                let what = match n.as_u64() {
+                    Some(1) => "independent colour draws",
+                    Some(2) => "summed colour draws with a per-object weight",
+                    _ => "colour classes of the 64-bin histogram",
                 };
                 return Err(invalid(
                     "version",
                     format!(
                         "model version {n} ({what}) is no longer supported; this build reads version \
-                         {MODEL_VERSION} (two-level colour model, per-object colour draws): re-run `pbd learn` on \
+                         {MODEL_VERSION} (two-level colour model over colour terms): re-run `pbd learn` on \
                          the demonstrations"
                     ),
                 ));
@@ -210,10 +211,13 @@ impl ProceduralModel {
         }
         let hyper_v = obj.get("hyper").ok_or_else(|| invalid("hyper", "missing".into()))?;
         let hf: HyperFile = serde_json::from_value(hyper_v.clone()).map_err(|e| invalid("hyper", e.to_string()))?;
-        if hf.color.bins != COLOR_BINS {
+        if hf.color.terms != COLOR_TERMS {
             return Err(invalid(
-                "hyper.color.bins",
-                format!("{} colour bins; this build uses {COLOR_BINS}", hf.color.bins),
+                "hyper.color.terms",
+                format!(
+                    "{:?}; this build counts the colour terms {:?}",
+                    hf.color.terms, COLOR_TERMS
+                ),
             ));
         }
         if hf.size.unit != SIZE_UNIT {
@@ -237,11 +241,11 @@ impl ProceduralModel {
         let sp = &hf.structure_prior;
         let hyper = Hyper {
             place_prior: hf.place_prior,
-            color_concentration: hf.color.concentration,
+            color_concentrations: hf.color.concentrations,
             color_base: hf.color.base,
             color_draws_per_object: hf.color.draws_per_object,
             color_object_concentrations: hf.color.object_concentrations,
-            color_classes: hf.color.classes,
+            color_chromatic_share: hf.color.chromatic_share,
             size_prior,
             structure_prior: [sp.neither, sp.color, sp.size, sp.color_size],
             structure,
@@ -296,15 +300,14 @@ impl ProceduralModel {
             for (j, o) in pf.color_objects.into_iter().enumerate() {
                 let of = format!("{field}.color_objects[{j}]");
                 if o.windows(2).any(|w| w[0].0 >= w[1].0) {
-                    return Err(invalid(&of, "bins must be strictly ascending".into()));
+                    return Err(invalid(&of, "colour terms must be strictly ascending".into()));
                 }
                 for &(b, n) in &o {
-                    let reachable = b < COLOR_BINS && (!model.hyper.color_classes || color_class_bin(b) == b);
-                    if !reachable {
-                        return Err(invalid(&of, format!("bin {b} is not a colour this model counts")));
+                    if b >= COLORS {
+                        return Err(invalid(&of, format!("colour term {b} out of range 0..{COLORS}")));
                     }
                     if n == 0 {
-                        return Err(invalid(&of, format!("bin {b} has 0 draws")));
+                        return Err(invalid(&of, format!("colour term {b} has 0 draws")));
                     }
                 }
                 let total: u64 = o.iter().map(|x| x.1).sum();
