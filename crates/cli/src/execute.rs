@@ -14,10 +14,17 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use dexter_sim::exec::{ExecSink, PickPlacePolicy, SimPlant};
-use dexter_sim::perception::Eyes;
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use control_basis::Hardware;
+use control_basis::math::Vec3;
+use dexter::exec::{ExecSink, PickPlacePolicy, RobotPlant};
+use dexter::eyes::Eyes;
+use dexter_sim::hardware::{SimRobot, workspace};
 use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
 use dexter_sim::scene::Scene;
+use dexter_sim::snapshot::ObjectState;
 use schema::{ExecReport, Library, Percept};
 use serde::{Deserialize, Serialize};
 
@@ -60,8 +67,11 @@ pub struct ExecuteArgs {
 /// What happened to one object.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ObjectReport {
-    /// Scene label.
+    /// Scene label of the object the segment was (the evaluator's matching, by the truth at the
+    /// start; `-` for a segment that matches no object).
     pub object: String,
+    /// The robot's segment (track id) the decision was made on; `None` for an object it never saw.
+    pub segment: Option<u32>,
     /// `execute`, `ignore` (not relevant) or `skip` (unreachable).
     pub decision: String,
     /// Why (posterior, Bayes factor, reachability).
@@ -84,6 +94,9 @@ pub struct ObjectReport {
     pub final_position: [f64; 3],
     /// Object at rest inside the chosen place.
     pub success: bool,
+    /// Why it failed, by phase (`perception`, `decision`, `reach`, `grasp`, `hold`, `place`,
+    /// `release`, `outcome`), when it did.
+    pub failure: Option<String>,
 }
 
 /// The whole report.
@@ -107,7 +120,8 @@ pub struct ExecuteReport {
     pub mcap: Option<String>,
 }
 
-struct Sink {
+/// Logs an execution: robot-side events (activity, percepts) and the world (snapshots, truth).
+pub struct Logger {
     log: Option<McapLog>,
     header: dexter_sim::snapshot::SnapshotHeader,
     names: Vec<String>,
@@ -115,70 +129,85 @@ struct Sink {
     error: Option<anyhow::Error>,
     last_activity: String,
     progress: indicatif::ProgressBar,
+    objects: Vec<ObjectState>,
 }
 
-impl Sink {
+impl Logger {
     fn keep(&mut self, r: Result<()>) {
         if let Err(e) = r {
             self.error.get_or_insert(e);
         }
     }
-}
 
-impl ExecSink for Sink {
-    fn tick(&mut self, sim: &DexterSim, activity: &str) {
-        if activity != self.last_activity {
-            self.last_activity = activity.to_string();
-            self.progress
-                .set_message(format!("{activity} (t = {:.1} s)", sim.time()));
-            if let Some(log) = self.log.as_mut() {
-                let r = log.log_text(sim.time(), LogLevel::Info, activity);
-                self.keep(r);
-            }
-        }
+    fn world(&mut self, sim: &DexterSim) {
+        self.objects.clear();
+        self.objects
+            .extend((0..sim.objects().len()).map(|i| sim.object_state(i)));
         self.progress.tick();
         if sim.time() + 1e-9 >= self.next_log {
             self.next_log += 1.0 / 30.0;
             if let Some(log) = self.log.as_mut() {
-                let r = log.log_snapshot(&self.header, &sim.snapshot(activity));
+                let r = log.log_snapshot(&self.header, &sim.snapshot(&self.last_activity));
                 self.keep(r);
             }
         }
     }
+}
 
-    fn percept(&mut self, sim: &DexterSim, _eyes: &Eyes, p: &Percept) {
-        let Some(log) = self.log.as_mut() else {
+/// The robot side's sink: activity changes and percepts (with the truth beside them).
+struct RobotSink(Rc<RefCell<Logger>>);
+
+impl ExecSink for RobotSink {
+    fn tick(&mut self, hw: &dyn Hardware, activity: &str) {
+        let mut l = self.0.borrow_mut();
+        if !activity.is_empty() && activity != l.last_activity {
+            l.last_activity = activity.to_string();
+            let t = hw.time_secs();
+            l.progress.set_message(format!("{activity} (t = {t:.1} s)"));
+            if let Some(log) = l.log.as_mut() {
+                let r = log.log_text(t, LogLevel::Info, activity);
+                l.keep(r);
+            }
+        }
+    }
+
+    fn percept(&mut self, hw: &dyn Hardware, _eyes: &Eyes, p: &Percept) {
+        let mut l = self.0.borrow_mut();
+        let t = hw.time_secs();
+        let objects: Vec<(String, [f64; 3])> = l
+            .names
+            .iter()
+            .zip(&l.objects)
+            .map(|(n, o)| {
+                let v = o.pose.translation.vector;
+                (n.clone(), [v.x, v.y, v.z])
+            })
+            .collect();
+        let Some(log) = l.log.as_mut() else {
             return;
         };
         let schema = serde_json::json!({"type": "object"});
-        let objects: Vec<(&str, [f64; 3])> = self
-            .names
-            .iter()
-            .enumerate()
-            .map(|(i, n)| {
-                let v = sim.object_state(i).pose.translation.vector;
-                (n.as_str(), [v.x, v.y, v.z])
-            })
-            .collect();
         let r = log
-            .log_json(TOPIC_PERCEPT, "pbd.Percept", &schema, sim.time(), p)
+            .log_json(TOPIC_PERCEPT, "pbd.Percept", &schema, t, p)
             .and_then(|()| {
                 log.log_json(
                     TOPIC_TRUTH,
                     "pbd.Truth",
                     &schema,
-                    sim.time(),
-                    &serde_json::json!({"t": sim.time(), "objects": objects}),
+                    t,
+                    &serde_json::json!({"t": t, "objects": objects}),
                 )
             });
-        self.keep(r);
+        l.keep(r);
     }
 }
 
-/// What to do with each object: (label, place) or a reason to leave it.
+/// What to do with one seen segment: a place or a reason to leave it.
 pub struct Decision {
-    /// Scene label.
-    pub object: String,
+    /// The robot's segment (track id).
+    pub segment: u32,
+    /// Where it was seen (m, world).
+    pub at: [f64; 3],
     /// `Ok(place)` to execute, `Err(reason)` to ignore.
     pub place: std::result::Result<String, String>,
     /// Posterior over places.
@@ -189,6 +218,337 @@ pub struct Decision {
     pub reason: String,
 }
 
+/// How the robot decides per segment.
+pub enum Decider<'a> {
+    /// Every segment goes to this place (a demonstration's place).
+    Place(String),
+    /// A learned procedural model.
+    Model(&'a std::path::Path),
+}
+
+/// Gaze points (x, y) that cover the table in front of the robot.
+fn scan_points(ws: &dexter::exec::Workspace) -> Vec<Vec3> {
+    let mut out = Vec::new();
+    let (cx, cy) = (ws.table_center[0], ws.table_center[1]);
+    let hy = (ws.table_size[1] / 2.0 - 0.1).max(0.0);
+    for x in [cx - 0.08, cx + 0.1] {
+        for k in 0..4 {
+            let y = cy - hy + 2.0 * hy * f64::from(k) / 3.0;
+            out.push(Vec3::new(x, y, ws.table_z + 0.03));
+        }
+    }
+    out
+}
+
+/// Executes the task in `scene` as the robot: look over the table, decide per seen segment, run
+/// the schema with ψ on each relevant one; the evaluator matches segments to objects by the truth at
+/// the start and judges each outcome by the truth at the end. `only`: restrict to the segment
+/// nearest this scene object (a user pointing at it).
+#[allow(clippy::too_many_arguments)]
+pub fn execute_scene(
+    scene: &Scene,
+    scene_name: &str,
+    library: &Library,
+    decider: &Decider<'_>,
+    seed: u64,
+    only: Option<&str>,
+    log: Option<McapLog>,
+    progress: indicatif::ProgressBar,
+) -> Result<ExecuteReport> {
+    let schema_name = "pick_and_place".to_string();
+    let schema = library.schema(&schema_name)?.clone();
+    let mut sim = DexterSim::new(
+        scene,
+        SimSettings {
+            seed,
+            ..SimSettings::default()
+        },
+    )?;
+    let table_z = scene.spec.table.height;
+    dexter_sim::hardware::park_robot(&mut sim, table_z)?;
+    for _ in 0..200 {
+        sim.step();
+    }
+    let truth0: Vec<ObjectState> = (0..sim.objects().len()).map(|i| sim.object_state(i)).collect();
+    let names = sim.header().object_names.clone();
+    let labels: Vec<String> = scene.resolved.iter().map(|r| r.label.clone()).collect();
+    let logger = Rc::new(RefCell::new(Logger {
+        log,
+        header: sim.header().clone(),
+        names,
+        next_log: 0.0,
+        error: None,
+        last_activity: String::new(),
+        progress,
+        objects: truth0.clone(),
+    }));
+    let wall = std::time::Instant::now();
+    let t_start = sim.time();
+    let ws = workspace(scene);
+    let hook_logger = logger.clone();
+    let mut hw = SimRobot::new(&mut sim, scene, seed)?
+        .with_hook(Box::new(move |s: &DexterSim| hook_logger.borrow_mut().world(s)));
+    let mut sink = RobotSink(logger.clone());
+    let mut reports = Vec::new();
+    {
+        let mut plant = RobotPlant::new(&mut hw, &ws, library, &mut sink)?;
+        // Look over the table: the tracker gathers what is there.
+        for at in scan_points(&ws) {
+            plant.look(&at, 0.6)?;
+        }
+        let seen: Vec<schema::SegmentPercept> = plant
+            .last_percept()
+            .map(|p| {
+                p.segments
+                    .iter()
+                    .filter(|s| !ws.places.iter().any(|pl| pl.contains([s.centroid[0], s.centroid[1]])))
+                    .cloned()
+                    .collect()
+            })
+            .unwrap_or_default();
+        // The evaluator: which object each segment is (nearest at the start, within 8 cm).
+        let match_object = |c: &[f64; 3]| -> Option<usize> {
+            truth0
+                .iter()
+                .enumerate()
+                .map(|(i, o)| ((o.pose.translation.vector - Vec3::from(*c)).xy().norm(), i))
+                .filter(|(d, _)| *d < 0.08)
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .map(|(_, i)| i)
+        };
+        let mut seen = seen;
+        if let Some(label) = only {
+            let i = scene.object_index(label)?;
+            seen.retain(|s| match_object(&s.centroid) == Some(i));
+            seen.truncate(1);
+        }
+        let place_names: Vec<String> = ws.places.iter().map(|p| p.name.clone()).collect();
+        let decisions = match decider {
+            Decider::Place(p) => seen
+                .iter()
+                .map(|s| Decision {
+                    segment: s.id,
+                    at: s.centroid,
+                    place: Ok(p.clone()),
+                    posterior: BTreeMap::new(),
+                    log_bayes_factor: None,
+                    reason: format!("the demonstration placed its object in {p}"),
+                })
+                .collect(),
+            Decider::Model(path) => crate::learn::decide(path, &place_names, &seen)?.1,
+        };
+        let mut matched = vec![false; truth0.len()];
+        for d in decisions {
+            let obj = match_object(&d.at);
+            if let Some(i) = obj {
+                matched[i] = true;
+            }
+            let label = obj.map(|i| labels[i].clone()).unwrap_or_else(|| "-".into());
+            let final_of = |l: &Rc<RefCell<Logger>>| {
+                obj.map(|i| {
+                    let v = l.borrow().objects[i].pose.translation.vector;
+                    [v.x, v.y, v.z]
+                })
+                .unwrap_or(d.at)
+            };
+            let place = match d.place {
+                Err(why) => {
+                    reports.push(ObjectReport {
+                        object: label,
+                        segment: Some(d.segment),
+                        decision: "ignore".into(),
+                        reason: why,
+                        place: None,
+                        posterior: d.posterior,
+                        log_bayes_factor: d.log_bayes_factor,
+                        arms: vec![],
+                        transfer: false,
+                        contingencies: vec![],
+                        execution: None,
+                        final_position: final_of(&logger),
+                        success: false,
+                        failure: None,
+                    });
+                    continue;
+                }
+                Ok(p) => p,
+            };
+            logger
+                .borrow()
+                .progress
+                .set_message(format!("{label} (segment {}) → {place}", d.segment));
+            // Look where it was decided on, then find it: its track, or (the tracker may have re-identified it while
+            // the head looked elsewhere) the seen segment nearest where it was decided on.
+            plant.look(&Vec3::from(d.at), 0.6)?;
+            let now = plant.last_percept().and_then(|p| {
+                p.segments.iter().find(|s| s.id == d.segment).or_else(|| {
+                    p.segments
+                        .iter()
+                        .map(|s| ((Vec3::from(s.centroid) - Vec3::from(d.at)).xy().norm(), s))
+                        .filter(|(dist, _)| *dist < 0.08)
+                        .min_by(|a, b| a.0.total_cmp(&b.0))
+                        .map(|(_, s)| s)
+                })
+            });
+            let (segment_now, at) = now
+                .map(|s| (s.id, Vec3::from(s.centroid)))
+                .unwrap_or((d.segment, Vec3::from(d.at)));
+            plant.plan_handoff(&at)?;
+            let handoff = plant.handoff();
+            let policy = PickPlacePolicy::decide(&*plant.hw, &ws, &segment_now.to_string(), &at, &place, handoff)?;
+            let Some(mut policy) = policy else {
+                reports.push(ObjectReport {
+                    object: label,
+                    segment: Some(d.segment),
+                    decision: "skip".into(),
+                    reason: format!("no arm reaches segment {}, or none reaches `{place}`", d.segment),
+                    place: Some(place),
+                    posterior: d.posterior,
+                    log_bayes_factor: d.log_bayes_factor,
+                    arms: vec![],
+                    transfer: false,
+                    contingencies: vec![],
+                    execution: None,
+                    final_position: final_of(&logger),
+                    success: false,
+                    failure: Some("reach: out of both arms' workspace".into()),
+                });
+                continue;
+            };
+            let transfer = policy.is_transfer();
+            plant.bind_arms(&[policy.pick_arm, policy.place_arm]);
+            let arms_before = plant.arms_used.len();
+            let exec = schema::execute(library, &schema, &mut plant, &mut policy, 20)?;
+            let arms: Vec<String> = plant.arms_used[arms_before..]
+                .iter()
+                .map(|a| a.prefix().to_string())
+                .collect();
+            // Let the object come to rest, then judge by the truth.
+            plant.settle(0.5)?;
+            let (success, final_position) = match obj {
+                Some(i) => {
+                    let o = logger.borrow().objects[i];
+                    let p = o.pose.translation.vector;
+                    let spec = scene.place(&place)?;
+                    (
+                        spec.contains([p.x, p.y]) && o.linvel.norm() < 0.02 && p.z < table_z + spec.wall_height + 0.2,
+                        [p.x, p.y, p.z],
+                    )
+                }
+                None => (false, d.at),
+            };
+            let failure = (!success).then(|| failure_cause(&exec, obj.is_some()));
+            {
+                let mut l = logger.borrow_mut();
+                let t = plant.hw.time_secs();
+                if let Some(log) = l.log.as_mut() {
+                    let r = log.log_text(
+                        t,
+                        if success { LogLevel::Info } else { LogLevel::Warning },
+                        &format!("{label}: {}", if success { "placed" } else { "not placed" }),
+                    );
+                    l.keep(r);
+                }
+            }
+            reports.push(ObjectReport {
+                object: label,
+                segment: Some(d.segment),
+                decision: "execute".into(),
+                reason: d.reason,
+                place: Some(place),
+                posterior: d.posterior,
+                log_bayes_factor: d.log_bayes_factor,
+                arms,
+                transfer,
+                contingencies: exec.contingencies.clone(),
+                execution: Some(exec),
+                final_position,
+                success,
+                failure,
+            });
+        }
+        if only.is_none() {
+            // Objects the robot never saw (the evaluator's view).
+            for (i, m) in matched.iter().enumerate() {
+                if !m {
+                    let v = truth0[i].pose.translation.vector;
+                    reports.push(ObjectReport {
+                        object: labels[i].clone(),
+                        segment: None,
+                        decision: "unseen".into(),
+                        reason: "no tracked segment matched it".into(),
+                        place: None,
+                        posterior: BTreeMap::new(),
+                        log_bayes_factor: None,
+                        arms: vec![],
+                        transfer: false,
+                        contingencies: vec![],
+                        execution: None,
+                        final_position: [v.x, v.y, v.z],
+                        success: false,
+                        failure: Some("perception: not seen".into()),
+                    });
+                }
+            }
+        }
+    }
+    let sim_time = hw.sim().time() - t_start;
+    drop(hw);
+    drop(sink);
+    let mut l = Rc::try_unwrap(logger)
+        .map_err(|_| anyhow::anyhow!("the logger is still shared"))?
+        .into_inner();
+    l.progress.finish_and_clear();
+    if let Some(e) = l.error.take() {
+        return Err(e.context("writing the MCAP log"));
+    }
+    if let Some(log) = l.log.take() {
+        log.finish()?;
+    }
+    let relevant = reports
+        .iter()
+        .filter(|r| r.decision == "execute" || r.decision == "skip")
+        .count();
+    let placed = reports.iter().filter(|r| r.success).count();
+    Ok(ExecuteReport {
+        scene: scene_name.to_string(),
+        schema: schema_name,
+        objects: reports,
+        placed,
+        relevant,
+        sim_time,
+        wall_time: wall.elapsed().as_secs_f64(),
+        mcap: None,
+    })
+}
+
+/// The phase an unsuccessful execution failed in: the first failed action of the executive, else
+/// the outcome.
+fn failure_cause(exec: &ExecReport, matched: bool) -> String {
+    if !matched {
+        return "perception: the segment matches no object".into();
+    }
+    let phase = |a: &str| {
+        match a {
+            "reach_object" => "reach",
+            "grasp" => "grasp",
+            "hold" => "hold",
+            "place" => "place",
+            "release" => "release",
+            other => other,
+        }
+        .to_string()
+    };
+    match exec.steps.iter().rev().find_map(|s| match &s.outcome {
+        schema::ActionOutcome::Failed(why) => Some((phase(&s.action), why.clone())),
+        _ => None,
+    }) {
+        Some((p, why)) => format!("{p}: {why}"),
+        None if !exec.reached_goal => "executive: no goal state reached".into(),
+        None => "outcome: not at rest inside the place".into(),
+    }
+}
+
 /// Runs `pbd execute`.
 pub fn main(args: ExecuteArgs, out: &mut dyn Write) -> Result<()> {
     let library = match &args.library {
@@ -197,15 +557,11 @@ pub fn main(args: ExecuteArgs, out: &mut dyn Write) -> Result<()> {
     };
     let scene = Scene::open(&args.scene)?;
     let seed = args.seed.unwrap_or(scene.spec.seed);
-    let labels: Vec<String> = match &args.object {
-        Some(o) => {
-            scene.object_index(o)?;
-            vec![o.clone()]
-        }
-        None => scene.resolved.iter().map(|r| r.label.clone()).collect(),
-    };
-    // Decide per object.
-    let (schema_name, decisions): (String, Vec<Decision>) = match (&args.demo, &args.model) {
+    if let Some(o) = &args.object {
+        scene.object_index(o)?;
+    }
+    let demo_place;
+    let decider = match (&args.demo, &args.model) {
         (Some(path), _) => {
             let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
             let file: InferFile =
@@ -227,7 +583,7 @@ pub fn main(args: ExecuteArgs, out: &mut dyn Write) -> Result<()> {
                     path.display()
                 );
             }
-            let place = match &args.place {
+            demo_place = match &args.place {
                 Some(p) => p.clone(),
                 None => file
                     .inference
@@ -236,164 +592,39 @@ pub fn main(args: ExecuteArgs, out: &mut dyn Write) -> Result<()> {
                     .find_map(|i| i.place.clone())
                     .context("the inference has no instance with a place; pass --place")?,
             };
-            scene.place(&place)?;
-            let d = labels
-                .iter()
-                .map(|l| Decision {
-                    object: l.clone(),
-                    place: Ok(place.clone()),
-                    posterior: BTreeMap::new(),
-                    log_bayes_factor: None,
-                    reason: format!("the demonstration placed its object in {place}"),
-                })
-                .collect();
-            (schema, d)
+            scene.place(&demo_place)?;
+            Decider::Place(demo_place.clone())
         }
-        (None, Some(path)) => crate::learn::decide(path, &scene, seed, &labels)?,
+        (None, Some(path)) => Decider::Model(path),
         (None, None) => bail!("pass --demo demo.infer.json or --model model.json"),
     };
-    let schema = library.schema(&schema_name)?.clone();
-
-    let mut sim = DexterSim::new(
-        &scene,
-        SimSettings {
-            seed,
-            ..SimSettings::default()
-        },
-    )?;
-    let table_z = scene.spec.table.height;
-    dexter_sim::task::park_robot(&mut sim, table_z)?;
-    for _ in 0..200 {
-        sim.step();
-    }
     let log = match &args.output {
         Some(p) => {
+            let sim = DexterSim::new(&scene, SimSettings::default())?;
             let mut log = McapLog::create(p)?;
             log.attach("dexter.urdf", "application/xml", DEXTER_URDF.as_bytes())?;
             let mut meta = BTreeMap::new();
             meta.insert("command".to_string(), "execute".to_string());
             meta.insert("scene".to_string(), args.scene.clone());
             meta.insert("seed".to_string(), seed.to_string());
-            meta.insert("schema".to_string(), schema_name.clone());
+            meta.insert("schema".to_string(), "pick_and_place".to_string());
             log.metadata("pbd", meta)?;
-            log.log_scene(&scene, sim.header(), sim.time())?;
+            log.log_scene(&scene, sim.header(), 0.0)?;
             Some(log)
         }
         None => None,
     };
-    let mut sink = Sink {
+    let mut report = execute_scene(
+        &scene,
+        &args.scene,
+        &library,
+        &decider,
+        seed,
+        args.object.as_deref(),
         log,
-        header: sim.header().clone(),
-        names: sim.header().object_names.clone(),
-        next_log: 0.0,
-        error: None,
-        last_activity: String::new(),
-        progress: crate::progress::spinner(args.json, "execute"),
-    };
-    let wall = std::time::Instant::now();
-    let t_start = sim.time();
-    let mut reports = Vec::new();
-    for d in decisions {
-        let obj = sim.object(&d.object)?;
-        let place = match d.place {
-            Err(why) => {
-                let p = sim.object_state(obj).pose.translation.vector;
-                reports.push(ObjectReport {
-                    object: d.object.clone(),
-                    decision: "ignore".into(),
-                    reason: why,
-                    place: None,
-                    posterior: d.posterior,
-                    log_bayes_factor: d.log_bayes_factor,
-                    arms: vec![],
-                    transfer: false,
-                    contingencies: vec![],
-                    execution: None,
-                    final_position: [p.x, p.y, p.z],
-                    success: false,
-                });
-                continue;
-            }
-            Ok(p) => p,
-        };
-        sink.progress.set_message(format!("{} → {place}", d.object));
-        let mut plant = SimPlant::new(&mut sim, &scene, &library, seed, &mut sink)?;
-        let at = plant.sim.object_state(obj).pose.translation.vector;
-        plant.plan_handoff(&at)?;
-        let policy = PickPlacePolicy::decide(plant.sim, &scene, &d.object, &at, &place, plant.handoff())?;
-        let Some(mut policy) = policy else {
-            drop(plant);
-            reports.push(ObjectReport {
-                object: d.object.clone(),
-                decision: "skip".into(),
-                reason: format!("no arm reaches `{}`, or none reaches `{place}`", d.object),
-                place: Some(place),
-                posterior: d.posterior,
-                log_bayes_factor: d.log_bayes_factor,
-                arms: vec![],
-                transfer: false,
-                contingencies: vec![],
-                execution: None,
-                final_position: [at.x, at.y, at.z],
-                success: false,
-            });
-            continue;
-        };
-        let transfer = policy.is_transfer();
-        plant.bind_arms(&[policy.pick_arm, policy.place_arm]);
-        let exec = schema::execute(&library, &schema, &mut plant, &mut policy, 20)?;
-        let arms: Vec<String> = plant.arms_used.iter().map(|a| a.prefix().to_string()).collect();
-        drop(plant);
-        // Let the object come to rest, then judge.
-        for _ in 0..500 {
-            sim.step();
-        }
-        let state = sim.object_state(obj);
-        let p = state.pose.translation.vector;
-        let spec = scene.place(&place)?;
-        let success = spec.contains([p.x, p.y]) && state.linvel.norm() < 0.02 && p.z < table_z + spec.wall_height + 0.2;
-        reports.push(ObjectReport {
-            object: d.object.clone(),
-            decision: "execute".into(),
-            reason: d.reason,
-            place: Some(place),
-            posterior: d.posterior,
-            log_bayes_factor: d.log_bayes_factor,
-            arms,
-            transfer,
-            contingencies: exec.contingencies.clone(),
-            execution: Some(exec),
-            final_position: [p.x, p.y, p.z],
-            success,
-        });
-        if let Some(log) = sink.log.as_mut() {
-            let r = log.log_text(
-                sim.time(),
-                if success { LogLevel::Info } else { LogLevel::Warning },
-                &format!("{}: {}", d.object, if success { "placed" } else { "not placed" }),
-            );
-            sink.keep(r);
-        }
-    }
-    sink.progress.finish_and_clear();
-    if let Some(e) = sink.error.take() {
-        return Err(e.context("writing the MCAP log"));
-    }
-    if let Some(log) = sink.log.take() {
-        log.finish()?;
-    }
-    let relevant = reports.iter().filter(|r| r.decision != "ignore").count();
-    let placed = reports.iter().filter(|r| r.success).count();
-    let report = ExecuteReport {
-        scene: args.scene.clone(),
-        schema: schema_name,
-        objects: reports,
-        placed,
-        relevant,
-        sim_time: sim.time() - t_start,
-        wall_time: wall.elapsed().as_secs_f64(),
-        mcap: args.output.as_ref().map(|p| p.display().to_string()),
-    };
+        crate::progress::spinner(args.json, "execute"),
+    )?;
+    report.mcap = args.output.as_ref().map(|p| p.display().to_string());
     if args.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
         return Ok(());
@@ -413,7 +644,10 @@ pub fn print_report(r: &ExecuteReport, out: &mut dyn Write) -> Result<()> {
         writeln!(
             out,
             "  {:<16} {:<8} {:<10} arms {:<12} {:<9} {:<24} {}",
-            o.object,
+            match o.segment {
+                Some(s) => format!("{} [{s}]", o.object),
+                None => o.object.clone(),
+            },
             o.decision,
             o.place.as_deref().unwrap_or("-"),
             arms,
@@ -428,7 +662,7 @@ pub fn print_report(r: &ExecuteReport, out: &mut dyn Write) -> Result<()> {
                     if o.success {
                         "PLACED".to_string()
                     } else {
-                        "FAILED".to_string()
+                        format!("FAILED ({})", o.failure.as_deref().unwrap_or("?"))
                     },
                 _ => o.reason.clone(),
             }

@@ -233,7 +233,7 @@ pub(crate) fn record_scripted(
         let mut records = Vec::new();
         for _ in 0..demos {
             let (kind, cmd) = teacher.demonstrate(&scene, false)?;
-            let o = grasp_trial::execute(&scene, &settings, presenter.arm, &cmd)?;
+            let o = grasp_trial::execute(&scene, &settings, presenter.arm, &cmd, &percept)?;
             if o.success {
                 grasps.push(demo_grasp(&o, &percept));
             }

@@ -12,10 +12,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use control_basis::math::Vec3;
-use dexter_sim::physics::{DexterSim, SimSettings};
-use dexter_sim::scene::Scene;
-use dexter_sim::watch::Watcher;
 use schema::Library;
 use schema::procedural::{Example, Features, Hyper, ProceduralModel};
 use serde::Serialize;
@@ -243,64 +239,18 @@ fn explain(path: &Path, args: &LearnArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-/// Perceives each object of `scene` with Dexter's head (Search-Track: look at it, let the head settle,
-/// segment) and returns its features, or `None` if no segment was seen near it.
-pub fn perceive_objects(scene: &Scene, seed: u64, labels: &[String]) -> Result<Vec<Option<Features>>> {
-    let mut sim = DexterSim::new(
-        scene,
-        SimSettings {
-            seed,
-            ..SimSettings::default()
-        },
-    )?;
-    dexter_sim::task::park_robot(&mut sim, scene.spec.table.height)?;
-    for _ in 0..200 {
-        sim.step();
-    }
-    let mut watcher = Watcher::new(&sim, scene, seed)?;
-    let mut out = Vec::new();
-    for l in labels {
-        let i = scene.object_index(l)?;
-        let at = scene.resolved[i].pose.translation.vector;
-        watcher.look_at(&mut sim, &at)?;
-        for _ in 0..500 {
-            sim.step();
-        }
-        let p = watcher.percept(&sim, sim.time())?;
-        let seg = p
-            .segments
-            .iter()
-            .filter(|s| s.seen)
-            .map(|s| ((Vec3::new(s.centroid[0], s.centroid[1], s.centroid[2]) - at).norm(), s))
-            .filter(|(d, _)| *d < 0.06)
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-            .map(|(_, s)| Features::from(s));
-        out.push(seg);
-    }
-    Ok(out)
-}
-
-/// `pbd execute --model`: relevance and place for every object (the procedural model's decision).
-pub fn decide(path: &Path, scene: &Scene, seed: u64, labels: &[String]) -> Result<(String, Vec<Decision>)> {
+/// `pbd execute --model`: relevance and place for every segment the robot sees (the procedural
+/// model's decision on the robot's own percepts).
+pub fn decide(path: &Path, places: &[String], segments: &[schema::SegmentPercept]) -> Result<(String, Vec<Decision>)> {
     let model = ProceduralModel::load(path)?;
-    let features = perceive_objects(scene, seed, labels)?;
     let mut out = Vec::new();
-    for (label, f) in labels.iter().zip(features) {
-        let Some(f) = f else {
-            out.push(Decision {
-                object: label.clone(),
-                place: Err("not seen by the head cameras".into()),
-                posterior: BTreeMap::new(),
-                log_bayes_factor: None,
-                reason: "not seen".into(),
-            });
-            continue;
-        };
+    for seg in segments {
+        let f = Features::from(seg);
         let p = model.predict(&f)?;
         let posterior: BTreeMap<String, f64> = p.places.iter().cloned().collect();
         let lb = p.relevance.bayes_factor.log_b10;
         let place = if p.relevance.relevant {
-            if scene.place(&p.map_place).is_err() {
+            if !places.contains(&p.map_place) {
                 Err(format!("its place `{}` is not in this scene", p.map_place))
             } else {
                 Ok(p.map_place.clone())
@@ -312,7 +262,8 @@ pub fn decide(path: &Path, scene: &Scene, seed: u64, labels: &[String]) -> Resul
             ))
         };
         out.push(Decision {
-            object: label.clone(),
+            segment: seg.id,
+            at: seg.centroid,
             reason: format!(
                 "MAP place {} (p = {:.3}), ln B10 = {lb:.1}",
                 p.map_place, p.map_probability

@@ -16,12 +16,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
+use dexter::eyes::Eyes;
 use dexter_sim::Arm;
-use dexter_sim::perception::Eyes;
 use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
 use dexter_sim::scene::Scene;
+use dexter_sim::teach::{DemoReport, DemoSettings, DemoSink, TeleopSource, run_demonstration};
 use dexter_sim::teleop::{HandCommand, Replay, TeachTask, Teacher, TeleopStream};
-use dexter_sim::watch::{DemoReport, DemoSettings, DemoSink, TeleopSource, run_demonstration};
 use schema::Percept;
 use serde::Serialize;
 
@@ -142,18 +142,18 @@ fn choose_arm(sim: &DexterSim, scene: &Scene, object: &str, place: Option<&str>,
     let pp = place.map(|p| scene.place(p)).transpose()?;
     let table_z = scene.spec.table.height;
     let ok = |arm: Arm| -> Result<bool> {
-        let mut over = dexter_sim::task::park_pose(arm, table_z);
+        let mut over = dexter::skills::park_pose(arm, table_z);
         over.translation.vector.x = op.translation.x;
         over.translation.vector.y = op.translation.y;
         over.translation.vector.z = op.translation.z + 0.15;
-        if !dexter_sim::task::reachable(sim, arm, &over, 5)? {
+        if !dexter::skills::reachable(sim.model(), arm, &over, 5)? {
             return Ok(false);
         }
         if let Some(p) = pp {
             over.translation.vector.x = p.center[0];
             over.translation.vector.y = p.center[1];
             over.translation.vector.z = table_z + p.wall_height + 0.15;
-            return Ok(dexter_sim::task::reachable(sim, arm, &over, 6)?);
+            return Ok(dexter::skills::reachable(sim.model(), arm, &over, 6)?);
         }
         Ok(true)
     };
@@ -352,7 +352,7 @@ impl DemoSink for Sink<'_> {
         let r = self.log.log_json(TOPIC_TRUTH, "pbd.Truth", &any_schema(), p.t, &truth);
         self.keep(r);
         if self.images {
-            let (l, rt) = eyes.images(dexter_sim::perception::Pair::Head);
+            let (l, rt) = eyes.images(dexter::eyes::Pair::Head);
             for (name, img) in [("head_left", l), ("head_right", rt)] {
                 let r = self.log.log_image(p.t, name, img.width, img.height, &img.rgb);
                 self.keep(r);
@@ -388,7 +388,7 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
         },
     )?;
     let table_z = scene.spec.table.height;
-    dexter_sim::task::park_robot(&mut sim, table_z)?;
+    dexter_sim::hardware::park_robot(&mut sim, table_z)?;
     for _ in 0..200 {
         sim.step();
     }

@@ -11,8 +11,8 @@ use std::path::PathBuf;
 use clap::{Args, Subcommand, ValueEnum};
 use dexter_sim::Arm;
 use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
+use dexter_sim::pick_place::{PickPlaceReport, PickPlaceRequest, WorldObserver, pick_and_place_in};
 use dexter_sim::scene::Scene;
-use dexter_sim::task::{Observer, PickPlaceReport, PickPlaceRequest, pick_and_place_in};
 use dexter_sim::vision::Image;
 
 use crate::mcap_log::{LogLevel, McapLog};
@@ -161,10 +161,10 @@ fn pick_place(args: PickPlaceArgs, out: &mut dyn Write) -> anyhow::Result<()> {
             }
         }
     };
-    let mut on_images = |s: &DexterSim, left: &Image, right: &Image| {
+    let mut on_images = |t: f64, left: &Image, right: &Image| {
         if let Some(log) = log.borrow_mut().as_mut() {
             for (name, img) in [("head_left", left), ("head_right", right)] {
-                keep(log.log_image(s.time(), name, img.width, img.height, &img.rgb));
+                keep(log.log_image(t, name, img.width, img.height, &img.rgb));
             }
         }
     };
@@ -172,7 +172,7 @@ fn pick_place(args: PickPlaceArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         &mut sim,
         &scene,
         &request,
-        &mut Observer::new(&mut callback).with_images(&mut on_images),
+        &mut WorldObserver::new(&mut callback).with_images(&mut on_images),
     )?;
     progress.finish_and_clear();
     if let Some(e) = log_error.into_inner() {

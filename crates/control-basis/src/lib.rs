@@ -19,7 +19,9 @@
 //!    φ̇, dwell and hysteresis; predicate vectors and the behaviour predicate (3.20). [`Monitor`]s (§4.2)
 //!    are controllers without an effector, evaluated on observed state.
 //! 6. **Plants** ([`plant`]): the [`Plant`] trait that the simulator, a [`KinematicPlant`] for tests, or a
-//!    real robot implement.
+//!    real robot implement; and [`hardware`]: the [`Hardware`] trait — encoders, motor units,
+//!    fingertip force/torque sensors, calibrated cameras, a clock — the only way the robot side reaches
+//!    the world.
 //!
 //! Start with `examples/embed_custom_robot.rs`: load your URDF, implement `Plant`, compose two controllers.
 //!
@@ -47,6 +49,7 @@ pub mod chain;
 pub mod controller;
 pub mod error;
 pub mod grasp;
+pub mod hardware;
 pub mod ik;
 pub mod linalg;
 pub mod math;
@@ -66,6 +69,7 @@ pub use controller::{
     PotentialType, Reference, Sensor, StackSettings, TaskBuffers, evaluate,
 };
 pub use error::CbError;
+pub use hardware::{Camera, CameraInfo, ForceTorque, Hardware, HardwareError, Image, Intrinsics};
 pub use ik::{IkSettings, IkSolution, inverse_kinematics};
 pub use linalg::{DampedLeastSquares, DlsInfo, DlsSettings, RowSpaceBasis};
 pub use model::{JointKind, JointLimits, RobotModel};

@@ -1,12 +1,14 @@
 //! Physics steps per second of the full Dexter scene (two arms, two hands, head, table, two bins,
 //! six objects), and a whole control period (one control-basis Reach tick + 5 physics steps).
+use control_basis::Hardware;
 use criterion::{Criterion, criterion_group, criterion_main};
+use dexter::control::ReachControl;
+use dexter::eyes::{Eyes, Pair};
 use dexter_sim::Arm;
-use dexter_sim::control::ReachControl;
-use dexter_sim::perception::{Eyes, Pair};
+use dexter_sim::hardware::SimRobot;
+use dexter_sim::hardware::park_robot;
 use dexter_sim::physics::{DexterSim, SimSettings};
 use dexter_sim::scene::Scene;
-use dexter_sim::task::park_robot;
 use std::hint::black_box;
 
 fn scene() -> Scene {
@@ -40,24 +42,26 @@ fn bench(c: &mut Criterion) {
         let mut s = sim(settings);
         g.bench_function(name, |b| b.iter(|| black_box(&mut s).step()));
     }
-    let mut s = sim(SimSettings::default());
+    let scene0 = scene();
+    let mut s0 = sim(SimSettings::default());
+    let mut s = SimRobot::new(&mut s0, &scene0, 1).expect("hardware");
     let mut reach = ReachControl::new(&s, Arm::Left).expect("reach");
     let goal = reach.tool_pose(&s);
     reach.set_goal(&s, goal);
     g.bench_function("control_period_reach_tick_plus_5_steps", |b| {
         b.iter(|| {
             reach.tick(&mut s, 0.005);
-            for _ in 0..5 {
-                s.step();
-            }
+            s.advance(0.005).expect("advance");
         })
     });
+    drop(s);
     // Real-time factor with everything at its rate: physics 1 kHz, Reach ◁ Manipulability at 200 Hz
     // on the moving arm, head stereo render + segmentation + matching at 10 Hz; 0.1 s of simulated
     // time per iteration (RTF = 0.1 s / time).
     let scene = scene();
-    let mut s = sim(SimSettings::default());
-    let mut eyes = Eyes::new(&s, &scene, 1).expect("eyes");
+    let mut s1 = sim(SimSettings::default());
+    let mut s = SimRobot::new(&mut s1, &scene, 1).expect("hardware");
+    let mut eyes = Eyes::new(&s, scene.spec.table.height).expect("eyes");
     let mut reach = ReachControl::new(&s, Arm::Left).expect("reach");
     let start = reach.tool_pose(&s);
     let mut k = 0u64;
@@ -68,12 +72,10 @@ fn bench(c: &mut Criterion) {
             goal.translation.vector.y += if k.is_multiple_of(2) { 0.1 } else { 0.0 };
             k += 1;
             reach.set_goal(&s, goal);
-            black_box(eyes.perceive(&s, Pair::Head).expect("perceive").len());
+            black_box(eyes.perceive(&mut s, Pair::Head).expect("perceive").len());
             for _ in 0..20 {
                 reach.tick(&mut s, 0.005);
-                for _ in 0..5 {
-                    s.step();
-                }
+                s.advance(0.005).expect("advance");
             }
         })
     });

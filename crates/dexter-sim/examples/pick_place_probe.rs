@@ -1,7 +1,7 @@
 //! Probe: one pick-and-place per catalog object on the built-in pick-place scene.
 use dexter_sim::physics::SimSettings;
+use dexter_sim::pick_place::{PickPlaceRequest, pick_and_place};
 use dexter_sim::scene::{ObjectPlacement, Scene};
-use dexter_sim::task::{PickPlaceRequest, pick_and_place};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();

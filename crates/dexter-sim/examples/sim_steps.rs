@@ -15,11 +15,12 @@
 //!
 //! Prints set-up time, stepping time, steps/s, the number of awake bodies at the end, the
 //! multibodies' sizes and state sums (exact, to compare trajectories between builds).
+use dexter::control::ReachControl;
 use dexter_sim::Arm;
-use dexter_sim::control::ReachControl;
+use dexter_sim::hardware::SimRobot;
+use dexter_sim::hardware::park_robot;
 use dexter_sim::physics::{DexterSim, SimSettings};
 use dexter_sim::scene::Scene;
-use dexter_sim::task::park_robot;
 use std::time::Instant;
 
 fn env<T: std::str::FromStr>(name: &str) -> Option<T> {
@@ -45,12 +46,13 @@ fn main() {
     for _ in 0..settle {
         sim.step();
     }
+    let mut hw = SimRobot::new(&mut sim, &scene, 0).expect("hardware");
     let mut reach = if moving {
-        Some(ReachControl::new(&sim, Arm::Left).expect("reach"))
+        Some(ReachControl::new(&hw, Arm::Left).expect("reach"))
     } else {
         None
     };
-    let start = reach.as_mut().map(|r| r.tool_pose(&sim));
+    let start = reach.as_mut().map(|r| r.tool_pose(&hw));
     let setup = t0.elapsed().as_secs_f64();
 
     // Control period 5 steps; goal switch every 0.5 s of simulated time.
@@ -63,17 +65,19 @@ fn main() {
             if k % switch == 0 {
                 let mut goal = start;
                 goal.translation.vector.y += if (k / switch).is_multiple_of(2) { 0.1 } else { 0.0 };
-                r.set_goal(&sim, goal);
+                r.set_goal(&hw, goal);
             }
             if k % per == 0 {
                 let tt = Instant::now();
-                r.tick(&mut sim, per as f64 * settings.dt);
+                r.tick(&mut hw, per as f64 * settings.dt);
                 tick_time += tt.elapsed().as_secs_f64();
             }
         }
-        sim.step();
+        hw.sim_mut().step();
     }
     let run = t1.elapsed().as_secs_f64();
+    let goal_error = reach.as_mut().map(|r| r.goal_error(&hw));
+    drop(hw);
     let awake = sim.world().islands.num_active_bodies();
     let (bodies, colliders) = sim.counts();
     // Final state, to check that a speed change leaves the trajectory unchanged: the joint positions
@@ -82,7 +86,7 @@ fn main() {
     let obj_sum: f64 = (0..sim.objects().len())
         .map(|i| sim.object_state(i).pose.translation.vector.sum())
         .sum();
-    let goal_err = reach.as_mut().map(|r| r.goal_error(&sim).0);
+    let goal_err = goal_error.map(|e| e.0);
     let multibodies: Vec<String> = sim
         .world()
         .multibody_joints

@@ -1,10 +1,11 @@
 //! Runs one scripted demonstration and prints the monitors' observation vector whenever it changes.
 //! `cargo run --release -p dexter-sim --example teach_probe -- pickplace|hold|handover|touch|wander [object] [place] [left|right] [retry]`
+use dexter::eyes::Eyes;
+use dexter_sim::Arm;
 use dexter_sim::physics::{DexterSim, SimSettings};
 use dexter_sim::scene::Scene;
+use dexter_sim::teach::{DemoSettings, DemoSink, TeleopSource, run_demonstration};
 use dexter_sim::teleop::{TeachTask, Teacher};
-use dexter_sim::watch::{DemoSettings, DemoSink, TeleopSource, run_demonstration};
-use dexter_sim::{Arm, perception::Eyes};
 use schema::{Library, MonitorBank, MonitorConfig, Percept};
 
 struct Sink {
@@ -96,7 +97,7 @@ fn main() {
         },
     };
     let mut sim = DexterSim::new(&scene, SimSettings::default()).unwrap();
-    dexter_sim::task::park_robot(&mut sim, scene.spec.table.height).unwrap();
+    dexter_sim::hardware::park_robot(&mut sim, scene.spec.table.height).unwrap();
     for _ in 0..200 {
         sim.step();
     }

@@ -1,8 +1,8 @@
 //! Debug probe: one pick-and-place with the object's position printed at every activity change
 //! and every 0.1 s during `TRACE_FROM..TRACE_TO` seconds.
 use dexter_sim::physics::{DexterSim, SimSettings};
+use dexter_sim::pick_place::{PickPlaceRequest, WorldObserver, pick_and_place_in};
 use dexter_sim::scene::{ObjectPlacement, Scene};
-use dexter_sim::task::{Observer, PickPlaceRequest, pick_and_place_in};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -89,6 +89,6 @@ fn main() {
         place,
         arm: None,
     };
-    let r = pick_and_place_in(&mut sim, &scene, &req, &mut Observer::new(&mut cb)).expect("run");
+    let r = pick_and_place_in(&mut sim, &scene, &req, &mut WorldObserver::new(&mut cb)).expect("run");
     println!("{} {}", r.success, r.outcome);
 }

@@ -44,7 +44,18 @@ pub enum SimError {
     /// The robot model is unusable for the simulator.
     #[error(transparent)]
     Model(#[from] control_basis::CbError),
+    /// The robot side failed (invalid binding, hardware error).
+    #[error(transparent)]
+    Robot(Box<dexter::RobotError>),
     /// A task could not be carried out (no arm reaches, IK failed, …).
     #[error("{0}")]
     Task(String),
+}
+
+/// A robot-side error met while the world ran the robot (its skills, its vision).
+pub fn from_robot(e: dexter::RobotError) -> SimError {
+    match e {
+        dexter::RobotError::Model(m) => SimError::Model(m),
+        other => SimError::Robot(Box::new(other)),
+    }
 }

@@ -11,8 +11,10 @@
 //! 2. [`execute`]: in a fresh simulation with the same seed (so the object rests where it was seen),
 //!    pre-shape the hand, move high above an approach pose 10 cm behind the pre-grasp along the palm
 //!    normal, descend to it, move along the palm normal to the pre-grasp, flex the fingers until they
-//!    hold (or 3 s pass), lift the hand 10 cm and hold it still for 1 s. Success: the object rose
-//!    ≥ 8 cm and at least two hand parts still touch it.
+//!    hold (or 3 s pass), lift the hand 10 cm and hold it still for 1 s. Success, judged by the robot
+//!    on its own sensors as the seed's Dexter did: the Grasp predicate converged on the fingertips
+//!    and, after the lift, two fingertips still carry a load (`dexter::skills::MIN_LOAD`). The
+//!    world's view (how far the object really rose) is reported beside it.
 //!
 //! Pre-grasps are palm-surface poses (`bhand/palm_surface_link`: +z = palm normal = approach, finger
 //! 3 on +y) in the world frame.
@@ -22,13 +24,16 @@ use std::time::Instant;
 use control_basis::math::{Iso3, Vec3};
 use serde::Serialize;
 
-use crate::control::{FLEX_CLOSED, HandControl, ReachControl};
-use crate::error::SimError;
-use crate::perception::{Eyes, Pair, SearchTrack};
+use control_basis::{Hardware, Plant};
+use dexter::control::{FLEX_CLOSED, HandControl, ReachControl};
+use dexter::eyes::Eyes;
+use dexter::skills::{Observer, TouchState, hand_fingertips};
+
+use crate::error::{SimError, from_robot};
+use crate::hardware::{SimRobot, park_robot};
 use crate::physics::{DexterSim, SimSettings};
 use crate::scene::{ObjectPlacement, Scene, Shape};
-use crate::snapshot::{Arm, FingertipWrench};
-use crate::task::park_robot;
+use crate::snapshot::Arm;
 
 /// Distance (m) of the approach pose behind the pre-grasp, along the palm normal.
 pub const APPROACH_DISTANCE: f64 = 0.10;
@@ -56,6 +61,10 @@ pub struct Percept {
     pub centroid: [f64; 3],
     /// b: the 2×2 second-moment matrix of the segment averaged over the stereo pair (px²).
     pub appearance: [[f64; 2]; 2],
+    /// The measured height and footprint.
+    pub extent: schema::SeenExtent,
+    /// The table height the object rests on (m).
+    pub table_z: f64,
     /// The object's true pose after settling (m, world; translation and quaternion `[w, x, y, z]`),
     /// not used by the robot.
     pub true_position: [f64; 3],
@@ -92,73 +101,29 @@ pub fn perceive(scene: &Scene, settings: &SimSettings) -> Result<Result<Percept,
         .map(|r| r.presentation.clone())
         .ok_or_else(|| SimError::Task("the scene has no object to perceive".into()))?;
     let nominal = scene.resolved[0].pose.translation.vector;
-    let mut eyes = Eyes::new(&sim, scene, settings.seed ^ 0xE7E5)?;
-    let mut track = SearchTrack::new(&sim)?;
-    track.look_at(&mut sim, &nominal)?;
-    let steps_per_frame = ((1.0 / scene.spec.camera.rate_hz) / settings.dt).round().max(1.0) as usize;
-    for _ in 0..(0.4 / settings.dt) as usize {
-        sim.step();
-    }
-    let frame_dt = steps_per_frame as f64 * settings.dt;
-    let mut estimate = nominal;
-    let mut recent: Vec<(Vec3, [[f64; 2]; 2])> = Vec::new();
-    for _frame in 0..40 {
-        let cams = eyes.cameras(&sim, Pair::Head)?;
-        eyes.perceive(&sim, Pair::Head)?;
-        let nearest = eyes
-            .blobs()
-            .iter()
-            .filter(|b| b.left.is_some() && b.right.is_some())
-            .filter_map(|b| b.centroid.map(|c| (b, (c - estimate).xy().norm())))
-            .filter(|(_, d)| *d < 0.12)
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(b, _)| *b);
-        if let Some(blob) = nearest {
-            let o = track.track(&mut sim, &cams, &blob, frame_dt);
-            if let Some(c) = o.centroid {
-                estimate = c;
-                if o.error < 4e-4 && !blob.truncated() {
-                    recent.push((c, blob.mean_covariance()));
-                } else {
-                    recent.clear();
-                }
-            }
-        } else {
-            recent.clear();
-        }
-        if recent.len() >= 3 {
-            let n = recent.len() as f64;
-            let c = recent.iter().fold(Vec3::zeros(), |a, r| a + r.0) / n;
-            let mut b = [[0.0; 2]; 2];
-            for (_, m) in &recent {
-                for i in 0..2 {
-                    for j in 0..2 {
-                        b[i][j] += m[i][j] / n;
-                    }
-                }
-            }
-            // Exactly symmetric (the two cameras' matrices are, up to rounding).
-            let off = 0.5 * (b[0][1] + b[1][0]);
-            b[0][1] = off;
-            b[1][0] = off;
-            let truth = sim.object_state(0).pose.translation.vector;
-            return Ok(Ok(Percept {
-                presentation: name,
-                centroid: [c.x, c.y, c.z],
-                appearance: b,
-                true_position: [truth.x, truth.y, truth.z],
-                vision_error: (c.xy() - truth.xy()).norm(),
-                frames: recent.len(),
-            }));
-        }
-        for _ in 0..steps_per_frame {
-            sim.step();
-        }
-    }
-    Ok(Err(format!(
-        "search-track: no stereo blob foveated near ({:.2}, {:.2}, {:.2})",
-        nominal.x, nominal.y, nominal.z
-    )))
+    let mut hw = SimRobot::new(&mut sim, scene, settings.seed ^ 0xE7E5)?;
+    let mut eyes = Eyes::new(&hw, table_z).map_err(from_robot)?;
+    let mut nobody = |_: &mut dyn Hardware, _: &str| {};
+    let mut obs = Observer::new(&mut nobody);
+    let frame = 1.0 / scene.spec.camera.rate_hz;
+    let located =
+        dexter::skills::locate_object(&mut hw, &mut eyes, &nominal, table_z, frame, &mut obs).map_err(from_robot)?;
+    let located = match located {
+        Ok(l) => l,
+        Err(why) => return Ok(Err(why)),
+    };
+    let c = located.seen.centroid;
+    let truth = hw.sim().object_state(0).pose.translation.vector;
+    Ok(Ok(Percept {
+        presentation: name,
+        centroid: [c.x, c.y, c.z],
+        appearance: located.appearance,
+        extent: located.seen.extent,
+        table_z,
+        true_position: [truth.x, truth.y, truth.z],
+        vision_error: (c.xy() - truth.xy()).norm(),
+        frames: located.frames,
+    }))
 }
 
 /// A pre-grasp to execute: palm pose, hand pre-shape and spread.
@@ -175,11 +140,16 @@ pub struct PreGraspCommand {
 /// How a grasp trial went.
 #[derive(Debug, Clone, Serialize)]
 pub struct TrialOutcome {
-    /// The §6.5 criterion: the object rose ≥ 8 cm with the hand and ≥ 2 hand parts still touch it.
+    /// The §6.5 criterion judged on the robot's sensors: the Grasp predicate converged and, after
+    /// the 10 cm lift, two fingertips still carry at least `dexter::skills::MIN_LOAD`.
     pub success: bool,
+    /// The world's view, for the report only: the object rose ≥ 8 cm and ≥ 2 hand parts touch it.
+    pub true_success: bool,
+    /// The load the fingertips carried after the lift (N).
+    pub load: f64,
     /// What happened (`lifted`, or why not).
     pub outcome: String,
-    /// How far the object rose (m).
+    /// How far the object rose (m; the world's view).
     pub rose: f64,
     /// Distance (m) between the palm and the pre-grasp when the fingers started closing.
     pub pregrasp_error: f64,
@@ -196,21 +166,21 @@ pub struct TrialOutcome {
     pub wall_time: f64,
 }
 
-/// Runs the simulation for up to `seconds`, ticking `reach` at the control rate; stops early when
-/// `until` returns true. Returns whether it did. (The task layer's loop, with nobody observing.)
+/// Runs the hardware for up to `seconds`, ticking `reach` at the control rate; stops early when
+/// `until` returns true. Returns whether it did. (The skills' loop, with nobody observing.)
 fn run_until(
-    sim: &mut DexterSim,
+    hw: &mut dyn Hardware,
     reach: &mut ReachControl,
     seconds: f64,
-    until: impl FnMut(&mut DexterSim, &mut ReachControl) -> bool,
+    until: impl FnMut(&mut dyn Hardware, &mut ReachControl) -> bool,
 ) -> bool {
-    let mut nobody = |_: &DexterSim, _: &str| {};
-    crate::task::run_until(sim, reach, &mut crate::task::Observer::new(&mut nobody), seconds, until)
+    let mut nobody = |_: &mut dyn Hardware, _: &str| {};
+    dexter::skills::run_until(hw, reach, &mut Observer::new(&mut nobody), seconds, until)
 }
 
 /// Whether `arm` can put its palm at `pose` (IK within the joint limits, from the parked posture).
 pub fn pose_reachable(sim: &DexterSim, arm: Arm, pose: &Iso3) -> Result<bool, SimError> {
-    crate::task::reachable(sim, arm, pose, 5)
+    dexter::skills::reachable(sim.model(), arm, pose, 5).map_err(from_robot)
 }
 
 /// The waypoints before a pre-grasp `pre` (world palm pose): a hover pose and the approach pose
@@ -218,8 +188,9 @@ pub fn pose_reachable(sim: &DexterSim, arm: Arm, pose: &Iso3) -> Result<bool, Si
 /// reaches the hover pose first, then moves in straight lines to the approach pose and the
 /// pre-grasp. When the approach pose lies on the arm's side of the object and outside its footprint,
 /// the hover pose is the approach pose itself (a side approach from the robot); otherwise it is
-/// high above it (12 cm above the object's top), so the arm cannot sweep through the object.
-pub fn approach_waypoints(sim: &DexterSim, scene: &Scene, arm: Arm, pre: &Iso3) -> Result<(Iso3, Iso3), SimError> {
+/// high above it (12 cm above the object's top), so the arm cannot sweep through the object. The
+/// object's centre, footprint and top are as the robot saw them (`seen`).
+pub fn approach_waypoints(sim: &DexterSim, seen: &Percept, arm: Arm, pre: &Iso3) -> Result<(Iso3, Iso3), SimError> {
     let approach_dir = pre.rotation * Vec3::z();
     let mut back = *pre;
     back.translation.vector -= approach_dir * APPROACH_DISTANCE;
@@ -227,36 +198,17 @@ pub fn approach_waypoints(sim: &DexterSim, scene: &Scene, arm: Arm, pre: &Iso3) 
         .link_pose_by_name(&format!("{}/shoulder_yaw_link", arm.prefix()))?
         .translation
         .vector;
-    let (centre, radius) = scene
-        .resolved
-        .first()
-        .map(|r| {
-            (
-                r.pose.translation.vector,
-                crate::geometry::bounding_radius(&scene.catalog.objects[r.object].shape),
-            )
-        })
-        .unwrap_or((back.translation.vector, 0.0));
+    let e = &seen.extent;
+    let centre = Vec3::new(e.center[0], e.center[1], seen.table_z + 0.5 * e.height);
+    let radius = e.half_major.hypot(e.half_minor);
     let rel = (back.translation.vector - centre).xy();
     let towards_arm = (shoulder - centre).xy();
     let near_side = rel.dot(&towards_arm) > 0.0 && rel.norm() > radius + 0.06;
     let mut hover = back;
     if !near_side {
-        hover.translation.vector.z = back.translation.z.max(object_top(scene) + 0.12);
+        hover.translation.vector.z = back.translation.z.max(seen.table_z + e.height + 0.12);
     }
     Ok((hover, back))
-}
-
-/// Height (m, world) of the top of the scene's single object as presented.
-fn object_top(scene: &Scene) -> f64 {
-    scene
-        .resolved
-        .first()
-        .map(|r| {
-            let shape: &Shape = &scene.catalog.objects[r.object].shape;
-            r.pose.translation.z + crate::geometry::support_half_extent(shape, &(r.pose.rotation.inverse() * Vec3::z()))
-        })
-        .unwrap_or(scene.spec.table.height)
 }
 
 fn quat(q: &control_basis::math::Rot3) -> [f64; 4] {
@@ -264,14 +216,15 @@ fn quat(q: &control_basis::math::Rot3) -> [f64; 4] {
     [c.w, c.i, c.j, c.k]
 }
 
-/// Executes one pre-grasp with `arm` on the single object of `scene` in a fresh simulation with
-/// `settings` (see the module docs for the phases). Errors only for an unusable scene or robot; a
-/// failed grasp is an outcome.
+/// Executes one pre-grasp with `arm` on the single object of `scene` (seen as `seen`) in a fresh
+/// simulation with `settings` (see the module docs for the phases). Errors only for an unusable scene
+/// or robot; a failed grasp is an outcome.
 pub fn execute(
     scene: &Scene,
     settings: &SimSettings,
     arm: Arm,
     cmd: &PreGraspCommand,
+    seen: &Percept,
 ) -> Result<TrialOutcome, SimError> {
     let wall = Instant::now();
     let mut sim = DexterSim::new(scene, settings.clone())?;
@@ -279,10 +232,16 @@ pub fn execute(
     settle(&mut sim, table_z)?;
     let t0 = sim.time();
     let obj = 0;
-    let mut reach = ReachControl::new(&sim, arm)?;
-    let hand = HandControl::new(&sim, arm)?;
+    let pre = cmd.world_from_palm;
+    let (hover, back) = approach_waypoints(&sim, seen, arm, &pre)?;
+    let mut hw = SimRobot::new(&mut sim, scene, settings.seed ^ 0xE7E5)?;
+    let r = from_robot;
+    let mut reach = ReachControl::new(&hw, arm).map_err(r)?;
+    let hand = HandControl::new(&hw, arm).map_err(r)?;
     let mut out = TrialOutcome {
         success: false,
+        true_success: false,
+        load: 0.0,
         outcome: String::new(),
         rose: 0.0,
         pregrasp_error: f64::NAN,
@@ -292,99 +251,95 @@ pub fn execute(
         sim_time: 0.0,
         wall_time: 0.0,
     };
-    let finish = |mut o: TrialOutcome, sim: &DexterSim, why: String| {
+    let finish = |mut o: TrialOutcome, hw: &SimRobot<'_>, why: String| {
         o.outcome = why;
-        o.sim_time = sim.time() - t0;
+        o.sim_time = hw.time_secs() - t0;
         o.wall_time = wall.elapsed().as_secs_f64();
         o
     };
-    let pre = cmd.world_from_palm;
-    let (hover, back) = approach_waypoints(&sim, scene, arm, &pre)?;
-    hand.set(&mut sim, cmd.preshape, cmd.spread);
+    hand.set(&mut hw, cmd.preshape, cmd.spread);
     reach.max_speed = 0.3;
-    reach.set_goal(&sim, hover);
-    if !run_until(&mut sim, &mut reach, 5.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
-        match reach.set_goal_via_ik(&sim, hover, 17) {
+    reach.set_goal(&hw, hover);
+    if !run_until(&mut hw, &mut reach, 5.0, |h, r| r.at_goal(h, 0.015, 0.05)) {
+        match reach.set_goal_via_ik(&hw, hover, 17) {
             Ok(true) => {}
-            _ => return Ok(finish(out, &sim, "approach out of reach (no IK solution)".into())),
+            _ => return Ok(finish(out, &hw, "approach out of reach (no IK solution)".into())),
         }
-        if !run_until(&mut sim, &mut reach, 8.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
-            let (d, _) = reach.goal_error(&sim);
+        if !run_until(&mut hw, &mut reach, 8.0, |h, r| r.at_goal(h, 0.015, 0.05)) {
+            let (d, _) = reach.goal_error(&hw);
             return Ok(finish(
                 out,
-                &sim,
+                &hw,
                 format!("approach not reached ({:.1} cm away)", d * 100.0),
             ));
         }
     }
     reach.max_speed = 0.2;
-    reach.set_goal(&sim, back);
-    if !run_until(&mut sim, &mut reach, 4.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
-        let (d, _) = reach.goal_error(&sim);
+    reach.set_goal(&hw, back);
+    if !run_until(&mut hw, &mut reach, 4.0, |h, r| r.at_goal(h, 0.01, 0.05)) {
+        let (d, _) = reach.goal_error(&hw);
         return Ok(finish(
             out,
-            &sim,
+            &hw,
             format!("approach pose not reached ({:.1} cm away)", d * 100.0),
         ));
     }
     // Along the palm normal to the pre-grasp. If the hand meets the object first it pushes it; after
     // 3 s the fingers close wherever the hand is (the robot "achieved the pre-grasp" as well as it could).
     reach.max_speed = 0.12;
-    reach.set_goal(&sim, pre);
-    run_until(&mut sim, &mut reach, 3.0, |s, r| r.at_goal(s, 0.004, 0.03));
-    let achieved = reach.tool_pose(&sim);
+    reach.set_goal(&hw, pre);
+    run_until(&mut hw, &mut reach, 3.0, |h, r| r.at_goal(h, 0.004, 0.03));
+    let achieved = reach.tool_pose(&hw);
     out.pregrasp_error = (achieved.translation.vector - pre.translation.vector).norm();
     let a = achieved.translation.vector;
     out.achieved_position = [a.x, a.y, a.z];
     out.achieved_orientation = quat(&achieved.rotation);
-    // Close: flex until opposing fingers touch and the fingers are still.
-    hand.set(&mut sim, FLEX_CLOSED, cmd.spread);
-    let k = if arm == Arm::Left { 0 } else { 3 };
-    let mut tips = [FingertipWrench {
-        arm,
-        finger: 0,
-        force: [0.0; 3],
-        torque: [0.0; 3],
-        in_contact: false,
-    }; 6];
+    // Close: flex until the Grasp predicate converges on the fingertips (two fingers loaded, F3
+    // opposing, the fingers still).
+    hand.set(&mut hw, FLEX_CLOSED, cmd.spread);
     let mut still = 0;
-    out.closed_on_object = run_until(&mut sim, &mut reach, 3.0, |s, _| {
-        let (_, _, parts) = s.hand_wrench_on_object(arm, obj);
-        s.fingertip_wrenches(&mut tips);
-        let touching = tips[k..k + 3].iter().filter(|t| t.in_contact).count();
-        if touching >= 2 && parts >= 2 && hand.max_flex_speed(s) < 0.1 {
+    let mut buf = Vec::new();
+    out.closed_on_object = run_until(&mut hw, &mut reach, 3.0, |h, _| {
+        let t = TouchState::of(&hand_fingertips(h, arm, &mut buf));
+        if t.holding() && hand.max_flex_speed(h) < 0.1 {
             still += 1;
         } else {
             still = 0;
         }
         still >= 30
     });
-    // Lift 10 cm straight up, then hold still.
-    let z_before = sim.object_state(obj).pose.translation.z;
-    let mut lift = reach.tool_pose(&sim);
+    // Lift 10 cm straight up, then hold still and weigh on the fingertips.
+    let z_before = hw.sim().object_state(obj).pose.translation.z;
+    let mut lift = reach.tool_pose(&hw);
     lift.translation.vector.z += LIFT_HEIGHT;
     reach.max_speed = 0.10;
-    reach.set_goal(&sim, lift);
-    run_until(&mut sim, &mut reach, 3.0, |s, r| r.at_goal(s, 0.005, 0.03));
-    run_until(&mut sim, &mut reach, 1.0, |_, _| false);
-    let rose = sim.object_state(obj).pose.translation.z - z_before;
-    let (_, _, parts) = sim.hand_wrench_on_object(arm, obj);
+    reach.set_goal(&hw, lift);
+    run_until(&mut hw, &mut reach, 3.0, |h, r| r.at_goal(h, 0.005, 0.03));
+    run_until(&mut hw, &mut reach, 0.5, |_, _| false);
+    let (mut load, mut loaded, mut n) = (0.0, usize::MAX, 0.0);
+    run_until(&mut hw, &mut reach, 0.5, |h, _| {
+        let t = TouchState::of(&hand_fingertips(h, arm, &mut buf));
+        load += t.load;
+        loaded = loaded.min(t.loaded);
+        n += 1.0;
+        false
+    });
+    let load = load / f64::max(n, 1.0);
+    let loaded = if loaded == usize::MAX { 0 } else { loaded };
+    let rose = hw.sim().object_state(obj).pose.translation.z - z_before;
+    let (_, _, parts) = hw.sim().hand_wrench_on_object(arm, obj);
     out.rose = rose;
-    out.success = rose > LIFT_SUCCESS && parts >= 2;
+    out.load = load;
+    out.true_success = rose > LIFT_SUCCESS && parts >= 2;
+    out.success = out.closed_on_object && loaded >= 2 && load >= dexter::skills::MIN_LOAD;
     let why = if out.success {
         "lifted".to_string()
-    } else if !out.closed_on_object && parts < 2 {
-        format!(
-            "fingers closed without holding the object (rose {:.1} cm, {parts} contacts)",
-            rose * 100.0
-        )
+    } else if !out.closed_on_object {
+        format!("the fingers closed without a grasp ({loaded} loaded fingertips, load {load:.2} N)")
     } else {
-        format!(
-            "object not held after lift (rose {:.1} cm, {parts} contacts)",
-            rose * 100.0
-        )
+        format!("not held after the lift ({loaded} loaded fingertips, load {load:.2} N)")
     };
-    Ok(finish(out, &sim, why))
+    Ok(finish(out, &hw, why))
 }
 
 /// The world pose of link `name` after parking the arms of a fresh simulation of `scene` (e.g. the
@@ -421,7 +376,7 @@ pub const PRESHAPE: f64 = 0.3;
 /// side grasp at mid-height for tall objects (height ≥ 13 cm and ≥ 1.4 × the wider horizontal
 /// extent), otherwise a top-down grasp across the narrow horizontal axis with the palm just above
 /// the object, deep enough for the fingertips to close at mid-height (as in
-/// [`crate::task::plan_top_grasp`]). Each demonstration jitters the hand like a person does: position
+/// [`crate::pick_place::plan_top_grasp_shape`]). Each demonstration jitters the hand like a person does: position
 /// σ 6 mm horizontally and 4 mm vertically, yaw σ 5°.
 #[derive(Debug, Clone)]
 pub struct GraspTeacher {
@@ -438,12 +393,12 @@ impl GraspTeacher {
     pub fn new(sim: &DexterSim, arm: Arm, table_z: f64, seed: u64) -> Result<Self, SimError> {
         Ok(GraspTeacher {
             arm,
-            arc: crate::task::finger_arc(sim, arm)?,
+            arc: dexter::skills::finger_arc(sim.model(), arm).map_err(from_robot)?,
             shoulder: sim
                 .link_pose_by_name(&format!("{}/shoulder_yaw_link", arm.prefix()))?
                 .translation
                 .vector,
-            park: crate::task::park_pose(arm, table_z),
+            park: dexter::skills::park_pose(arm, table_z),
             rng: crate::rng::SplitMix64::new(seed ^ 0x7EAC_4E55),
         })
     }
@@ -489,7 +444,7 @@ impl GraspTeacher {
         );
         let mut palm = match kind {
             DemoKind::Top => {
-                let plan = crate::task::plan_top_grasp(&self.arc, &shape, &pose, table_z, &self.park);
+                let plan = crate::pick_place::plan_top_grasp_shape(&self.arc, &shape, &pose, table_z, &self.park);
                 let mut g = plan.grasp;
                 g.translation.vector.z += dz.abs();
                 g
@@ -581,7 +536,7 @@ mod tests {
             let mut teacher = GraspTeacher::new(&sim, Arm::Right, 0.75, 3).unwrap();
             for k in 0..2 {
                 let (kind, cmd) = teacher.demonstrate(&scene, k == 0).unwrap();
-                let o = execute(&scene, &settings, Arm::Right, &cmd).unwrap();
+                let o = execute(&scene, &settings, Arm::Right, &cmd, &p).unwrap();
                 println!(
                     "{name}: b {:?} err {:.4} perceive {tp:.1}s | {kind:?} {} rose {:.3} pre-err {:.3} sim {:.1}s wall {:.1}s",
                     p.appearance, p.vision_error, o.outcome, o.rose, o.pregrasp_error, o.sim_time, o.wall_time

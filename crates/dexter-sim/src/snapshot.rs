@@ -7,40 +7,7 @@
 use control_basis::math::{Iso3, Vec3};
 use serde::{Deserialize, Serialize};
 
-/// Which arm (and hand).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Arm {
-    /// The left arm (+y).
-    Left,
-    /// The right arm (−y).
-    Right,
-}
-
-impl Arm {
-    /// Both arms, left first.
-    pub const BOTH: [Arm; 2] = [Arm::Left, Arm::Right];
-    /// The URDF prefix (`left`, `right`).
-    pub fn prefix(self) -> &'static str {
-        match self {
-            Arm::Left => "left",
-            Arm::Right => "right",
-        }
-    }
-    /// The other arm.
-    pub fn other(self) -> Arm {
-        match self {
-            Arm::Left => Arm::Right,
-            Arm::Right => Arm::Left,
-        }
-    }
-}
-
-impl std::fmt::Display for Arm {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.prefix())
-    }
-}
+pub use dexter::Arm;
 
 /// Names that do not change during a run.
 #[derive(Debug, Clone, Serialize, Deserialize)]

@@ -24,14 +24,20 @@ use control_basis::math::{Iso3, Rot3, Vec3};
 use nalgebra::{Quaternion, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
-use crate::control::{FLEX_CLOSED, HandControl, ReachControl, top_down_orientation};
 use crate::error::SimError;
 use crate::geometry;
 use crate::physics::DexterSim;
+use crate::pick_place::plan_top_grasp_shape as plan_top_grasp;
 use crate::rng::SplitMix64;
 use crate::scene::Scene;
 use crate::snapshot::Arm;
-use crate::task::{GraspPlan, finger_arc, park_pose, plan_top_grasp};
+use control_basis::Hardware;
+use dexter::control::{FLEX_CLOSED, HandControl, ReachControl, top_down_orientation};
+use dexter::skills::{GraspPlan, park_pose};
+
+fn finger_arc(sim: &DexterSim, arm: Arm) -> Result<Vec<(f64, f64, f64)>, SimError> {
+    dexter::skills::finger_arc(sim.model(), arm).map_err(crate::error::from_robot)
+}
 
 /// One glove sample for one hand.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -310,32 +316,39 @@ pub struct TeleopDriver {
 
 impl TeleopDriver {
     /// A driver for both arms of `sim`.
-    pub fn new(sim: &DexterSim) -> Result<TeleopDriver, SimError> {
+    pub fn new(hw: &dyn Hardware) -> Result<TeleopDriver, SimError> {
+        let r = crate::error::from_robot;
         Ok(TeleopDriver {
-            reach: [ReachControl::new(sim, Arm::Left)?, ReachControl::new(sim, Arm::Right)?],
-            hand: [HandControl::new(sim, Arm::Left)?, HandControl::new(sim, Arm::Right)?],
+            reach: [
+                ReachControl::new(hw, Arm::Left).map_err(r)?,
+                ReachControl::new(hw, Arm::Right).map_err(r)?,
+            ],
+            hand: [
+                HandControl::new(hw, Arm::Left).map_err(r)?,
+                HandControl::new(hw, Arm::Right).map_err(r)?,
+            ],
         })
     }
 
     /// One control tick: every hand with a command tracks it.
-    pub fn tick(&mut self, sim: &mut DexterSim, commands: &[Option<HandCommand>; 2], dt: f64) {
+    pub fn tick(&mut self, hw: &mut dyn Hardware, commands: &[Option<HandCommand>; 2], dt: f64) {
         for (k, command) in commands.iter().enumerate() {
             if let Some(c) = command {
-                self.reach[k].track(sim, c.pose());
-                self.hand[k].set(sim, c.flexion, 0.0);
+                self.reach[k].track(hw, c.pose());
+                self.hand[k].set(hw, c.flexion, 0.0);
             }
-            self.reach[k].tick(sim, dt);
+            self.reach[k].tick(hw, dt);
         }
     }
 
     /// The measured palm pose of `arm`.
-    pub fn palm_pose(&mut self, sim: &DexterSim, arm: Arm) -> Iso3 {
-        self.reach[hand_index(arm)].tool_pose(sim)
+    pub fn palm_pose(&mut self, hw: &dyn Hardware, arm: Arm) -> Iso3 {
+        self.reach[hand_index(arm)].tool_pose(hw)
     }
 
     /// Mean measured flexion of `arm`'s fingers.
-    pub fn flexion(&self, sim: &DexterSim, arm: Arm) -> f64 {
-        let f = self.hand[hand_index(arm)].flexion(sim);
+    pub fn flexion(&self, hw: &dyn Hardware, arm: Arm) -> f64 {
+        let f = self.hand[hand_index(arm)].flexion(hw);
         (f[0] + f[1] + f[2]) / 3.0
     }
 }

@@ -11,8 +11,8 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use dexter_sim::physics::SimSettings;
+use dexter_sim::pick_place::{PickPlaceReport, PickPlaceRequest, pick_and_place};
 use dexter_sim::scene::{ObjectPlacement, Scene};
-use dexter_sim::task::{PickPlaceReport, PickPlaceRequest, pick_and_place};
 
 #[test]
 fn every_catalog_object_into_every_reachable_bin() {

@@ -403,7 +403,7 @@ fn sphere_segment_moments_and_colour() {
         f.mean_hsv
     );
     // Colour terms: every pixel of the red sphere is red, or black/grey where shading darkens it.
-    let red = usize::from(schema::percept::color_term([0.0, 0.85, 0.85]));
+    let red = usize::from(dexter::vision::color::color_term([0.0, 0.85, 0.85]));
     let total: u32 = f.color_terms.iter().sum();
     assert_eq!(total as usize, f.pixel_count);
     assert!(f.color_terms[red] as f64 > 0.6 * total as f64, "{:?}", f.color_terms);
@@ -828,7 +828,7 @@ fn bad_input_is_an_error_not_a_panic() {
     assert!(seg.segment(&Image::new(4, 4), &[]).is_err());
     seg.set_background(&Image::new(4, 4));
     assert!(seg.segment(&Image::new(5, 4), &[]).is_err());
-    assert!(seg.segment(&Image::new(4, 4), &[None; 3]).is_err());
+    assert!(seg.segment(&Image::new(4, 4), &[false; 3]).is_err());
     assert!(seg.segment(&Image::new(4, 4), &[]).unwrap().is_empty());
 }
 

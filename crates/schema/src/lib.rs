@@ -22,4 +22,4 @@ pub use executive::{ActionOutcome, Binding, ExecReport, ProceduralPolicy, Schema
 pub use infer::{Engine, Inference, InferenceConfig, Instance, Posterior};
 pub use library::{Action, Expect, Library, Schema};
 pub use monitor::{Hit, MonitorBank, MonitorConfig, Observation};
-pub use percept::{HandPercept, Percept, PlacePercept, SegmentPercept};
+pub use percept::{HandPercept, Percept, PlacePercept, SeenExtent, SegmentPercept};

@@ -115,7 +115,8 @@ pub fn render_bank(
                 ],
                 histogram,
                 covariance: [0.0; 4],
-                colors: schema::percept::kept_color_terms(&seg.features.color_terms),
+                colors: dexter::vision::color::kept_color_terms(&seg.features.color_terms),
+                extent: None,
             };
             views.push(Features::from(&percept));
             tick();

@@ -8,7 +8,7 @@ use anyhow::{Result, anyhow, bail};
 use dexter_sim::Arm;
 use dexter_sim::grasp_trial::{self, Percept};
 use dexter_sim::physics::{DexterSim, SimSettings};
-use dexter_sim::scene::{Scene, Shape};
+use dexter_sim::scene::Scene;
 use dexter_sim::teleop::{TeleopDriver, TeleopStream};
 use grasp_topics::{Corpus, GraspScene, HandModel, ObjectShape, PreGrasp, RankedPreGrasp, Rejection, filter_and_rank};
 use nalgebra::{Matrix2, Vector3};
@@ -71,21 +71,21 @@ impl Presenter {
     }
 }
 
-/// The object's collision shape (catalog model) for the filter.
-pub fn object_shape(shape: &Shape) -> ObjectShape {
-    match *shape {
-        Shape::Box { size } => ObjectShape::Box {
-            half_extents: [size[0] / 2.0, size[1] / 2.0, size[2] / 2.0],
-        },
-        Shape::Cylinder { radius, height } => ObjectShape::Cylinder {
-            radius,
-            half_height: height / 2.0,
-        },
-        Shape::Sphere { radius } => ObjectShape::Sphere { radius },
-        Shape::Capsule { radius, height } => ObjectShape::Capsule {
-            radius,
-            half_height: height / 2.0,
-        },
+/// The object as the robot measured it (§6.2.1): a sphere for a round top, otherwise an upright
+/// box of its footprint's principal extents and its measured height — never the catalog shape.
+pub fn seen_shape(percept: &Percept) -> (ObjectShape, nalgebra::UnitQuaternion<f64>) {
+    let e = &percept.extent;
+    let yaw = e.major_axis[1].atan2(e.major_axis[0]);
+    let rot = nalgebra::UnitQuaternion::from_axis_angle(&nalgebra::Vector3::z_axis(), yaw);
+    if e.model == "round" {
+        (ObjectShape::Sphere { radius: 0.5 * e.height }, rot)
+    } else {
+        (
+            ObjectShape::Box {
+                half_extents: [e.half_major, e.half_minor, 0.5 * e.height],
+            },
+            rot,
+        )
     }
 }
 
@@ -155,18 +155,22 @@ pub fn select_candidates(
     mut draw: impl FnMut(usize, &mut Xoshiro256PlusPlus) -> Result<Vec<PreGrasp>>,
     rng: &mut Xoshiro256PlusPlus,
 ) -> Result<Selection> {
-    let r = scene.resolved.first().ok_or_else(|| anyhow!("no object presented"))?;
-    let shape = &scene.catalog.objects[r.object].shape;
     let c = percept.centroid();
-    let mut world_from_object = r.pose;
-    world_from_object.translation.vector.x = c.x;
-    world_from_object.translation.vector.y = c.y;
+    let (shape, rotation) = seen_shape(percept);
+    let world_from_object = nalgebra::Isometry3::from_parts(
+        nalgebra::Translation3::new(
+            percept.extent.center[0],
+            percept.extent.center[1],
+            percept.table_z + 0.5 * percept.extent.height,
+        ),
+        rotation,
+    );
     let shoulder = reach_sim
         .link_pose_by_name(&format!("{}/shoulder_yaw_link", presenter.arm.prefix()))?
         .translation
         .vector;
     let gs = GraspScene {
-        shape: object_shape(shape),
+        shape,
         world_from_object,
         centroid: c,
         table_height: scene.spec.table.height,
@@ -215,7 +219,7 @@ pub fn select_candidates(
             if sel.chosen.len() >= n {
                 break;
             }
-            let (hover, back) = grasp_trial::approach_waypoints(reach_sim, scene, presenter.arm, &k.world_from_palm)?;
+            let (hover, back) = grasp_trial::approach_waypoints(reach_sim, percept, presenter.arm, &k.world_from_palm)?;
             let ok = grasp_trial::pose_reachable(reach_sim, presenter.arm, &k.world_from_palm)?
                 && grasp_trial::pose_reachable(reach_sim, presenter.arm, &back)?
                 && grasp_trial::pose_reachable(reach_sim, presenter.arm, &hover)?;
@@ -305,15 +309,15 @@ pub fn record_teleop(
     let mut records = Vec::new();
     for stream in streams {
         let mut sim = DexterSim::new(&scene, settings.clone())?;
-        dexter_sim::task::park_robot(&mut sim, scene.spec.table.height)?;
+        dexter_sim::hardware::park_robot(&mut sim, scene.spec.table.height)?;
         for _ in 0..200 {
             sim.step();
         }
         let z0 = sim.object_state(0).pose.translation.z;
-        let mut driver = TeleopDriver::new(&sim)?;
+        let mut hw = dexter_sim::hardware::SimRobot::new(&mut sim, &scene, settings.seed)?;
+        let mut driver = TeleopDriver::new(&hw)?;
         let mut replay = dexter_sim::teleop::Replay::new(stream.clone());
-        let dt_c = 1.0 / dexter_sim::task::CONTROL_HZ;
-        let per = ((dt_c / settings.dt).round() as usize).max(1);
+        let dt_c = 1.0 / dexter::skills::CONTROL_HZ;
         let mut pre: Option<(Arm, nalgebra::Isometry3<f64>)> = None;
         let end = replay.duration() + 1.0;
         let mut t = 0.0;
@@ -322,18 +326,16 @@ pub fn record_teleop(
             if pre.is_none() {
                 for c in cmds.iter().flatten() {
                     if c.flexion > 1.0 {
-                        pre = Some((c.hand, driver.palm_pose(&sim, c.hand)));
+                        pre = Some((c.hand, driver.palm_pose(&hw, c.hand)));
                         break;
                     }
                 }
             }
-            driver.tick(&mut sim, &cmds, dt_c);
-            for _ in 0..per {
-                sim.step();
-            }
+            driver.tick(&mut hw, &cmds, dt_c);
+            control_basis::Hardware::advance(&mut hw, dt_c)?;
             t += dt_c;
         }
-        let rose = sim.object_state(0).pose.translation.z - z0;
+        let rose = hw.sim().object_state(0).pose.translation.z - z0;
         let Some((arm, palm)) = pre else {
             records.push(DemoRecord {
                 object: name.to_string(),
@@ -343,8 +345,11 @@ pub fn record_teleop(
             });
             continue;
         };
-        let (_, _, parts) = sim.hand_wrench_on_object(arm, 0);
-        let kept = rose > grasp_trial::LIFT_SUCCESS && parts >= 2;
+        // Kept when the robot feels the object held at the end: two loaded fingertips carrying a
+        // load (its own sensors, as for its own grasps).
+        let touch = dexter::skills::TouchState::of(&dexter::skills::hand_fingertips(&hw, arm, &mut Vec::new()));
+        let kept = touch.holding() && touch.load >= dexter::skills::MIN_LOAD;
+        let parts = touch.loaded;
         if kept {
             let x = palm.translation.vector - percept.centroid();
             grasps.push(grasp_topics::DemoGrasp::new(
@@ -359,7 +364,11 @@ pub fn record_teleop(
             outcome: if kept {
                 "lifted".into()
             } else {
-                format!("object not held (rose {:.1} cm, {parts} contacts)", rose * 100.0)
+                format!(
+                    "object not held ({parts} loaded fingertips, load {:.2} N; rose {:.1} cm)",
+                    touch.load,
+                    rose * 100.0
+                )
             },
         });
     }

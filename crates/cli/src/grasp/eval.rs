@@ -287,7 +287,7 @@ pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
         let b = mat2(percept.appearance);
         let pz = model.prototype_probabilities(&b)?;
         let top = pz.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map(|(j, _)| j);
-        let dims = common::object_shape(&scene.catalog.objects[scene.resolved[0].object].shape).dimensions();
+        let dims = common::seen_shape(&percept).0.dimensions();
         let mut jobs = Vec::new();
         let mut rejected = [Rejections::default(); 2];
         for (mi, m) in [Method::Model, Method::Naive].into_iter().enumerate() {
@@ -332,11 +332,13 @@ pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
             None => None,
             Some(c) => {
                 let (scene, settings) = presenter.scene(&test[*i], common::mix(args.seed, 1000 + *i as u64))?;
+                let seen = prepared[*i].percept.as_ref().context("a candidate without a percept")?;
                 Some(grasp_trial::execute(
                     &scene,
                     &settings,
                     presenter.arm,
                     &command_for(c, *m),
+                    seen,
                 )?)
             }
         };

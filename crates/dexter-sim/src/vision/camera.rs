@@ -1,34 +1,12 @@
-//! Pinhole cameras in the ROS optical convention.
+//! The simulated cameras' specification ([`CameraSpec`]) as the robot's calibration: intrinsics and
+//! cameras built from a spec.
 
 use crate::error::SimError;
 use crate::scene::CameraSpec;
-use control_basis::math::{Iso3, Rot3, Vec3};
-use nalgebra::{Matrix3, Point3, Translation3};
+use control_basis::hardware::{Camera, Intrinsics};
+use control_basis::math::{Iso3, Vec3};
 
-pub use crate::scene::MAX_IMAGE_SIDE;
-
-/// A pinhole camera without distortion.
-///
-/// The optical frame follows ROS: z along the viewing axis, x to the right of the image, y down.
-/// Pixel `(u, v)` is column `u`, row `v`; pixel centres are at integer coordinates, so the image
-/// spans `[-0.5, width - 0.5] × [-0.5, height - 0.5]`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Camera {
-    /// Pose of the optical frame in the world.
-    pub world_from_optical: Iso3,
-    /// Image width (px).
-    pub width: u32,
-    /// Image height (px).
-    pub height: u32,
-    /// Focal length along u (px).
-    pub fx: f64,
-    /// Focal length along v (px).
-    pub fy: f64,
-    /// Principal point u (px).
-    pub cx: f64,
-    /// Principal point v (px).
-    pub cy: f64,
-}
+pub use control_basis::hardware::MAX_IMAGE_SIDE;
 
 fn invalid(field: &str, message: String) -> SimError {
     SimError::Invalid {
@@ -61,105 +39,35 @@ pub fn validate_spec(spec: &CameraSpec) -> Result<(), SimError> {
     Ok(())
 }
 
-fn finite_iso(p: &Iso3) -> bool {
-    p.translation.vector.iter().all(|x| x.is_finite()) && p.rotation.coords.iter().all(|x| x.is_finite())
-}
-
-impl Camera {
-    /// A camera with the intrinsics of `spec` (square pixels, principal point at the image centre,
-    /// `fx = (width / 2) / tan(hfov / 2)`) at `world_from_optical`.
-    pub fn from_spec(spec: &CameraSpec, world_from_optical: Iso3) -> Result<Self, SimError> {
-        validate_spec(spec)?;
-        if !finite_iso(&world_from_optical) {
-            return Err(invalid("camera.pose", "the pose is not finite".into()));
+impl CameraSpec {
+    /// The intrinsic calibration of this spec.
+    pub fn intrinsics(&self) -> Intrinsics {
+        Intrinsics {
+            width: self.width,
+            height: self.height,
+            hfov_deg: self.hfov_deg,
         }
-        let fx = 0.5 * spec.width as f64 / (0.5 * spec.hfov_deg.to_radians()).tan();
-        Ok(Self {
-            world_from_optical,
-            width: spec.width,
-            height: spec.height,
-            fx,
-            fy: fx,
-            cx: 0.5 * (spec.width as f64 - 1.0),
-            cy: 0.5 * (spec.height as f64 - 1.0),
-        })
-    }
-
-    /// A camera at `eye` whose optical axis points at `target`, with the image x axis horizontal
-    /// (no roll about the optical axis; world z is up). Fails if the axis is vertical or degenerate.
-    pub fn look_at(spec: &CameraSpec, eye: Vec3, target: Vec3) -> Result<Self, SimError> {
-        Self::from_spec(spec, optical_look_at(eye, target)?)
-    }
-
-    /// `world_from_optical` for a camera at `eye` looking at `target` without roll (see [`Camera::look_at`]).
-    pub fn pose_looking_at(eye: Vec3, target: Vec3) -> Result<Iso3, SimError> {
-        optical_look_at(eye, target)
-    }
-
-    /// The camera centre in the world.
-    pub fn position(&self) -> Vec3 {
-        self.world_from_optical.translation.vector
-    }
-
-    /// The viewing direction (optical z) in the world.
-    pub fn axis(&self) -> Vec3 {
-        self.world_from_optical.rotation * Vec3::z()
-    }
-
-    /// Number of pixels.
-    pub fn pixel_count(&self) -> usize {
-        self.width as usize * self.height as usize
-    }
-
-    /// Pixel coordinates of a world point in front of the camera, whether or not inside the image.
-    pub fn project_unbounded(&self, p_world: &Vec3) -> Option<(f64, f64)> {
-        let p = self.world_from_optical.inverse_transform_point(&Point3::from(*p_world));
-        (p.z > 1e-9 && p.z.is_finite()).then(|| (self.fx * p.x / p.z + self.cx, self.fy * p.y / p.z + self.cy))
-    }
-
-    /// Pixel coordinates of a world point, or `None` if it is behind the camera or outside the image.
-    pub fn project(&self, p_world: &Vec3) -> Option<(f64, f64)> {
-        self.project_unbounded(p_world).filter(|&(u, v)| self.contains(u, v))
-    }
-
-    /// Whether `(u, v)` lies on the image.
-    pub fn contains(&self, u: f64, v: f64) -> bool {
-        (-0.5..=self.width as f64 - 0.5).contains(&u) && (-0.5..=self.height as f64 - 0.5).contains(&v)
-    }
-
-    /// The ray through pixel coordinates `(u, v)`: (origin, unit direction), in the world.
-    pub fn ray(&self, u: f64, v: f64) -> (Vec3, Vec3) {
-        let d = Vec3::new((u - self.cx) / self.fx, (v - self.cy) / self.fy, 1.0).normalize();
-        (self.position(), self.world_from_optical.rotation * d)
-    }
-
-    /// Size in metres of one pixel at depth `z` (along the optical axis).
-    pub fn metres_per_pixel(&self, z: f64) -> f64 {
-        z / (0.5 * (self.fx + self.fy))
     }
 }
 
-fn optical_look_at(eye: Vec3, target: Vec3) -> Result<Iso3, SimError> {
-    let fwd = target - eye;
-    let n = fwd.norm();
-    if !(n.is_finite() && n > 1e-9) {
-        return Err(invalid(
-            "camera.target",
-            "eye and target coincide or are not finite".into(),
-        ));
+/// Cameras built from a scene's [`CameraSpec`].
+pub trait SpecCamera: Sized {
+    /// A camera with the intrinsics of `spec` at `world_from_optical`.
+    fn from_spec(spec: &CameraSpec, world_from_optical: Iso3) -> Result<Self, SimError>;
+    /// A camera at `eye` whose optical axis points at `target`, without roll.
+    fn look_at(spec: &CameraSpec, eye: Vec3, target: Vec3) -> Result<Self, SimError>;
+}
+
+impl SpecCamera for Camera {
+    fn from_spec(spec: &CameraSpec, world_from_optical: Iso3) -> Result<Self, SimError> {
+        validate_spec(spec)?;
+        Camera::new(&spec.intrinsics(), world_from_optical).map_err(|e| invalid("camera.pose", e.to_string()))
     }
-    let z = fwd / n;
-    let right = z.cross(&Vec3::z());
-    if right.norm() < 1e-9 {
-        return Err(invalid(
-            "camera.target",
-            "the optical axis is vertical; the roll is undefined".into(),
-        ));
+
+    fn look_at(spec: &CameraSpec, eye: Vec3, target: Vec3) -> Result<Self, SimError> {
+        let pose = Camera::pose_looking_at(eye, target).map_err(|e| invalid("camera.target", e.to_string()))?;
+        Self::from_spec(spec, pose)
     }
-    let x = right.normalize();
-    let y = z.cross(&x);
-    let rot = Rot3::from_matrix(&Matrix3::from_columns(&[x, y, z]));
-    Ok(Iso3::from_parts(Translation3::from(eye), rot))
 }
 
 #[cfg(test)]

@@ -4,9 +4,10 @@
 use crate::error::SimError;
 use crate::rng::SplitMix64;
 use crate::scene::{CameraSpec, ColorPatch, Shape};
-use crate::vision::camera::Camera;
+use crate::vision::camera::SpecCamera;
 use crate::vision::render::{ItemLabel, RenderItem, RenderScene};
 use crate::vision::stereo::StereoCameras;
+use control_basis::hardware::Camera;
 use control_basis::math::{Iso3, Rot3, Vec3};
 use nalgebra::{Translation3, Unit};
 use parry3d_f64::shape::SharedShape;
@@ -31,7 +32,18 @@ pub const TABLE_HSV: [f64; 3] = [30.0, 0.25, 0.55];
 /// Dexter's head stereo pair, both cameras verged on `fixation` (camera centres at
 /// [`HEAD_LEFT_EYE`], [`HEAD_RIGHT_EYE`] — the head tilt and vergence are folded into the look-at).
 pub fn head_cameras(spec: &CameraSpec, fixation: Vec3) -> Result<StereoCameras, SimError> {
-    StereoCameras::verged(spec, Vec3::from(HEAD_LEFT_EYE), Vec3::from(HEAD_RIGHT_EYE), fixation)
+    crate::vision::camera::validate_spec(spec)?;
+    StereoCameras::verged(
+        &spec.intrinsics(),
+        Vec3::from(HEAD_LEFT_EYE),
+        Vec3::from(HEAD_RIGHT_EYE),
+        fixation,
+    )
+    .map_err(|e| SimError::Invalid {
+        path: "<camera>".into(),
+        field: "camera".into(),
+        message: e.to_string(),
+    })
 }
 
 /// Dexter's head stereo pair after panning by `pan` (rad, positive = left) and tilting by `tilt`

@@ -1,37 +1,26 @@
-//! Stereo vision: ray-cast rendering, background subtraction, segments and their features, triangulation.
+//! The simulated cameras: ray-cast rendering with pixel noise, and test fixtures.
 //!
-//! The pipeline of §5.1.2 and §6.2.1 of the seed, on simulated cameras:
-//!
-//! 1. [`Renderer`] casts one ray per pixel against the parry shapes of a [`RenderScene`] (table,
-//!    bins, objects, robot links), shades with Lambert + ambient ([`crate::scene::LightSpec`]) and adds
-//!    seeded Gaussian pixel noise ([`crate::scene::CameraSpec::pixel_noise`]). It also returns a
-//!    per-pixel [`ItemLabel`] buffer, used only for the robot self-filter and as test ground truth.
-//! 2. [`Segmenter`] subtracts the background (the empty scene rendered from the same camera),
-//!    drops robot pixels, and labels 8-connected components ([`Segment`]).
-//! 3. Each segment has [`SegmentFeatures`]: size in pixels (§5.1.2.2), first and second moments
-//!    (§6.2.1), the 64-colour HSV histogram with the 20th-percentile rule (§5.1.2.1), mean colour.
-//! 4. [`StereoMatcher`] pairs left and right segments by colour and epipolar geometry and triangulates
-//!    the centroid rays ([`StereoBlob`]); objects seen by one camera only are reported as such.
-//! 5. With a known table plane ([`StereoConfig::support`]), objects resting on it get a more precise
-//!    centroid from their measured height and footprint ([`support`]).
-//!
-//! [`StereoVision`] runs all of it for a stereo pair with every buffer reused.
+//! [`Renderer`] casts one ray per pixel against the parry shapes of a [`RenderScene`] (table, bins,
+//! objects, robot links), shades with Lambert + ambient ([`crate::scene::LightSpec`]) and adds seeded
+//! Gaussian pixel noise ([`crate::scene::CameraSpec::pixel_noise`]). It also returns a per-pixel
+//! [`ItemLabel`] buffer, used for the robot's self-mask (what a real robot renders from its
+//! self-model) and as test ground truth. Everything after the pixels — segmentation, colour, stereo,
+//! support plane — is the robot's own vision in [`dexter::vision`], re-exported here for tests;
+//! [`StereoVision`] chains the two on a render scene.
 
 pub mod camera;
-pub mod color;
 pub mod fixtures;
 pub mod noise;
 pub mod render;
-pub mod segment;
-pub mod stereo;
-pub mod support;
+pub mod stereo_sim;
 
-pub use camera::Camera;
-pub use color::{ColorHistogram, HISTOGRAM_BINS};
-pub use render::{Image, ItemLabel, Material, RenderItem, RenderScene, RenderStats, Renderer};
-pub use segment::{Segment, SegmentConfig, SegmentFeatures, Segmenter};
-pub use stereo::{
-    DepthCorrection, Side, StereoBlob, StereoCameras, StereoConfig, StereoMatcher, StereoVision, Triangulation,
-    Visibility, triangulate, triangulate_rays,
+pub use camera::SpecCamera;
+pub use control_basis::hardware::Camera;
+pub use dexter::vision::{
+    CentroidSource, ColorHistogram, DepthCorrection, Footprint, HISTOGRAM_BINS, Segment, SegmentConfig,
+    SegmentFeatures, Segmenter, Side, StereoBlob, StereoCameras, StereoConfig, StereoMatcher, StereoPipeline,
+    SupportEstimator, SupportPlane, Triangulation, Visibility, triangulate, triangulate_rays,
 };
-pub use support::{CentroidSource, SupportEstimator, SupportPlane};
+pub use dexter::vision::{color, segment, stereo, support};
+pub use render::{Image, ItemLabel, Material, RenderItem, RenderScene, RenderStats, Renderer};
+pub use stereo_sim::StereoVision;

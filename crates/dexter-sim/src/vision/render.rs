@@ -13,15 +13,13 @@ use crate::convert::iso_to_glam;
 use crate::error::SimError;
 use crate::geometry::{support_half_extent, to_parry};
 use crate::scene::{ColorPatch, LightSpec, Scene, Shape};
-use crate::vision::camera::{Camera, MAX_IMAGE_SIDE};
 use crate::vision::color::hsv_to_rgb;
 use crate::vision::noise::Gaussian;
+use control_basis::hardware::{Camera, MAX_IMAGE_SIDE};
 use control_basis::math::{Iso3, Vec3};
 use parry3d_f64::glamx::{DMat3, DPose3, DVec3};
 use parry3d_f64::query::Ray;
 use parry3d_f64::shape::SharedShape;
-use std::io::Write;
-use std::path::Path;
 
 /// What a pixel shows, for the robot self-filter and for tests' ground truth.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -233,71 +231,7 @@ impl RenderScene {
     }
 }
 
-/// An 8-bit RGB image, row-major, 3 bytes per pixel (Foxglove/ROS encoding `rgb8`).
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
-pub struct Image {
-    /// Width (px).
-    pub width: u32,
-    /// Height (px).
-    pub height: u32,
-    /// `3 · width · height` bytes: R, G, B of pixel (0, 0), then (1, 0), …
-    pub rgb: Vec<u8>,
-}
-
-impl Image {
-    /// A black image.
-    pub fn new(width: u32, height: u32) -> Self {
-        Self {
-            width,
-            height,
-            rgb: vec![0; 3 * width as usize * height as usize],
-        }
-    }
-
-    /// Number of pixels.
-    pub fn pixel_count(&self) -> usize {
-        self.width as usize * self.height as usize
-    }
-
-    /// The pixel at column `u`, row `v`, if inside.
-    pub fn pixel(&self, u: u32, v: u32) -> Option<[u8; 3]> {
-        (u < self.width && v < self.height).then(|| self.px(v as usize * self.width as usize + u as usize))
-    }
-
-    /// The pixel with linear index `i = v · width + u` (panics if out of range).
-    #[inline]
-    pub fn px(&self, i: usize) -> [u8; 3] {
-        [self.rgb[3 * i], self.rgb[3 * i + 1], self.rgb[3 * i + 2]]
-    }
-
-    /// Resizes (keeping the allocation when it is large enough); contents are unspecified.
-    pub fn resize(&mut self, width: u32, height: u32) {
-        self.width = width;
-        self.height = height;
-        self.rgb.resize(3 * width as usize * height as usize, 0);
-    }
-
-    /// Copies `other` into `self`, reusing the allocation.
-    pub fn copy_from(&mut self, other: &Image) {
-        self.width = other.width;
-        self.height = other.height;
-        self.rgb.clear();
-        self.rgb.extend_from_slice(&other.rgb);
-    }
-
-    /// Writes a binary PPM (P6), for debugging.
-    pub fn write_ppm(&self, mut out: impl Write) -> std::io::Result<()> {
-        write!(out, "P6\n{} {}\n255\n", self.width, self.height)?;
-        out.write_all(&self.rgb)
-    }
-
-    /// Saves a binary PPM (P6) file, for debugging.
-    pub fn save_ppm(&self, path: impl AsRef<Path>) -> std::io::Result<()> {
-        let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
-        self.write_ppm(&mut f)?;
-        f.flush()
-    }
-}
+pub use control_basis::hardware::Image;
 
 /// Counters of the last frame, for performance work.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

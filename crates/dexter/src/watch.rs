@@ -1,17 +1,18 @@
 //! What Dexter perceives while it is being taught: one [`schema::Percept`] per observation step, from
 //! its own sensors only — kinematics and encoders for the palms, the fingertip force/torque sensors
 //! for contact and carried load, and the head's stereo cameras for segments (tracked across frames)
-//! and the foveated stimulus. The scene file is used for the places (the robot knows its bins) and the
-//! table height, never for object poses.
+//! and the foveated stimulus. The robot is told its places (it knows its bins) and the table height,
+//! never object poses.
 
+use control_basis::Hardware;
+use control_basis::hardware::ForceTorque;
 use control_basis::math::Vec3;
 use schema::{HandPercept, Percept, PlacePercept, SegmentPercept};
 
-use crate::error::SimError;
-use crate::perception::{Eyes, Pair, SearchTrack};
-use crate::physics::DexterSim;
-use crate::scene::Scene;
-use crate::snapshot::{Arm, FingertipWrench};
+use crate::arm::Arm;
+use crate::body::Body;
+use crate::error::RobotError;
+use crate::eyes::{Eyes, Pair, SearchTrack};
 
 /// Tracks segments across frames by their triangulated centroids. A segment a hand carries moves with
 /// the palm (the robot knows what it holds), so it keeps its id while the hand hides it; two tracks
@@ -242,57 +243,35 @@ fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
 }
 
-/// Builds percepts from the simulator at the observation rate.
+/// Builds percepts from the robot's sensors at the observation rate.
 #[derive(Debug)]
 pub struct Watcher {
     eyes: Eyes,
+    body: Body,
     head: SearchTrack,
     tracker: Tracker,
     places: Vec<PlacePercept>,
     table_z: f64,
     last: Option<(f64, [[f64; 3]; 2])>,
-    tips: [FingertipWrench; 6],
-    palm_links: [usize; 2],
-    elbow_links: [usize; 2],
+    tips: Vec<ForceTorque>,
     flex: [[usize; 3]; 2],
     /// Where the head looked last.
     pub gaze_point: Option<Vec3>,
 }
 
 impl Watcher {
-    /// A watcher for `sim` in `scene`; `seed` drives the camera noise.
-    pub fn new(sim: &DexterSim, scene: &Scene, seed: u64) -> Result<Watcher, SimError> {
-        let places = scene
-            .spec
-            .places
-            .iter()
-            .map(|p| PlacePercept {
-                name: p.name.clone(),
-                center: [p.center[0], p.center[1], scene.spec.table.height],
-                half_extents: [p.size[0] / 2.0, p.size[1] / 2.0],
-            })
-            .collect();
-        let link = |name: &str| sim.model().link(name);
-        let dof = |arm: Arm, f: u8| sim.dof(&format!("{}/bhand/finger_{f}/med_joint", arm.prefix()));
+    /// A watcher on `hw`, told its `places` and the table height `table_z`.
+    pub fn new(hw: &dyn Hardware, places: Vec<PlacePercept>, table_z: f64) -> Result<Watcher, RobotError> {
+        let dof = |arm: Arm, f: u8| hw.dof_index(&format!("{}/bhand/finger_{f}/med_joint", arm.prefix()));
         Ok(Watcher {
-            eyes: Eyes::new(sim, scene, seed)?,
-            head: SearchTrack::new(sim)?,
+            eyes: Eyes::new(hw, table_z)?,
+            body: Body::new(),
+            head: SearchTrack::new(hw)?,
             tracker: Tracker::default(),
             places,
-            table_z: scene.spec.table.height,
+            table_z,
             last: None,
-            tips: [FingertipWrench {
-                arm: Arm::Left,
-                finger: 0,
-                force: [0.0; 3],
-                torque: [0.0; 3],
-                in_contact: false,
-            }; 6],
-            palm_links: [
-                link("left/bhand/palm_surface_link")?,
-                link("right/bhand/palm_surface_link")?,
-            ],
-            elbow_links: [link("left/forearm_link")?, link("right/forearm_link")?],
+            tips: vec![ForceTorque::default(); hw.force_torque_frames().len()],
             flex: [
                 [dof(Arm::Left, 1)?, dof(Arm::Left, 2)?, dof(Arm::Left, 3)?],
                 [dof(Arm::Right, 1)?, dof(Arm::Right, 2)?, dof(Arm::Right, 3)?],
@@ -306,22 +285,59 @@ impl Watcher {
         &self.eyes
     }
 
-    /// Points the head at `target` (where the teacher's hand is working).
-    pub fn look_at(&mut self, sim: &mut DexterSim, target: &Vec3) -> Result<(), SimError> {
-        self.gaze_point = Some(*target);
-        self.head.look_at(sim, target)
+    /// The eyes, mutable (a skill that looks itself).
+    pub fn eyes_mut(&mut self) -> &mut Eyes {
+        &mut self.eyes
     }
 
-    /// One percept at the simulator's current time `t` (s since the start of the demonstration):
-    /// renders the head's stereo pair, segments it, updates the tracks.
-    pub fn percept(&mut self, sim: &DexterSim, t: f64) -> Result<Percept, SimError> {
-        // Hands.
-        let palms: [[f64; 3]; 2] = std::array::from_fn(|k| {
-            let p = sim.link_pose(self.palm_links[k]).translation.vector;
-            [p.x, p.y, p.z]
-        });
-        sim.fingertip_wrenches(&mut self.tips);
-        let q = sim.joint_positions();
+    /// The table height the robot was told.
+    pub fn table_z(&self) -> f64 {
+        self.table_z
+    }
+
+    /// The places the robot was told.
+    pub fn places(&self) -> &[PlacePercept] {
+        &self.places
+    }
+
+    /// Points the head at `target` (where the teacher's hand is working).
+    pub fn look_at(&mut self, hw: &mut dyn Hardware, target: &Vec3) -> Result<(), RobotError> {
+        self.gaze_point = Some(*target);
+        self.head.look_at(hw, &mut self.body, target)
+    }
+
+    /// One percept at time `t` (s since the start of the run): captures the head's stereo pair,
+    /// segments it, updates the tracks.
+    pub fn percept(&mut self, hw: &mut dyn Hardware, t: f64) -> Result<Percept, RobotError> {
+        // Hands, from the encoders.
+        let mut palms = [[0.0; 3]; 2];
+        let mut elbows = [Vec3::zeros(); 2];
+        for arm in Arm::BOTH {
+            let p = self
+                .body
+                .pose(hw, &format!("{}/bhand/palm_surface_link", arm.prefix()))?
+                .translation
+                .vector;
+            palms[arm.index()] = [p.x, p.y, p.z];
+            elbows[arm.index()] = self
+                .body
+                .pose(hw, &format!("{}/forearm_link", arm.prefix()))?
+                .translation
+                .vector;
+        }
+        self.tips.resize(hw.force_torque_frames().len(), ForceTorque::default());
+        hw.read_force_torque(&mut self.tips);
+        if self.tips.len() < 6 {
+            return Err(RobotError::invalid(
+                "<hardware>",
+                "force_torque_frames",
+                format!(
+                    "Dexter has six fingertip sensors; the hardware reports {}",
+                    self.tips.len()
+                ),
+            ));
+        }
+        let q = hw.joint_positions();
         let mut hands = Vec::with_capacity(2);
         for (k, arm) in Arm::BOTH.into_iter().enumerate() {
             let speed = match self.last {
@@ -352,8 +368,9 @@ impl Watcher {
         });
         self.tracker.predict(&palms, holding);
         // Vision.
-        let cams = self.eyes.cameras(sim, Pair::Head)?;
-        let blobs = self.eyes.perceive(sim, Pair::Head)?;
+        let cams = self.eyes.cameras(hw, Pair::Head)?;
+        let table_z = self.table_z;
+        let blobs = self.eyes.perceive(hw, Pair::Head)?;
         let mut seen = Vec::new();
         let mut gaze_candidates = Vec::new();
         for b in blobs {
@@ -377,7 +394,8 @@ impl Watcher {
                 pixels: [l.features.pixel_count as u32, r.features.pixel_count as u32],
                 histogram,
                 covariance: [cov[0][0], cov[0][1], cov[1][0], cov[1][1]],
-                colors: schema::percept::kept_color_terms(&l.features.color_terms),
+                colors: crate::vision::color::kept_color_terms(&l.features.color_terms),
+                extent: crate::skills::extent_of(b, &cams, table_z),
             };
             // Foveated: the segment's image centroid near the principal point in both cameras.
             let off = |s: &crate::vision::Segment, cam: &crate::vision::Camera| {
@@ -394,9 +412,8 @@ impl Watcher {
             [v.x, v.y, v.z]
         };
         let mut occluders: Vec<([f64; 3], f64)> = Vec::with_capacity(10);
-        for (palm, &elbow) in palms.iter().zip(&self.elbow_links) {
+        for (palm, e) in palms.iter().zip(&elbows) {
             occluders.push((*palm, OCCLUSION_RADIUS));
-            let e = sim.link_pose(elbow).translation.vector;
             for i in 0..4 {
                 let s = f64::from(i) / 4.0;
                 occluders.push((std::array::from_fn(|j| e[j] + s * (palm[j] - e[j])), FOREARM_RADIUS));
@@ -419,160 +436,4 @@ impl Watcher {
             gaze,
         })
     }
-}
-
-/// Where the teacher's hand commands come from.
-#[derive(Debug)]
-pub enum TeleopSource {
-    /// The scripted teacher.
-    Script(Box<crate::teleop::Teacher>),
-    /// A recorded stream (glove or mocap data).
-    Replay(crate::teleop::Replay),
-}
-
-/// Settings of a recorded demonstration.
-#[derive(Debug, Clone, Copy)]
-pub struct DemoSettings {
-    /// Observation (camera) rate (Hz).
-    pub percept_hz: f64,
-    /// Longest demonstration (s).
-    pub max_seconds: f64,
-    /// Time after the teacher finishes (s), so the last states are seen.
-    pub tail_seconds: f64,
-    /// Camera noise seed.
-    pub seed: u64,
-}
-
-impl Default for DemoSettings {
-    fn default() -> Self {
-        DemoSettings {
-            percept_hz: 10.0,
-            max_seconds: 600.0,
-            tail_seconds: 1.0,
-            seed: 0,
-        }
-    }
-}
-
-/// What a demonstration run reports.
-#[derive(Debug, Clone, serde::Serialize)]
-pub struct DemoReport {
-    /// Simulated seconds.
-    pub sim_time: f64,
-    /// Physics steps.
-    pub steps: u64,
-    /// Percepts captured.
-    pub percepts: usize,
-    /// Hand commands played.
-    pub commands: usize,
-    /// Whether the run was interrupted (signal) before the teacher finished.
-    pub interrupted: bool,
-    /// The teacher's notes (retries, failures).
-    pub notes: Vec<String>,
-}
-
-/// Receives what happens during a demonstration.
-pub trait DemoSink {
-    /// After every control tick (200 Hz).
-    fn tick(&mut self, _sim: &DexterSim, _t: f64) {}
-    /// Every hand command when it changes (glove rate).
-    fn command(&mut self, _command: &crate::teleop::HandCommand) {}
-    /// Every percept (observation rate), with the eyes that made it.
-    fn percept(&mut self, _sim: &DexterSim, _eyes: &Eyes, _percept: &Percept) {}
-    /// Polled every tick: return true to stop (an interrupt); what was captured is kept.
-    fn should_stop(&mut self) -> bool {
-        false
-    }
-}
-
-/// Runs a teleoperated demonstration on `sim` (already parked) in `scene`: the source's hand
-/// commands drive the hands at 200 Hz, the head follows the working hand, and a percept is made at
-/// `settings.percept_hz`.
-pub fn run_demonstration(
-    sim: &mut DexterSim,
-    scene: &Scene,
-    mut source: TeleopSource,
-    settings: &DemoSettings,
-    sink: &mut dyn DemoSink,
-) -> Result<DemoReport, SimError> {
-    let dt_c = 1.0 / crate::task::CONTROL_HZ;
-    let per = ((dt_c / sim.settings().dt).round() as usize).max(1);
-    let mut driver = crate::teleop::TeleopDriver::new(sim)?;
-    let mut watcher = Watcher::new(sim, scene, settings.seed)?;
-    let t0 = sim.time();
-    let s0 = sim.steps();
-    let percept_every = ((crate::task::CONTROL_HZ / settings.percept_hz).round() as usize).max(1);
-    let mut tick = 0usize;
-    let mut percepts = 0usize;
-    let mut commands = 0usize;
-    let mut last_cmd: [Option<f64>; 2] = [None, None];
-    let mut finished_at: Option<f64> = None;
-    let mut interrupted = false;
-    let mut working = Arm::Left;
-    loop {
-        let t = sim.time() - t0;
-        if t > settings.max_seconds {
-            break;
-        }
-        if sink.should_stop() {
-            interrupted = true;
-            break;
-        }
-        let cmds = match &mut source {
-            TeleopSource::Script(teacher) => {
-                let c = teacher.command(sim, scene, t)?;
-                if teacher.finished() && finished_at.is_none() {
-                    finished_at = Some(t);
-                }
-                c
-            }
-            TeleopSource::Replay(r) => {
-                let c = r.at(t);
-                if r.finished() && finished_at.is_none() {
-                    finished_at = Some(t.max(r.duration()));
-                }
-                c
-            }
-        };
-        if finished_at.is_some_and(|f| t > f + settings.tail_seconds) {
-            break;
-        }
-        for (k, c) in cmds.iter().enumerate() {
-            if let Some(c) = c
-                && last_cmd[k] != Some(c.t)
-            {
-                last_cmd[k] = Some(c.t);
-                commands += 1;
-                working = c.hand;
-                sink.command(c);
-            }
-        }
-        driver.tick(sim, &cmds, dt_c);
-        for _ in 0..per {
-            sim.step();
-        }
-        sink.tick(sim, t);
-        if tick.is_multiple_of(percept_every) {
-            // The head follows the working hand (the robot watches the teacher's hand at work).
-            let palm = driver.palm_pose(sim, working).translation.vector;
-            let target = Vec3::new(palm.x, palm.y, palm.z.max(watcher.table_z + 0.03));
-            watcher.look_at(sim, &target)?;
-            let p = watcher.percept(sim, sim.time() - t0)?;
-            percepts += 1;
-            sink.percept(sim, &watcher.eyes, &p);
-        }
-        tick += 1;
-    }
-    let notes = match &source {
-        TeleopSource::Script(teacher) => teacher.notes.clone(),
-        TeleopSource::Replay(_) => Vec::new(),
-    };
-    Ok(DemoReport {
-        sim_time: sim.time() - t0,
-        steps: sim.steps() - s0,
-        percepts,
-        commands,
-        interrupted,
-        notes,
-    })
 }

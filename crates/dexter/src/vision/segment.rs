@@ -1,9 +1,8 @@
 //! Background subtraction, connected components and per-segment features (§5.1.2.1, §5.1.2.2, §6.2.1).
 
-use crate::error::SimError;
-use crate::vision::color::{ColorHistogram, hsv_bin, rgb_to_hsv};
-use crate::vision::render::{Image, ItemLabel};
-use schema::percept::color_term;
+use crate::error::RobotError;
+use crate::vision::color::{ColorHistogram, color_term, hsv_bin, rgb_to_hsv};
+use control_basis::hardware::Image;
 
 /// Settings of [`Segmenter`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -54,7 +53,7 @@ pub struct SegmentFeatures {
     pub mean_rgb: [f64; 3],
     /// HSV of the mean RGB colour.
     pub mean_hsv: [f64; 3],
-    /// Pixel count per colour term ([`schema::percept::color_term`]).
+    /// Pixel count per colour term ([`crate::vision::color::color_term`]).
     pub color_terms: [u32; 10],
 }
 
@@ -80,10 +79,10 @@ const PENDING: u32 = u32::MAX;
 
 /// Background subtraction and 8-connected component labelling with reused buffers.
 ///
-/// **Robot self-filter.** A real robot masks its own body out of the foreground by rendering its
-/// self-model at the measured joint angles. Here the renderer's per-pixel label buffer plays that
-/// role: pixels labelled [`ItemLabel::Robot`] are never foreground. The label buffer is used for
-/// nothing else (object pixels are found purely by colour difference from the background).
+/// **Robot self-filter.** A robot masks its own body out of the foreground by rendering its
+/// self-model at the measured joint angles: the camera driver's self-mask
+/// ([`control_basis::Hardware::capture`]). Pixels in the mask are never foreground; object pixels
+/// are found purely by colour difference from the background.
 #[derive(Debug, Clone)]
 pub struct Segmenter {
     config: SegmentConfig,
@@ -97,12 +96,8 @@ pub struct Segmenter {
     segments: Vec<Segment>,
 }
 
-fn invalid(field: &str, message: String) -> SimError {
-    SimError::Invalid {
-        path: "<vision>".into(),
-        field: field.into(),
-        message,
-    }
+fn invalid(field: &str, message: String) -> RobotError {
+    RobotError::invalid("<vision>", field, message)
 }
 
 impl Segmenter {
@@ -132,7 +127,7 @@ impl Segmenter {
     }
 
     /// Stores (copies) the image of the empty scene, as rendered by
-    /// [`crate::vision::Renderer::render_background`].
+    /// [`control_basis::Hardware::capture_background`].
     pub fn set_background(&mut self, background: &Image) {
         self.background.copy_from(background);
         self.has_background = true;
@@ -158,9 +153,9 @@ impl Segmenter {
         &self.component
     }
 
-    /// Segments `image` against the background. `labels` is the renderer's label buffer for the
+    /// Segments `image` against the background. `self_mask` is the robot's self-mask for the
     /// robot self-filter (empty = no self-filter). Errors if there is no background or sizes differ.
-    pub fn segment(&mut self, image: &Image, labels: &[Option<ItemLabel>]) -> Result<&[Segment], SimError> {
+    pub fn segment(&mut self, image: &Image, self_mask: &[bool]) -> Result<&[Segment], RobotError> {
         if !self.has_background {
             return Err(invalid("background", "no background image has been set".into()));
         }
@@ -175,15 +170,18 @@ impl Segmenter {
                 ),
             ));
         }
-        if !labels.is_empty() && labels.len() != n {
-            return Err(invalid("labels", format!("{} labels for {n} pixels", labels.len())));
+        if !self_mask.is_empty() && self_mask.len() != n {
+            return Err(invalid(
+                "self_mask",
+                format!("{} mask pixels for {n} pixels", self_mask.len()),
+            ));
         }
-        self.threshold(image, labels);
+        self.threshold(image, self_mask);
         self.label_components(image, w, h);
         Ok(&self.segments)
     }
 
-    fn threshold(&mut self, image: &Image, labels: &[Option<ItemLabel>]) {
+    fn threshold(&mut self, image: &Image, self_mask: &[bool]) {
         let n = image.pixel_count();
         let t = (self.config.diff_threshold * 255.0).max(0.0);
         let t2 = if t.is_finite() { t * t } else { f64::INFINITY };
@@ -198,9 +196,9 @@ impl Segmenter {
                     d2 as f64 > t2
                 }),
         );
-        if !labels.is_empty() {
-            for (f, l) in self.foreground.iter_mut().zip(labels) {
-                if *l == Some(ItemLabel::Robot) {
+        if !self_mask.is_empty() {
+            for (f, l) in self.foreground.iter_mut().zip(self_mask) {
+                if *l {
                     *f = false;
                 }
             }
@@ -363,9 +361,7 @@ mod tests {
         assert!(segs[1].features.covariance[0][1] > 0.0);
         assert_eq!(s.component_map()[22], 1);
         // robot pixels are never foreground
-        let labels: Vec<Option<ItemLabel>> = (0..200)
-            .map(|i| if i % 20 < 8 { Some(ItemLabel::Robot) } else { None })
-            .collect();
+        let labels: Vec<bool> = (0..200).map(|i| i % 20 < 8).collect();
         let segs = s.segment(&im, &labels).unwrap();
         assert_eq!(segs.len(), 1);
         assert!(s.segment(&im, &labels[..5]).is_err());

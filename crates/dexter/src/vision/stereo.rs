@@ -1,12 +1,10 @@
 //! Stereo matching of segments and triangulation of their centroids (§6.2.1), and the whole
-//! render → segment → match pipeline for a stereo pair.
+//! segment → match → support-plane pipeline for a stereo pair.
 
-use crate::error::SimError;
-use crate::scene::{CameraSpec, LightSpec};
-use crate::vision::camera::Camera;
-use crate::vision::render::{Image, RenderScene, Renderer};
+use crate::error::RobotError;
 use crate::vision::segment::{Segment, SegmentConfig, Segmenter};
-use crate::vision::support::{CentroidSource, SupportEstimator, SupportPlane, View};
+use crate::vision::support::{CentroidSource, Footprint, SupportEstimator, SupportPlane, View};
+use control_basis::hardware::{Camera, Image, Intrinsics};
 use control_basis::math::Vec3;
 
 /// A calibrated stereo pair.
@@ -25,10 +23,15 @@ impl StereoCameras {
     }
 
     /// Both cameras looking at `fixation` from `left_eye` and `right_eye` (verged, no roll).
-    pub fn verged(spec: &CameraSpec, left_eye: Vec3, right_eye: Vec3, fixation: Vec3) -> Result<Self, SimError> {
+    pub fn verged(
+        intrinsics: &Intrinsics,
+        left_eye: Vec3,
+        right_eye: Vec3,
+        fixation: Vec3,
+    ) -> Result<Self, control_basis::CbError> {
         Ok(Self {
-            left: Camera::look_at(spec, left_eye, fixation)?,
-            right: Camera::look_at(spec, right_eye, fixation)?,
+            left: Camera::new(intrinsics, Camera::pose_looking_at(left_eye, fixation)?)?,
+            right: Camera::new(intrinsics, Camera::pose_looking_at(right_eye, fixation)?)?,
         })
     }
 }
@@ -172,6 +175,9 @@ pub struct StereoBlob {
     pub raw_centroid: Option<Vec3>,
     /// Which estimate [`StereoBlob::centroid`] is.
     pub source: CentroidSource,
+    /// The measured footprint on the support plane (prisms: the table cells under the object seen
+    /// by both cameras; spheres: a disc), for grasp planning (§6.2.1).
+    pub footprint: Option<Footprint>,
     /// Gap between the two centroid rays (m), a matching-quality measure.
     pub ray_gap: Option<f64>,
     /// Which cameras saw it.
@@ -298,6 +304,7 @@ impl StereoMatcher {
                     centroid: Some(correct(cams, &tri, l, &r, config.depth_correction)),
                     raw_centroid: Some(tri.point),
                     source: CentroidSource::Triangulated,
+                    footprint: None,
                     ray_gap: Some(tri.gap),
                     visibility: Visibility::Both,
                 });
@@ -310,6 +317,7 @@ impl StereoMatcher {
                 centroid: None,
                 raw_centroid: None,
                 source: CentroidSource::Triangulated,
+                footprint: None,
                 ray_gap: None,
                 visibility: Visibility::LeftOnly,
             });
@@ -321,6 +329,7 @@ impl StereoMatcher {
                 centroid: None,
                 raw_centroid: None,
                 source: CentroidSource::Triangulated,
+                footprint: None,
                 ray_gap: None,
                 visibility: Visibility::RightOnly,
             });
@@ -347,27 +356,16 @@ fn correct(cams: &StereoCameras, tri: &Triangulation, l: &Segment, r: &Segment, 
     }
 }
 
-/// The whole stereo pipeline with all buffers reused: two renderers, two segmenters (each with the
-/// background of its camera) and a matcher.
-///
-/// The background of each camera is the empty scene (only [`crate::vision::ItemLabel::Static`]
-/// items) seen from that camera's current pose. [`StereoVision::perceive`] re-renders it whenever
-/// the cameras differ from the ones it was captured with (the head moved), as a robot would
-/// re-capture its background per head pose.
+/// The stereo pipeline of one camera pair with every buffer reused: two segmenters (each with the
+/// background of its camera), a matcher and the support-plane estimator. It takes images — from
+/// [`control_basis::Hardware::capture`] or anywhere else — and never renders.
 #[derive(Debug, Clone)]
-pub struct StereoVision {
-    renderers: [Renderer; 2],
+pub struct StereoPipeline {
     segmenters: [Segmenter; 2],
     matcher: StereoMatcher,
     config: StereoConfig,
     background_cams: Option<StereoCameras>,
     support: SupportEstimator,
-}
-
-/// Noise seeds of the left and right cameras: streams 0 and 1 of `seed` ([`crate::rng::SplitMix64::stream`]).
-fn camera_seeds(seed: u64) -> (u64, u64) {
-    let s = |k| crate::rng::SplitMix64::stream(seed, k).next_u64();
-    (s(0), s(1))
 }
 
 fn side_index(side: Side) -> usize {
@@ -377,47 +375,25 @@ fn side_index(side: Side) -> usize {
     }
 }
 
-impl StereoVision {
-    /// Default segmentation (for the camera's pixel noise) and matching settings; the two cameras'
-    /// noise streams are derived from `seed`.
-    pub fn new(spec: &CameraSpec, light: &LightSpec, seed: u64) -> Result<Self, SimError> {
-        Self::with_config(
-            spec,
-            light,
-            seed,
-            SegmentConfig::for_noise(spec.pixel_noise),
-            StereoConfig::default(),
-        )
-    }
+/// One camera's frame: its image and the robot's self-mask (empty = none).
+#[derive(Debug, Clone, Copy)]
+pub struct Frame<'a> {
+    /// The image.
+    pub image: &'a Image,
+    /// `true` where the robot's own body covers the pixel.
+    pub self_mask: &'a [bool],
+}
 
-    /// Explicit settings.
-    pub fn with_config(
-        spec: &CameraSpec,
-        light: &LightSpec,
-        seed: u64,
-        segment: SegmentConfig,
-        stereo: StereoConfig,
-    ) -> Result<Self, SimError> {
-        crate::vision::camera::validate_spec(spec)?;
-        let (sl, sr) = camera_seeds(seed);
-        Ok(Self {
-            renderers: [
-                Renderer::new(spec.pixel_noise, light, sl)?,
-                Renderer::new(spec.pixel_noise, light, sr)?,
-            ],
+impl StereoPipeline {
+    /// A pipeline with explicit settings.
+    pub fn new(segment: SegmentConfig, stereo: StereoConfig) -> Self {
+        Self {
             segmenters: [Segmenter::new(segment), Segmenter::new(segment)],
             matcher: StereoMatcher::new(),
             config: stereo,
             background_cams: None,
             support: SupportEstimator::new(),
-        })
-    }
-
-    /// Restarts both noise streams from `seed` (as [`StereoVision::new`] does).
-    pub fn reseed(&mut self, seed: u64) {
-        let (sl, sr) = camera_seeds(seed);
-        self.renderers[0].reseed(sl);
-        self.renderers[1].reseed(sr);
+        }
     }
 
     /// The matching settings.
@@ -430,16 +406,6 @@ impl StereoVision {
         self.config = config;
     }
 
-    /// The renderer of one camera (its last image, labels and depth).
-    pub fn renderer(&self, side: Side) -> &Renderer {
-        &self.renderers[side_index(side)]
-    }
-
-    /// The renderer of one camera, mutable.
-    pub fn renderer_mut(&mut self, side: Side) -> &mut Renderer {
-        &mut self.renderers[side_index(side)]
-    }
-
     /// The segmenter of one camera (its background, last mask, component map and segments).
     pub fn segmenter(&self, side: Side) -> &Segmenter {
         &self.segmenters[side_index(side)]
@@ -450,57 +416,54 @@ impl StereoVision {
         &mut self.segmenters[side_index(side)]
     }
 
-    /// Renders the empty scene (static items only) from both cameras and stores it as background.
-    ///
-    /// Call it again whenever the static scene changes; [`StereoVision::perceive`] only notices
-    /// camera motion.
-    pub fn capture_background(&mut self, cams: &StereoCameras, scene: &RenderScene) -> Result<(), SimError> {
-        // Until both succeed the backgrounds are inconsistent: force a re-capture on failure.
-        self.background_cams = None;
-        for (k, cam) in [&cams.left, &cams.right].into_iter().enumerate() {
-            let bg = self.renderers[k].render_background(cam, scene)?;
-            self.segmenters[k].set_background(bg);
-        }
+    /// Whether the backgrounds were captured with cameras other than `cams` (the head moved).
+    pub fn needs_background(&self, cams: &StereoCameras) -> bool {
+        self.background_cams.as_ref() != Some(cams)
+    }
+
+    /// Stores the backgrounds (the empty workspace) of both cameras at `cams`.
+    pub fn set_backgrounds(&mut self, cams: &StereoCameras, left: &Image, right: &Image) {
+        self.segmenters[0].set_background(left);
+        self.segmenters[1].set_background(right);
         self.background_cams = Some(cams.clone());
-        Ok(())
     }
 
-    /// Renders both images of the scene.
-    pub fn render_stereo(&mut self, cams: &StereoCameras, scene: &RenderScene) -> Result<(&Image, &Image), SimError> {
-        self.renderers[0].render(&cams.left, scene)?;
-        self.renderers[1].render(&cams.right, scene)?;
-        Ok((self.renderers[0].image(), self.renderers[1].image()))
+    /// Forgets the backgrounds, so that the next frame needs new ones.
+    pub fn clear_backgrounds(&mut self) {
+        self.background_cams = None;
     }
 
-    /// Renders, segments and matches; writes the blobs into `out` (cleared first). Captures the
-    /// background first if it was never captured or the cameras moved.
-    pub fn perceive_into(
+    /// Segments both frames, matches and triangulates; writes the blobs into `out` (cleared first).
+    /// With [`StereoConfig::support`] set, resting objects get their support-plane centroid,
+    /// height and footprint.
+    pub fn process(
         &mut self,
         cams: &StereoCameras,
-        scene: &RenderScene,
+        frames: [Frame<'_>; 2],
         out: &mut Vec<StereoBlob>,
-    ) -> Result<(), SimError> {
-        if self.background_cams.as_ref() != Some(cams) {
-            self.capture_background(cams, scene)?;
-        }
-        self.render_stereo(cams, scene)?;
-        for k in 0..2 {
-            let r = &self.renderers[k];
-            self.segmenters[k].segment(r.image(), r.labels())?;
+    ) -> Result<(), RobotError> {
+        for (k, f) in frames.iter().enumerate() {
+            self.segmenters[k].segment(f.image, f.self_mask)?;
         }
         let [sl, sr] = &self.segmenters;
         self.matcher
             .match_segments(cams, sl.segments(), sr.segments(), &self.config, out);
         if let Some(plane) = self.config.support {
             for blob in out.iter_mut() {
-                self.refine_on_support(cams, blob, &plane);
+                self.refine_on_support(cams, [frames[0].image, frames[1].image], blob, &plane);
             }
         }
         Ok(())
     }
 
     /// Replaces a matched blob's centroid by the support-plane estimate when it applies.
-    fn refine_on_support(&mut self, cams: &StereoCameras, blob: &mut StereoBlob, plane: &SupportPlane) {
+    fn refine_on_support(
+        &mut self,
+        cams: &StereoCameras,
+        images: [&Image; 2],
+        blob: &mut StereoBlob,
+        plane: &SupportPlane,
+    ) {
         let (Some(l), Some(r), Some(tri)) = (blob.left.as_ref(), blob.right.as_ref(), blob.raw_centroid) else {
             return;
         };
@@ -517,30 +480,24 @@ impl StereoVision {
         let views = [
             View {
                 camera: &cams.left,
-                image: self.renderers[0].image(),
+                image: images[0],
                 components: self.segmenters[0].component_map(),
                 segment: l,
                 id: il,
             },
             View {
                 camera: &cams.right,
-                image: self.renderers[1].image(),
+                image: images[1],
                 components: self.segmenters[1].component_map(),
                 segment: r,
                 id: ir,
             },
         ];
-        if let Some((p, source)) = self.support.estimate(views, &tri, plane) {
+        if let Some((p, source, footprint)) = self.support.estimate(views, &tri, plane) {
             blob.centroid = Some(p);
             blob.source = source;
+            blob.footprint = footprint;
         }
-    }
-
-    /// [`StereoVision::perceive_into`] into a new vector.
-    pub fn perceive(&mut self, cams: &StereoCameras, scene: &RenderScene) -> Result<Vec<StereoBlob>, SimError> {
-        let mut out = Vec::new();
-        self.perceive_into(cams, scene, &mut out)?;
-        Ok(out)
     }
 }
 

@@ -49,9 +49,8 @@
 //! [`SupportPlane::max_disagreement`] (the object is not on the table, lies in a bin, is held, is
 //! partly hidden, …), the triangulated point is kept.
 
-use crate::vision::camera::Camera;
-use crate::vision::render::Image;
 use crate::vision::segment::Segment;
+use control_basis::hardware::{Camera, Image};
 use control_basis::math::Vec3;
 
 /// A known horizontal support plane and the settings of [`SupportEstimator`].
@@ -66,7 +65,7 @@ pub struct SupportPlane {
     /// box or cylinder is biased (measured up to 0.34 h over 500 objects); that of a sphere is not.
     pub disagreement_per_height: f64,
     /// Standard deviation of the cameras' pixel noise on each RGB channel in [0, 1]
-    /// ([`crate::scene::CameraSpec::pixel_noise`]): sets how small a step can be told from noise.
+    /// ([`control_basis::hardware::CameraInfo::pixel_noise`]): sets how small a step can be told from noise.
     pub pixel_noise: f64,
     /// Rows averaged on each side of a candidate step by the windowed test (fewer where the
     /// column ends).
@@ -154,6 +153,41 @@ pub enum CentroidSource {
     },
 }
 
+/// An object's footprint on the support plane, from the table cells under it that both cameras
+/// see (a visual hull of its cross-section): centre, principal axes and half extents (m, world).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Footprint {
+    /// Centre (x, y).
+    pub center: [f64; 2],
+    /// Unit direction (x, y) of the major axis.
+    pub major_axis: [f64; 2],
+    /// Half extent along the major axis (m).
+    pub half_major: f64,
+    /// Half extent along the minor axis (m).
+    pub half_minor: f64,
+}
+
+impl Footprint {
+    /// A disc of radius `r` about `center`.
+    pub fn disc(center: [f64; 2], r: f64) -> Self {
+        Footprint {
+            center,
+            major_axis: [1.0, 0.0],
+            half_major: r,
+            half_minor: r,
+        }
+    }
+
+    /// Half extent (m) of the footprint along the horizontal unit direction `d` (an ellipse-free,
+    /// rectangle model: the support function of the box with the principal axes).
+    pub fn half_extent_along(&self, d: [f64; 2]) -> f64 {
+        let [ax, ay] = self.major_axis;
+        let c = (d[0] * ax + d[1] * ay).abs();
+        let s = (d[0] * -ay + d[1] * ax).abs();
+        self.half_major * c + self.half_minor * s
+    }
+}
+
 /// One camera's view of a blob: the camera, its image, its component map and the segment's
 /// component id.
 #[derive(Debug)]
@@ -239,7 +273,7 @@ impl SupportEstimator {
         views: [View<'_>; 2],
         triangulated: &Vec3,
         plane: &SupportPlane,
-    ) -> Option<(Vec3, CentroidSource)> {
+    ) -> Option<(Vec3, CentroidSource, Option<Footprint>)> {
         if views.iter().any(|v| v.segment.touches_border) || !triangulated.iter().all(|x| x.is_finite()) {
             return None;
         }
@@ -266,17 +300,23 @@ impl SupportEstimator {
             sum += ray_at_height(&o, &d, zc)?;
         }
         let mut p = 0.5 * sum;
-        if let CentroidSource::Prism { height } = source
-            && let Some(xy) = footprint_centroid(&views, plane.height, height)
-        {
-            p.x = xy[0];
-            p.y = xy[1];
+        let mut footprint = None;
+        match source {
+            CentroidSource::Prism { height } => {
+                if let Some(f) = footprint_cells(&views, plane.height, height) {
+                    p.x = f.center[0];
+                    p.y = f.center[1];
+                    footprint = Some(f);
+                }
+            }
+            CentroidSource::Round { radius } => footprint = Some(Footprint::disc([p.x, p.y], radius)),
+            CentroidSource::Triangulated => {}
         }
         let tolerance = match source {
             CentroidSource::Prism { height } => plane.max_disagreement + plane.disagreement_per_height * height,
             _ => plane.max_disagreement,
         };
-        ((p - triangulated).norm() <= tolerance).then_some((p, source))
+        ((p - triangulated).norm() <= tolerance).then_some((p, source, footprint))
     }
 
     /// `Some(Some(h))` if the prism model applies: at least three and most columns show a shading
@@ -490,7 +530,7 @@ const FOOTPRINT_CELLS: f64 = 64.0;
 /// shadow behind it and the top points its footprint plus the band in front of it, so their
 /// intersection is the footprint. The window is where the segments' bounding boxes back-project
 /// at both heights. `None` if fewer than 4 cells qualify.
-fn footprint_centroid(views: &[View<'_>; 2], table: f64, h: f64) -> Option<[f64; 2]> {
+fn footprint_cells(views: &[View<'_>; 2], table: f64, h: f64) -> Option<Footprint> {
     let mut lo = [f64::NEG_INFINITY; 2];
     let mut hi = [f64::INFINITY; 2];
     for v in views {
@@ -536,7 +576,7 @@ fn footprint_centroid(views: &[View<'_>; 2], table: f64, h: f64) -> Option<[f64;
         }
         v.components[vv as usize * v.image.width as usize + u as usize] == v.id
     };
-    let (mut sx, mut sy, mut count) = (0.0, 0.0, 0usize);
+    let (mut sx, mut sy, mut sxx, mut sxy, mut syy, mut count) = (0.0, 0.0, 0.0, 0.0, 0.0, 0usize);
     for i in 0..nx {
         for j in 0..ny {
             let x = lo[0] + (i as f64 + 0.5) * cell;
@@ -545,11 +585,32 @@ fn footprint_centroid(views: &[View<'_>; 2], table: f64, h: f64) -> Option<[f64;
             if in_view(0, &b) && in_view(1, &b) && in_view(0, &t) && in_view(1, &t) {
                 sx += x;
                 sy += y;
+                sxx += x * x;
+                sxy += x * y;
+                syy += y * y;
                 count += 1;
             }
         }
     }
-    (count >= 4).then(|| [sx / count as f64, sy / count as f64])
+    if count < 4 {
+        return None;
+    }
+    let n = count as f64;
+    let (mx, my) = (sx / n, sy / n);
+    let (cxx, cxy, cyy) = (sxx / n - mx * mx, sxy / n - mx * my, syy / n - my * my);
+    // Principal axes of the cell cloud; a uniform rectangle of half extent a has variance a²/3
+    // along its axis, plus the cell's own a²/12 quantisation.
+    let tr = 0.5 * (cxx + cyy);
+    let det = (0.25 * (cxx - cyy).powi(2) + cxy * cxy).sqrt();
+    let (l1, l2) = (tr + det, (tr - det).max(0.0));
+    let angle = 0.5 * (2.0 * cxy).atan2(cxx - cyy);
+    let half = |var: f64| (3.0 * (var - cell * cell / 12.0).max(0.0)).sqrt().max(0.5 * cell);
+    Some(Footprint {
+        center: [mx, my],
+        major_axis: [angle.cos(), angle.sin()],
+        half_major: half(l1),
+        half_minor: half(l2),
+    })
 }
 
 /// A camera's 3×4 projection matrix `K [Rᵀ | −Rᵀ t]`: pixel coordinates of world points in a few
@@ -650,7 +711,7 @@ fn round_radius(views: &[View<'_>; 2], triangulated: &Vec3, table: f64) -> Optio
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::CameraSpec;
+    use control_basis::hardware::Intrinsics;
 
     /// A black lid's step (top 0.15, side 0.6 of it: 0.06 in RGB) with ±0.012 of noise: no pixel
     /// pair stands out, the windows do, and the step is put at the first side pixel, not at the
@@ -687,12 +748,13 @@ mod tests {
 
     #[test]
     fn projection_matrix_matches_camera() {
-        let cam = Camera::look_at(
-            &CameraSpec::default(),
-            Vec3::new(0.05, 0.06, 1.5),
-            Vec3::new(0.6, 0.0, 0.8),
-        )
-        .unwrap();
+        let intrinsics = Intrinsics {
+            width: 160,
+            height: 120,
+            hfov_deg: 60.0,
+        };
+        let pose = Camera::pose_looking_at(Vec3::new(0.05, 0.06, 1.5), Vec3::new(0.6, 0.0, 0.8)).unwrap();
+        let cam = Camera::new(&intrinsics, pose).unwrap();
         let m = Projection::of(&cam);
         for p in [
             Vec3::new(0.6, 0.0, 0.8),

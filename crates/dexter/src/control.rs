@@ -1,19 +1,19 @@
-//! Control-basis controllers bound to the simulated Dexter: Reach (φ_U on the palm pose with
+//! Control-basis controllers bound to Dexter's motor units: Reach (φ_U on the palm pose with
 //! Manipulability subordinate, (3.17)), the hand's motor units, and the Grasp predicate.
 //!
 //! Each controller runs at the control rate on the encoder readings and writes motor references
-//! (`q_ref = q + Δq`, `q̇_ref = Δq / Δt`): the PD motor units of [`crate::physics`] then track them.
+//! (`q_ref = q + Δq`, `q̇_ref = Δq / Δt`) through [`Hardware::set_joint_reference`]: the motor units
+//! (PD setpoint controllers, simulated or real) then track them.
 
 use control_basis::math::{Iso3, Rot3, Vec3};
 use control_basis::{
-    Chain, ChainBinding, ChainState, ControlStack, Controller, IkSettings, ManipulabilityRows, Predicate, Reference,
-    StackSettings, inverse_kinematics,
+    Chain, ChainBinding, ChainState, ControlStack, Controller, Hardware, IkSettings, ManipulabilityRows, Predicate,
+    Reference, StackSettings, inverse_kinematics,
 };
 use nalgebra::DVector;
 
-use crate::error::SimError;
-use crate::physics::DexterSim;
-use crate::snapshot::Arm;
+use crate::arm::Arm;
+use crate::error::RobotError;
 
 /// The tool frame that Reach servoes: the centre of the palm surface, z = approach direction.
 pub fn tool_link(arm: Arm) -> String {
@@ -56,9 +56,9 @@ pub struct ReachControl {
 }
 
 impl ReachControl {
-    /// Builds the controller for `arm` of `sim`.
-    pub fn new(sim: &DexterSim, arm: Arm) -> Result<Self, SimError> {
-        let chain = Chain::new(sim.model(), "world", &tool_link(arm))?;
+    /// Builds the controller for `arm` of `hw`.
+    pub fn new(hw: &dyn Hardware, arm: Arm) -> Result<Self, RobotError> {
+        let chain = Chain::new(hw.model(), "world", &tool_link(arm))?;
         let tip = chain.links().len() - 1;
         let reach = Controller::reach_pose(&chain, tip, 6.0)?;
         let manip = Controller::manipulability(&chain, ManipulabilityRows::Full, 0.5)?;
@@ -68,7 +68,7 @@ impl ReachControl {
         };
         let stack = ControlStack::new(&chain, vec![reach, manip], settings)?;
         let joint_stack = ControlStack::new(&chain, vec![Controller::configuration(&chain, 8.0)?], settings)?;
-        let binding = ChainBinding::by_name(&chain, sim.joint_names())?;
+        let binding = ChainBinding::by_name(&chain, hw.joint_names())?;
         let state = chain.new_state();
         let n = chain.dof();
         let mut rc = ReachControl {
@@ -91,7 +91,7 @@ impl ReachControl {
             speed: 0.0,
             active: false,
         };
-        let pose = rc.tool_pose(sim);
+        let pose = rc.tool_pose(hw);
         rc.goal = pose;
         rc.commanded = pose;
         Ok(rc)
@@ -108,8 +108,8 @@ impl ReachControl {
     }
 
     /// The tool pose computed from the encoders.
-    pub fn tool_pose(&mut self, sim: &DexterSim) -> Iso3 {
-        self.binding.gather(sim.joint_positions(), &mut self.q_chain);
+    pub fn tool_pose(&mut self, hw: &dyn Hardware) -> Iso3 {
+        self.binding.gather(hw.joint_positions(), &mut self.q_chain);
         if self.state.set_q(&self.chain, &self.q_chain).is_ok() {
             control_basis::forward_kinematics(&self.chain, &mut self.state);
         }
@@ -117,15 +117,15 @@ impl ReachControl {
     }
 
     /// The arm's configuration (chain order) from the encoders.
-    pub fn chain_configuration(&mut self, sim: &DexterSim) -> DVector<f64> {
-        self.binding.gather(sim.joint_positions(), &mut self.q_chain);
+    pub fn chain_configuration(&mut self, hw: &dyn Hardware) -> DVector<f64> {
+        self.binding.gather(hw.joint_positions(), &mut self.q_chain);
         DVector::from_column_slice(&self.q_chain)
     }
 
     /// Sets the goal; the commanded reference starts from the current tool pose and moves along a
     /// straight line (Cartesian Reach ◁ Manipulability).
-    pub fn set_goal(&mut self, sim: &DexterSim, goal: Iso3) {
-        self.commanded = self.tool_pose(sim);
+    pub fn set_goal(&mut self, hw: &dyn Hardware, goal: Iso3) {
+        self.commanded = self.tool_pose(hw);
         self.speed = 0.0;
         self.goal = goal;
         self.active = true;
@@ -136,9 +136,9 @@ impl ReachControl {
     /// Moves the goal without restarting the reference: the commanded pose keeps its speed and
     /// follows the new goal within the speed and acceleration limits. For a goal that moves every tick
     /// (teleoperation: the operator's hand pose streamed at glove rate).
-    pub fn track(&mut self, sim: &DexterSim, goal: Iso3) {
+    pub fn track(&mut self, hw: &dyn Hardware, goal: Iso3) {
         if !self.active || self.joint_goal.is_some() {
-            self.commanded = self.tool_pose(sim);
+            self.commanded = self.tool_pose(hw);
             self.speed = 0.0;
             self.joint_goal = None;
             self.active = true;
@@ -150,8 +150,8 @@ impl ReachControl {
     /// (the Reach goal, transformed into the configuration space once). For large motions: a
     /// configuration servo has no local minima or joint-limit traps. Returns `false` (and does
     /// nothing) if IK finds no configuration within the limits.
-    pub fn set_goal_via_ik(&mut self, sim: &DexterSim, goal: Iso3, seed: u64) -> Result<bool, SimError> {
-        let Some(q_goal) = self.solve_ik(sim, &goal, seed)? else {
+    pub fn set_goal_via_ik(&mut self, hw: &dyn Hardware, goal: Iso3, seed: u64) -> Result<bool, RobotError> {
+        let Some(q_goal) = self.solve_ik(hw, &goal, seed)? else {
             return Ok(false);
         };
         self.goal = goal;
@@ -165,8 +165,8 @@ impl ReachControl {
 
     /// An IK solution for `goal` within the joint limits, nearest the current configuration among
     /// the attempts, or `None`.
-    pub fn solve_ik(&mut self, sim: &DexterSim, goal: &Iso3, seed: u64) -> Result<Option<DVector<f64>>, SimError> {
-        self.tool_pose(sim);
+    pub fn solve_ik(&mut self, hw: &dyn Hardware, goal: &Iso3, seed: u64) -> Result<Option<DVector<f64>>, RobotError> {
+        self.tool_pose(hw);
         let settings = IkSettings {
             position_tolerance: 5e-4,
             orientation_tolerance: 5e-3,
@@ -194,7 +194,7 @@ impl ReachControl {
     }
 
     /// One control tick of `dt` seconds: advance the reference, run the stack, write motor references.
-    pub fn tick(&mut self, sim: &mut DexterSim, dt: f64) {
+    pub fn tick(&mut self, hw: &mut dyn Hardware, dt: f64) {
         if !self.active {
             return;
         }
@@ -221,14 +221,14 @@ impl ReachControl {
             let _ = self
                 .joint_stack
                 .set_configuration_reference(&self.chain, 0, q_cmd.as_slice());
-            self.binding.gather(sim.joint_positions(), &mut self.q_chain);
+            self.binding.gather(hw.joint_positions(), &mut self.q_chain);
             if self.state.set_q(&self.chain, &self.q_chain).is_err() {
                 return;
             }
             let du = self.joint_stack.tick(&self.chain, &mut self.state, &[], dt);
             for i in 0..self.q_chain.len() {
                 let j = self.binding.plant_index(i);
-                sim.set_joint_target(j, self.q_chain[i] + du[i], du[i] / dt);
+                hw.set_joint_reference(j, self.q_chain[i] + du[i], du[i] / dt);
             }
             return;
         }
@@ -259,27 +259,27 @@ impl ReachControl {
             .stack
             .set_reference(&self.chain, 0, Reference::Pose(self.commanded));
         let _ = self.stack.set_reference(&self.chain, 1, Reference::Undefined);
-        self.binding.gather(sim.joint_positions(), &mut self.q_chain);
+        self.binding.gather(hw.joint_positions(), &mut self.q_chain);
         if self.state.set_q(&self.chain, &self.q_chain).is_err() {
             return;
         }
         let du = self.stack.tick(&self.chain, &mut self.state, &[], dt);
         for i in 0..self.q_chain.len() {
             let j = self.binding.plant_index(i);
-            sim.set_joint_target(j, self.q_chain[i] + du[i], du[i] / dt);
+            hw.set_joint_reference(j, self.q_chain[i] + du[i], du[i] / dt);
         }
     }
 
     /// Distance (m) and angle (rad) between the measured tool pose and the goal.
-    pub fn goal_error(&mut self, sim: &DexterSim) -> (f64, f64) {
-        let pose = self.tool_pose(sim);
+    pub fn goal_error(&mut self, hw: &dyn Hardware) -> (f64, f64) {
+        let pose = self.tool_pose(hw);
         let d = (pose.translation.vector - self.goal.translation.vector).norm();
         let a = pose.rotation.angle_to(&self.goal.rotation);
         (d, a)
     }
 
     /// Whether the reference has reached the goal and the tool is within `tol` (m, rad) of it.
-    pub fn at_goal(&mut self, sim: &DexterSim, tol_pos: f64, tol_rot: f64) -> bool {
+    pub fn at_goal(&mut self, hw: &dyn Hardware, tol_pos: f64, tol_rot: f64) -> bool {
         let reference_done = match &self.joint_goal {
             Some((q_goal, q_cmd)) => (q_goal - q_cmd).amax() < 1e-12,
             None => {
@@ -287,7 +287,7 @@ impl ReachControl {
                     && self.commanded.rotation.angle_to(&self.goal.rotation) < 1e-9
             }
         };
-        let (d, a) = self.goal_error(sim);
+        let (d, a) = self.goal_error(hw);
         reference_done && d < tol_pos && a < tol_rot
     }
 
@@ -310,15 +310,15 @@ pub const FLEX_CLOSED: f64 = 2.4;
 
 impl HandControl {
     /// The hand of `arm`.
-    pub fn new(sim: &DexterSim, arm: Arm) -> Result<Self, SimError> {
+    pub fn new(hw: &dyn Hardware, arm: Arm) -> Result<Self, RobotError> {
         let p = arm.prefix();
         Ok(HandControl {
             arm,
-            spread: sim.dof(&format!("{p}/bhand/finger_1/prox_joint"))?,
+            spread: hw.dof_index(&format!("{p}/bhand/finger_1/prox_joint"))?,
             flex: [
-                sim.dof(&format!("{p}/bhand/finger_1/med_joint"))?,
-                sim.dof(&format!("{p}/bhand/finger_2/med_joint"))?,
-                sim.dof(&format!("{p}/bhand/finger_3/med_joint"))?,
+                hw.dof_index(&format!("{p}/bhand/finger_1/med_joint"))?,
+                hw.dof_index(&format!("{p}/bhand/finger_2/med_joint"))?,
+                hw.dof_index(&format!("{p}/bhand/finger_3/med_joint"))?,
             ],
         })
     }
@@ -329,22 +329,22 @@ impl HandControl {
     }
 
     /// Sets all three flexion references and the spread.
-    pub fn set(&self, sim: &mut DexterSim, flex: f64, spread: f64) {
+    pub fn set(&self, hw: &mut dyn Hardware, flex: f64, spread: f64) {
         for &f in &self.flex {
-            sim.set_joint_target(f, flex, 0.0);
+            hw.set_joint_reference(f, flex, 0.0);
         }
-        sim.set_joint_target(self.spread, spread, 0.0);
+        hw.set_joint_reference(self.spread, spread, 0.0);
     }
 
     /// Measured flexion of the three fingers.
-    pub fn flexion(&self, sim: &DexterSim) -> [f64; 3] {
-        let q = sim.joint_positions();
+    pub fn flexion(&self, hw: &dyn Hardware) -> [f64; 3] {
+        let q = hw.joint_positions();
         [q[self.flex[0]], q[self.flex[1]], q[self.flex[2]]]
     }
 
     /// Largest flexion speed (rad/s).
-    pub fn max_flex_speed(&self, sim: &DexterSim) -> f64 {
-        let qd = sim.joint_velocities();
+    pub fn max_flex_speed(&self, hw: &dyn Hardware) -> f64 {
+        let qd = hw.joint_velocities();
         self.flex.iter().map(|&f| qd[f].abs()).fold(0.0, f64::max)
     }
 }

@@ -1,4 +1,5 @@
-//! Colour conversions and the 64-bin HSV colour histogram of §5.1.2.1.
+//! Colour conversions, the 64-bin HSV colour histogram of §5.1.2.1 and the colour terms
+//! ([`schema::percept::COLOR_TERMS`]) the procedural model counts.
 
 /// Number of colours L in the discrete colour feature (§5.1.2.1: "one of L=64 colors").
 pub const HISTOGRAM_BINS: usize = 64;
@@ -117,7 +118,7 @@ impl ColorHistogram {
     /// The count threshold of the 20th-percentile rule: the 20th percentile (nearest rank,
     /// ⌈0.2·n⌉-th smallest) of the n non-zero bin counts; 0 if the histogram is empty.
     pub fn percentile20_threshold(&self) -> u32 {
-        schema::percept::percentile20_threshold(&self.counts)
+        percentile20_threshold(&self.counts)
     }
 
     /// The colours kept by the 20th-percentile rule of §5.1.2.1, as a bit mask (bit l = colour l).
@@ -155,6 +156,77 @@ impl ColorHistogram {
         v.sort_by(|&a, &b| self.counts[b].cmp(&self.counts[a]).then(a.cmp(&b)));
         v
     }
+}
+
+/// Hue boundaries (degrees) between the chromatic terms, half-way between their focal hues (red
+/// 0°, orange 30°, yellow 55°, green 120°, blue 220°, purple 275°, pink 330°).
+const HUE_BOUNDS: [(f64, u8); 7] = [
+    (15.0, 3),
+    (42.0, 4),
+    (85.0, 5),
+    (170.0, 6),
+    (248.0, 7),
+    (302.0, 8),
+    (345.0, 9),
+];
+
+/// The colour term (index into [`schema::percept::COLOR_TERMS`]) of an HSV colour (`[h_deg, s, v]`, s and v in
+/// [0, 1]): black when v < ¼, grey or white when s < ¼ (by v < ¾), otherwise the hue's term.
+///
+/// **Why terms, not the 64 histogram bins.** The seed's uniform 4 × 4 × 4 HSV partition
+/// (§5.1.2.1) cuts hue into 90° cells starting at 0°: red and orange (and yellow) share one cell
+/// and a red surface straddles two. The model of ch. 5 needs colour *categories* that shading
+/// does not move an object between and that a teacher would name, so it counts pixels by the
+/// hue regions people name (the histogram stays for stereo matching and display).
+#[inline]
+pub fn color_term(hsv: [f64; 3]) -> u8 {
+    let (h, s, v) = (hsv[0].rem_euclid(360.0), hsv[1], hsv[2]);
+    if v < 0.25 {
+        0
+    } else if s < 0.25 {
+        if v < 0.75 { 1 } else { 2 }
+    } else {
+        HUE_BOUNDS.iter().find(|b| h < b.0).map_or(3, |b| b.1)
+    }
+}
+
+/// The count threshold of the 20th-percentile rule of §5.1.2.1: the 20th percentile (nearest
+/// rank, the ⌈0.2·n⌉-th smallest) of the n non-zero counts; 0 when every count is 0. No
+/// allocation (a rank count per value, for the few dozen bins of a colour feature).
+pub fn percentile20_threshold(counts: &[u32]) -> u32 {
+    let n = counts.iter().filter(|&&c| c > 0).count();
+    if n == 0 {
+        return 0;
+    }
+    let rank = (0.2 * n as f64).ceil().max(1.0) as usize;
+    counts
+        .iter()
+        .copied()
+        .filter(|&c| {
+            let below = counts.iter().filter(|&&o| o > 0 && o < c).count();
+            let upto = counts.iter().filter(|&&o| o > 0 && o <= c).count();
+            c > 0 && below < rank && rank <= upto
+        })
+        .min()
+        .unwrap_or(0)
+}
+
+/// The kept colour terms of per-term pixel counts: the 20th-percentile rule of §5.1.2.1 (terms
+/// whose count is below the ⌈0.2·n⌉-th smallest of the n non-zero counts are dropped), as
+/// (term, share of the kept pixels), ascending by term.
+pub fn kept_color_terms(counts: &[u32; 10]) -> Vec<(u8, f64)> {
+    let threshold = percentile20_threshold(counts);
+    if threshold == 0 {
+        return Vec::new();
+    }
+    let kept: Vec<(u8, u32)> = counts
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| **c > 0 && **c >= threshold)
+        .map(|(t, &c)| (t as u8, c))
+        .collect();
+    let total: f64 = kept.iter().map(|k| f64::from(k.1)).sum();
+    kept.into_iter().map(|(t, c)| (t, f64::from(c) / total)).collect()
 }
 
 #[cfg(test)]
@@ -204,5 +276,50 @@ mod tests {
         let mut one = ColorHistogram::default();
         one.counts[5] = 3;
         assert_eq!(one.kept_mask(), 1 << 5);
+    }
+}
+
+#[cfg(test)]
+mod term_tests {
+    use super::*;
+    use schema::percept::{COLOR_TERM_HSV, COLOR_TERMS};
+
+    #[test]
+    fn colour_terms_name_the_catalog_colours() {
+        let name = |hsv| COLOR_TERMS[usize::from(color_term(hsv))];
+        // Red wraps around 0°: both sides are red; orange and paprika are orange, not red (the
+        // 4 × 4 × 4 histogram puts red, orange and yellow in one hue cell).
+        assert_eq!(name([2.0, 0.85, 0.8]), "red");
+        assert_eq!(name([358.0, 0.85, 0.8]), "red");
+        assert_eq!(name([28.0, 0.9, 0.95]), "orange");
+        assert_eq!(name([16.0, 0.88, 0.85]), "orange");
+        assert_eq!(name([52.0, 0.85, 0.95]), "yellow");
+        assert_eq!(name([95.0, 0.7, 0.85]), "green");
+        assert_eq!(name([140.0, 0.75, 0.4]), "green");
+        assert_eq!(name([200.0, 0.65, 0.92]), "blue");
+        assert_eq!(name([220.0, 0.85, 0.75]), "blue");
+        assert_eq!(name([275.0, 0.7, 0.7]), "purple");
+        assert_eq!(name([335.0, 0.55, 0.92]), "pink");
+        // Achromatic: value first, then saturation; hue is ignored.
+        assert_eq!(name([220.0, 0.15, 0.10]), "black");
+        assert_eq!(name([210.0, 0.06, 0.5]), "grey");
+        assert_eq!(name([40.0, 0.04, 0.96]), "white");
+        for (t, hsv) in COLOR_TERM_HSV.iter().enumerate() {
+            assert_eq!(usize::from(color_term(*hsv)), t, "{}", COLOR_TERMS[t]);
+        }
+    }
+
+    #[test]
+    fn kept_terms_follow_the_20th_percentile_rule() {
+        assert!(kept_color_terms(&[0; 10]).is_empty());
+        // Five non-zero counts: the rule's threshold is the smallest (rank ⌈0.2·5⌉ = 1), so all
+        // five are kept; with six, rank 2 drops the smallest.
+        let five = kept_color_terms(&[1, 0, 10, 30, 0, 0, 0, 50, 0, 9]);
+        assert_eq!(five.iter().map(|t| t.0).collect::<Vec<_>>(), [0, 2, 3, 7, 9]);
+        let six = kept_color_terms(&[1, 2, 10, 30, 0, 0, 0, 50, 0, 9]);
+        assert_eq!(six.iter().map(|t| t.0).collect::<Vec<_>>(), [1, 2, 3, 7, 9]);
+        let total: f64 = six.iter().map(|t| t.1).sum();
+        assert!((total - 1.0).abs() < 1e-12);
+        assert!((six[3].1 - 50.0 / 101.0).abs() < 1e-12);
     }
 }

@@ -1,0 +1,394 @@
+//! Dexter's hardware in the simulator: [`SimRobot`] implements [`control_basis::Hardware`] on a
+//! [`DexterSim`] — encoders (with the simulator's encoder noise), PD motor units, the six fingertip
+//! force/torque sensors (from contact impulses, normal and friction), the head and chassis stereo
+//! pairs (ray-cast renders of the live scene with pixel noise, and the background of the empty
+//! scene), and the clock. This is the only door between the world and the robot side (`dexter`):
+//! whatever the robot knows of objects, it saw through [`SimRobot::capture`] or felt through
+//! [`SimRobot::read_force_torque`].
+//!
+//! **Self-mask.** A real robot renders its self-model at the measured joint angles to mask its own
+//! body out of the foreground; here the renderer's label buffer supplies the same mask (the robot's
+//! links at their true poses). It says nothing about objects.
+
+use control_basis::hardware::{CameraInfo, ForceTorque, Hardware, HardwareError, Image};
+use control_basis::math::Iso3;
+use control_basis::{CbError, Plant, RobotModel};
+
+use crate::convert::iso_from_glam;
+use crate::error::SimError;
+use crate::physics::DexterSim;
+use crate::rng::SplitMix64;
+use crate::scene::Scene;
+use crate::snapshot::{Arm, FingertipWrench};
+use crate::vision::camera::SpecCamera;
+use crate::vision::{Camera, ItemLabel, Material, RenderItem, RenderScene, Renderer};
+
+/// The cameras: (name, optical frame link).
+pub const CAMERAS: [(&str, &str); 4] = [
+    ("head/left", "head/left_camera_optical_frame"),
+    ("head/right", "head/right_camera_optical_frame"),
+    ("chassis/left", "chassis/left_camera_optical_frame"),
+    ("chassis/right", "chassis/right_camera_optical_frame"),
+];
+
+/// The render scene kept in step with the simulator and one noisy renderer per camera.
+#[derive(Debug)]
+pub struct SimCameras {
+    scene: RenderScene,
+    /// (render item index, collider) for every robot collider.
+    robot_items: Vec<(usize, rapier3d_f64::prelude::ColliderHandle)>,
+    /// Render item of each sim object.
+    object_items: Vec<usize>,
+    renderers: Vec<Renderer>,
+    spec: crate::scene::CameraSpec,
+    infos: Vec<CameraInfo>,
+    synced_at: Option<u64>,
+}
+
+/// Noise seeds of the cameras: the left and right camera of each pair are streams 0 and 1 of the
+/// pair's seed (`seed` for the head, `seed ^ 0xC4A5_5150` for the chassis).
+fn camera_seed(seed: u64, camera: usize) -> u64 {
+    let pair_seed = if camera < 2 { seed } else { seed ^ 0xC4A5_5150 };
+    SplitMix64::stream(pair_seed, (camera % 2) as u64).next_u64()
+}
+
+impl SimCameras {
+    /// The render scene of `scene` with `sim`'s robot and objects; noise from `seed`.
+    pub fn new(sim: &DexterSim, scene: &Scene, seed: u64) -> Result<Self, SimError> {
+        let mut rs = RenderScene::new();
+        for item in RenderScene::from_scene(scene).items {
+            if item.label == ItemLabel::Static {
+                rs.push(item);
+            }
+        }
+        let mut object_items = Vec::new();
+        for (i, o) in sim.objects().iter().enumerate() {
+            let spec = &scene.catalog.objects[o.catalog_index];
+            object_items.push(rs.push(RenderItem::from_catalog(
+                &spec.shape,
+                sim.object_state(i).pose,
+                &spec.colors,
+                ItemLabel::Object(i),
+            )));
+        }
+        let mut robot_items = Vec::new();
+        let world = sim.world();
+        for h in sim.robot_colliders() {
+            if let Some(c) = world.colliders.get(h) {
+                let item = RenderItem {
+                    shape: c.shared_shape().clone(),
+                    world_from_shape: iso_from_glam(c.position()),
+                    object_from_shape: Iso3::identity(),
+                    material: Material::Uniform([210.0, 0.08, 0.55]),
+                    label: ItemLabel::Robot,
+                };
+                robot_items.push((rs.push(item), h));
+            }
+        }
+        let spec = scene.spec.camera.clone();
+        crate::vision::camera::validate_spec(&spec)?;
+        let renderers = (0..CAMERAS.len())
+            .map(|k| Renderer::new(spec.pixel_noise, &scene.spec.light, camera_seed(seed, k)))
+            .collect::<Result<Vec<_>, _>>()?;
+        let infos = CAMERAS
+            .iter()
+            .map(|(name, frame)| CameraInfo {
+                name: name.to_string(),
+                optical_frame: frame.to_string(),
+                intrinsics: spec.intrinsics(),
+                pixel_noise: spec.pixel_noise,
+            })
+            .collect();
+        Ok(SimCameras {
+            scene: rs,
+            robot_items,
+            object_items,
+            renderers,
+            spec,
+            infos,
+            synced_at: None,
+        })
+    }
+
+    /// Moves every object and robot link of the render scene to where the physics has it.
+    pub fn sync(&mut self, sim: &DexterSim) {
+        if self.synced_at == Some(sim.steps()) {
+            return;
+        }
+        for (i, &k) in self.object_items.iter().enumerate() {
+            self.scene.items[k].set_object_pose(&sim.object_state(i).pose);
+        }
+        let world = sim.world();
+        for &(k, h) in &self.robot_items {
+            if let Some(c) = world.colliders.get(h) {
+                self.scene.items[k].world_from_shape = iso_from_glam(c.position());
+            }
+        }
+        self.synced_at = Some(sim.steps());
+    }
+
+    /// Camera `k` where the physics has it.
+    pub fn camera(&self, sim: &DexterSim, k: usize) -> Result<Camera, SimError> {
+        Camera::from_spec(&self.spec, sim.link_pose_by_name(CAMERAS[k].1)?)
+    }
+
+    /// The render scene.
+    pub fn render_scene(&self) -> &RenderScene {
+        &self.scene
+    }
+
+    /// The camera calibrations.
+    pub fn infos(&self) -> &[CameraInfo] {
+        &self.infos
+    }
+
+    /// Renders camera `k` into `out` and its self-mask into `mask`.
+    pub fn capture(
+        &mut self,
+        sim: &DexterSim,
+        k: usize,
+        out: &mut Image,
+        mask: &mut Vec<bool>,
+    ) -> Result<(), SimError> {
+        self.sync(sim);
+        let cam = self.camera(sim, k)?;
+        let r = &mut self.renderers[k];
+        r.render(&cam, &self.scene)?;
+        out.copy_from(r.image());
+        crate::vision::stereo_sim::self_mask(r.labels(), mask);
+        Ok(())
+    }
+
+    /// Renders the empty scene from camera `k` into `out`.
+    pub fn capture_background(&mut self, sim: &DexterSim, k: usize, out: &mut Image) -> Result<(), SimError> {
+        let cam = self.camera(sim, k)?;
+        out.copy_from(self.renderers[k].render_background(&cam, &self.scene)?);
+        Ok(())
+    }
+}
+
+/// Receives the world after every advance of the hardware (for truth logs and snapshots).
+pub type WorldHook<'a> = Box<dyn FnMut(&DexterSim) + 'a>;
+
+/// Dexter's hardware on a [`DexterSim`]: what the robot side may use of the world.
+pub struct SimRobot<'a> {
+    sim: &'a mut DexterSim,
+    cameras: SimCameras,
+    ft_frames: Vec<String>,
+    hook: Option<WorldHook<'a>>,
+}
+
+impl std::fmt::Debug for SimRobot<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SimRobot")
+            .field("time", &self.sim.time())
+            .finish_non_exhaustive()
+    }
+}
+
+fn hw_error(e: SimError) -> HardwareError {
+    HardwareError::Device {
+        device: "simulator".into(),
+        message: e.to_string(),
+    }
+}
+
+impl<'a> SimRobot<'a> {
+    /// The hardware of `sim` in `scene`; camera noise from `seed`.
+    pub fn new(sim: &'a mut DexterSim, scene: &Scene, seed: u64) -> Result<Self, SimError> {
+        let cameras = SimCameras::new(sim, scene, seed)?;
+        let ft_frames = (0..6)
+            .map(|k| {
+                let arm = if k < 3 { Arm::Left } else { Arm::Right };
+                format!("{}/bhand/finger_{}/tip_link", arm.prefix(), k % 3 + 1)
+            })
+            .collect();
+        Ok(SimRobot {
+            sim,
+            cameras,
+            ft_frames,
+            hook: None,
+        })
+    }
+
+    /// Calls `hook` with the world after every [`Hardware::advance`] (logging truth and snapshots).
+    pub fn with_hook(mut self, hook: WorldHook<'a>) -> Self {
+        self.hook = Some(hook);
+        self
+    }
+
+    /// The world (for the evaluator and the truth log — never for the robot side).
+    pub fn sim(&self) -> &DexterSim {
+        self.sim
+    }
+
+    /// The world, mutable (teleoperation input, fault injection).
+    pub fn sim_mut(&mut self) -> &mut DexterSim {
+        self.sim
+    }
+
+    /// The simulated cameras.
+    pub fn sim_cameras(&self) -> &SimCameras {
+        &self.cameras
+    }
+}
+
+impl Plant for SimRobot<'_> {
+    fn joint_names(&self) -> &[String] {
+        self.sim.joint_names()
+    }
+    fn read_joint_positions(&self, q: &mut [f64]) {
+        Plant::read_joint_positions(&*self.sim, q)
+    }
+    fn command(&mut self, references: &[f64]) -> Result<(), CbError> {
+        Plant::command(self.sim, references)
+    }
+    fn step(&mut self, dt_secs: f64) -> Result<(), CbError> {
+        self.advance(dt_secs).map_err(|e| CbError::Solver(e.to_string()))
+    }
+    fn time_secs(&self) -> f64 {
+        self.sim.time()
+    }
+}
+
+impl Hardware for SimRobot<'_> {
+    fn model(&self) -> &RobotModel {
+        self.sim.model()
+    }
+    fn joint_positions(&self) -> &[f64] {
+        self.sim.joint_positions()
+    }
+    fn joint_velocities(&self) -> &[f64] {
+        self.sim.joint_velocities()
+    }
+    fn set_joint_reference(&mut self, dof: usize, q: f64, qd: f64) {
+        self.sim.set_joint_target(dof, q, qd);
+    }
+    /// Whole physics steps (at least one).
+    fn advance(&mut self, dt_secs: f64) -> Result<(), HardwareError> {
+        if !(dt_secs.is_finite() && dt_secs >= 0.0) {
+            return Err(HardwareError::Model(CbError::NotFinite {
+                what: "advance (s)".into(),
+                index: 0,
+                value: dt_secs,
+            }));
+        }
+        let n = ((dt_secs / self.sim.settings().dt).round() as usize).max(1);
+        for _ in 0..n {
+            self.sim.step();
+        }
+        if let Some(h) = self.hook.as_mut() {
+            h(self.sim);
+        }
+        Ok(())
+    }
+    fn force_torque_frames(&self) -> &[String] {
+        &self.ft_frames
+    }
+    fn read_force_torque(&self, out: &mut [ForceTorque]) {
+        let mut tips = [FingertipWrench {
+            arm: Arm::Left,
+            finger: 0,
+            force: [0.0; 3],
+            torque: [0.0; 3],
+            in_contact: false,
+        }; 6];
+        self.sim.fingertip_wrenches(&mut tips);
+        for (o, t) in out.iter_mut().zip(&tips) {
+            *o = ForceTorque {
+                force: t.force,
+                torque: t.torque,
+                in_contact: t.in_contact,
+            };
+        }
+    }
+    fn cameras(&self) -> &[CameraInfo] {
+        self.cameras.infos()
+    }
+    fn capture(&mut self, camera: usize, out: &mut Image, self_mask: &mut Vec<bool>) -> Result<(), HardwareError> {
+        if camera >= CAMERAS.len() {
+            return Err(HardwareError::NoSuchDevice {
+                device: "camera",
+                index: camera,
+                count: CAMERAS.len(),
+            });
+        }
+        self.cameras.capture(self.sim, camera, out, self_mask).map_err(hw_error)
+    }
+    fn capture_background(&mut self, camera: usize, out: &mut Image) -> Result<(), HardwareError> {
+        if camera >= CAMERAS.len() {
+            return Err(HardwareError::NoSuchDevice {
+                device: "camera",
+                index: camera,
+                count: CAMERAS.len(),
+            });
+        }
+        self.cameras.capture_background(self.sim, camera, out).map_err(hw_error)
+    }
+}
+
+/// What the robot is told of `scene`: the table and its places (never objects).
+pub fn workspace(scene: &Scene) -> dexter::exec::Workspace {
+    let t = &scene.spec.table;
+    dexter::exec::Workspace {
+        table_z: t.height,
+        table_center: [t.center[0], t.center[1]],
+        table_size: [t.size[0], t.size[1]],
+        places: scene
+            .spec
+            .places
+            .iter()
+            .map(|p| dexter::exec::Place {
+                name: p.name.clone(),
+                center: p.center,
+                size: p.size,
+                wall_height: p.wall_height,
+                wall_thickness: p.wall_thickness,
+            })
+            .collect(),
+    }
+}
+
+/// Puts both arms at their parked poses (IK on the robot's model), hands open, head looking down
+/// at the table: the initial condition of every run (set in the world, not servoed).
+pub fn park_robot(sim: &mut DexterSim, table_z: f64) -> Result<(), SimError> {
+    use control_basis::{Chain, IkSettings, inverse_kinematics};
+    use dexter::skills::park_pose;
+    let mut q = sim.joint_positions().to_vec();
+    let mut left_solution: Option<nalgebra::DVector<f64>> = None;
+    for arm in Arm::BOTH {
+        let chain = Chain::new(sim.model(), "world", &dexter::control::tool_link(arm))?;
+        let settings = IkSettings {
+            position_tolerance: 1e-4,
+            orientation_tolerance: 1e-3,
+            restarts: 50,
+            seed: 1,
+            ..IkSettings::default()
+        };
+        // The right arm starts from the mirror image of the left solution, so both park alike.
+        let guess: [f64; 7] = match (arm, left_solution.as_ref()) {
+            (Arm::Right, Some(ql)) => {
+                let s = [-1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0];
+                std::array::from_fn(|i| ql[i] * s[i])
+            }
+            _ => dexter::skills::HOME_ARM_GUESS,
+        };
+        let sol = inverse_kinematics(&chain, &park_pose(arm, table_z), &guess, &settings)?;
+        if arm == Arm::Left {
+            left_solution = Some(sol.q.clone());
+        }
+        if !sol.converged {
+            return Err(SimError::Task(format!(
+                "cannot park the {arm} arm (IK error {:.3} m)",
+                sol.position_error
+            )));
+        }
+        let binding = control_basis::ChainBinding::by_name(&chain, sim.joint_names())?;
+        binding.scatter(sol.q.as_slice(), &mut q);
+    }
+    // Head: look down at the table centre.
+    if let Ok(t) = sim.dof("head/tilt_joint") {
+        q[t] = 0.75;
+    }
+    sim.set_configuration(&q)
+}

@@ -1,0 +1,784 @@
+//! Dexter as a [`schema::SchemaPlant`]: the executive's abstract actions bound to Dexter's arms,
+//! hands and the objects it sees, run with the control-basis skills of [`crate::skills`], observed
+//! through the same monitors that watch a teacher (§4.2) — so the robot knows which state of the
+//! schema it is in from its own sensors. Objects are the segments the robot tracks (their ids);
+//! it knows its table and its places ([`Workspace`]), nothing else of the world.
+//!
+//! | abstract action | what runs |
+//! |---|---|
+//! | `reach_object` | Reach ◁ Manipulability to the pre-grasp above the seen object (its measured footprint and height), then down |
+//! | `grasp` | close until the fingertips squeeze from opposite sides and the fingers are still |
+//! | `hold` | lift 10 cm and weigh on the fingertips |
+//! | `place` | Reach ◁ Place: carry over the place, lower until the support takes the load; for a transfer, onto the handoff spot and open |
+//! | `release` | open and retreat |
+//! | `search_track` | look at the object |
+
+use control_basis::Hardware;
+use control_basis::math::{Iso3, Vec3};
+use schema::{ActionOutcome, Binding, Library, MonitorBank, MonitorConfig, Percept, PlacePercept, SchemaPlant};
+use serde::{Deserialize, Serialize};
+
+use crate::arm::Arm;
+use crate::control::{HandControl, ReachControl};
+use crate::error::RobotError;
+use crate::eyes::Eyes;
+use crate::skills::{
+    GraspPlan, Held, Observer, SeenObject, TouchState, approach_grasp, close_grasp, finger_arc, hand_fingertips, idle,
+    lift_and_weigh, lower_until_supported, park_pose, plan_top_grasp, reachable, release_and_retreat, run_until,
+    transport_over,
+};
+use crate::watch::Watcher;
+
+/// A place the robot knows (a bin): name, centre and size of its floor region (m, world), walls.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Place {
+    /// Name.
+    pub name: String,
+    /// Centre (x, y).
+    pub center: [f64; 2],
+    /// Size (x, y) of the inside.
+    pub size: [f64; 2],
+    /// Wall height above the table (m).
+    pub wall_height: f64,
+    /// Wall thickness (m).
+    pub wall_thickness: f64,
+}
+
+impl Place {
+    /// Whether `xy` lies inside the place region.
+    pub fn contains(&self, xy: [f64; 2]) -> bool {
+        (xy[0] - self.center[0]).abs() <= self.size[0] / 2.0 && (xy[1] - self.center[1]).abs() <= self.size[1] / 2.0
+    }
+}
+
+/// What the robot is told about its workspace: the table and its places — never objects.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Workspace {
+    /// Table top height (m).
+    pub table_z: f64,
+    /// Table centre (x, y).
+    pub table_center: [f64; 2],
+    /// Table size (x, y).
+    pub table_size: [f64; 2],
+    /// The places.
+    pub places: Vec<Place>,
+}
+
+impl Workspace {
+    /// The place named `name`.
+    pub fn place(&self, name: &str) -> Result<&Place, RobotError> {
+        self.places.iter().find(|p| p.name == name).ok_or_else(|| {
+            RobotError::invalid(
+                "workspace",
+                "place",
+                format!(
+                    "unknown place `{name}`; known: {}",
+                    self.places
+                        .iter()
+                        .map(|p| p.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            )
+        })
+    }
+
+    /// The places as the monitors see them.
+    pub fn place_percepts(&self) -> Vec<PlacePercept> {
+        self.places
+            .iter()
+            .map(|p| PlacePercept {
+                name: p.name.clone(),
+                center: [p.center[0], p.center[1], self.table_z],
+                half_extents: [p.size[0] / 2.0, p.size[1] / 2.0],
+            })
+            .collect()
+    }
+}
+
+/// The handoff spot of a hand-to-hand transfer: a table region both arms reach.
+pub const HANDOFF: &str = "handoff";
+
+/// Smallest horizontal distance (m) from the handoff spot to another object's seen centroid: room
+/// for the transferred object, the other object and the open fingers between them.
+pub const HANDOFF_CLEARANCE: f64 = 0.16;
+
+/// The other arm's palm within this horizontal distance (m) of an object to reach is moved away
+/// first.
+const CLEAR_RADIUS: f64 = 0.25;
+
+/// Room (m) between a placed object and a place's walls: for the opening fingers, and so that a
+/// rolling object is not let go on the wall.
+const WALL_ROOM: f64 = 0.03;
+
+/// Segments within this distance (m) of the transferred object's position are that object.
+const MERGE_RADIUS: f64 = 0.05;
+
+/// The tracked segment nearer than this (m) to where the target was last seen is the target.
+const TARGET_GATE: f64 = 0.08;
+
+/// Arms whose palm can reach 15 cm above `point` pointing down (IK within limits).
+pub fn arms_reaching(hw: &dyn Hardware, table_z: f64, point: &Vec3) -> Result<Vec<Arm>, RobotError> {
+    let mut out = Vec::new();
+    for arm in Arm::BOTH {
+        let mut over = park_pose(arm, table_z);
+        over.translation.vector = Vec3::new(point.x, point.y, point.z.max(table_z) + 0.15);
+        if reachable(hw.model(), arm, &over, 5)? {
+            out.push(arm);
+        }
+    }
+    Ok(out)
+}
+
+/// The set predicates (4.17) over the monitors bound to `arms` (all when `None`).
+fn bound_x(o: &schema::monitor::Observation, arms: Option<&[String]>) -> Vec<bool> {
+    let Some(arms) = arms else {
+        return o.x.clone();
+    };
+    let mut x = vec![false; o.x.len()];
+    for h in &o.hits {
+        if h.arm.as_ref().is_none_or(|a| arms.contains(a)) {
+            x[h.action] = true;
+        }
+    }
+    x
+}
+
+/// Receives what happens during an execution (for logs).
+pub trait ExecSink {
+    /// After every control tick.
+    fn tick(&mut self, _hw: &dyn Hardware, _activity: &str) {}
+    /// Every percept.
+    fn percept(&mut self, _hw: &dyn Hardware, _eyes: &Eyes, _percept: &Percept) {}
+}
+
+/// A sink that ignores everything.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct NoSink;
+
+impl ExecSink for NoSink {}
+
+/// Dexter driven by the executive.
+pub struct RobotPlant<'a> {
+    /// The hardware.
+    pub hw: &'a mut dyn Hardware,
+    workspace: &'a Workspace,
+    watcher: Watcher,
+    bank: MonitorBank,
+    last_x: Vec<bool>,
+    reach: [ReachControl; 2],
+    hand: [HandControl; 2],
+    /// The object being manipulated (its track id and what was seen of it), once a reach bound it.
+    target: Option<(Option<u32>, SeenObject)>,
+    plan: Option<GraspPlan>,
+    /// Palm pose when the last grasp converged.
+    grasp_palm: Option<Iso3>,
+    held: Option<Held>,
+    /// The arms the procedural policy bound (None: all); see [`RobotPlant::bind_arms`].
+    bound_arms: Option<Vec<String>>,
+    handoff: [f64; 2],
+    sink: &'a mut dyn ExecSink,
+    t0: f64,
+    next_percept: f64,
+    percept_period: f64,
+    /// Percepts made, for the record.
+    pub percepts: Vec<Percept>,
+    /// Arms used, in order.
+    pub arms_used: Vec<Arm>,
+}
+
+impl std::fmt::Debug for RobotPlant<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RobotPlant")
+            .field("target", &self.target)
+            .finish_non_exhaustive()
+    }
+}
+
+fn parse_arm(action: &str, s: Option<&str>) -> Result<Arm, RobotError> {
+    s.and_then(Arm::parse).ok_or_else(|| RobotError::Binding {
+        action: action.to_string(),
+        message: format!("no known arm ({s:?})"),
+    })
+}
+
+impl<'a> RobotPlant<'a> {
+    /// A plant on `hw` (parked, settled) in `workspace`, observing with `library`'s monitors.
+    pub fn new(
+        hw: &'a mut dyn Hardware,
+        workspace: &'a Workspace,
+        library: &Library,
+        sink: &'a mut dyn ExecSink,
+    ) -> Result<RobotPlant<'a>, RobotError> {
+        let watcher = Watcher::new(hw, workspace.place_percepts(), workspace.table_z)?;
+        let reach = [ReachControl::new(hw, Arm::Left)?, ReachControl::new(hw, Arm::Right)?];
+        let hand = [HandControl::new(hw, Arm::Left)?, HandControl::new(hw, Arm::Right)?];
+        let t0 = hw.time_secs();
+        let mut p = RobotPlant {
+            hw,
+            workspace,
+            watcher,
+            bank: MonitorBank::new(library, MonitorConfig::default()),
+            last_x: vec![false; library.actions.len()],
+            reach,
+            hand,
+            target: None,
+            plan: None,
+            grasp_palm: None,
+            held: None,
+            bound_arms: None,
+            handoff: [workspace.table_center[0].min(0.55), 0.0],
+            sink,
+            t0,
+            next_percept: 0.0,
+            percept_period: 0.1,
+            percepts: Vec::new(),
+            arms_used: Vec::new(),
+        };
+        p.percept_now()?;
+        Ok(p)
+    }
+
+    /// Observe only the monitors bound to `arms` (and those of no arm, e.g. the head's): the
+    /// executive estimates the state of *this* instance of the schema from the controllers ψ bound
+    /// (§3.3.1: convergence is a property of a controller with its procedural resources), so a hand
+    /// still holding something from an earlier task does not pass for this task's grasp.
+    pub fn bind_arms(&mut self, arms: &[Arm]) {
+        self.bound_arms = Some(arms.iter().map(|a| a.prefix().to_string()).collect());
+        if let Some(p) = self.percepts.last() {
+            let p = p.clone();
+            let o = self.bank.observe(&p);
+            self.last_x = bound_x(&o, self.bound_arms.as_deref());
+        }
+    }
+
+    /// Looks at `at` and takes percepts for `seconds` (to refresh what is seen there).
+    pub fn look(&mut self, at: &Vec3, seconds: f64) -> Result<(), RobotError> {
+        self.watcher.look_at(self.hw, at)?;
+        self.settle(seconds)
+    }
+
+    /// Where in a place region (centre, size) to put an object of horizontal radius `radius`: the
+    /// point of a 1 cm grid inside the region (the object clear of the walls by [`WALL_ROOM`]) farthest from
+    /// the objects seen in it, nearest the centre among equals — so objects already in a bin are
+    /// not landed on. Segments near `carrying_palm` are the carried object itself.
+    fn free_spot(&self, center: [f64; 2], size: [f64; 2], radius: f64, carrying_palm: Option<[f64; 3]>) -> [f64; 2] {
+        let half = [size[0] / 2.0 - radius - WALL_ROOM, size[1] / 2.0 - radius - WALL_ROOM];
+        if half[0] <= 0.0 || half[1] <= 0.0 {
+            return center;
+        }
+        let inside: Vec<[f64; 2]> = self
+            .percepts
+            .last()
+            .map(|p| {
+                p.segments
+                    .iter()
+                    .filter(|s| {
+                        (s.centroid[0] - center[0]).abs() <= size[0] / 2.0 + 0.05
+                            && (s.centroid[1] - center[1]).abs() <= size[1] / 2.0 + 0.05
+                            && carrying_palm.is_none_or(|h| {
+                                (0..3).map(|i| (s.centroid[i] - h[i]).powi(2)).sum::<f64>().sqrt() > 0.15
+                            })
+                    })
+                    .map(|s| [s.centroid[0], s.centroid[1]])
+                    .collect()
+            })
+            .unwrap_or_default();
+        if inside.is_empty() {
+            return center;
+        }
+        let n = [(half[0] / 0.01).floor() as i32, (half[1] / 0.01).floor() as i32];
+        let mut best = (f64::NEG_INFINITY, f64::INFINITY, center);
+        for i in -n[0]..=n[0] {
+            for j in -n[1]..=n[1] {
+                let c = [center[0] + 0.01 * f64::from(i), center[1] + 0.01 * f64::from(j)];
+                let clear = inside
+                    .iter()
+                    .map(|o| (o[0] - c[0]).hypot(o[1] - c[1]))
+                    .fold(f64::INFINITY, f64::min);
+                let off = (c[0] - center[0]).hypot(c[1] - center[1]);
+                // Clearance counts to the nearest centimetre; then the centre wins.
+                let clear = (clear * 100.0).round();
+                if (clear, -off) > (best.0, -best.1) {
+                    best = (clear, off, c);
+                }
+            }
+        }
+        best.2
+    }
+
+    /// The handoff spot (x, y).
+    pub fn handoff(&self) -> [f64; 2] {
+        self.handoff
+    }
+
+    /// Chooses the handoff spot for a transfer of the object seen near `object_at` (5.32): a free
+    /// patch of table that both arms reach pointing down, as seen now — at least
+    /// [`HANDOFF_CLEARANCE`] from every other segment the cameras see and clear of the places'
+    /// walls — preferring the table's centre line at a comfortable reach (x = 0.55 m). Candidates
+    /// lie on a 5 cm grid; the first free one both arms reach is taken. Keeps the previous spot and
+    /// returns `None` if none is free.
+    pub fn plan_handoff(&mut self, object_at: &Vec3) -> Result<Option<[f64; 2]>, RobotError> {
+        let ws = self.workspace;
+        let table_z = ws.table_z;
+        let others: Vec<[f64; 2]> = self
+            .percepts
+            .last()
+            .map(|p| {
+                p.segments
+                    .iter()
+                    .filter(|s| (s.centroid[0] - object_at.x).hypot(s.centroid[1] - object_at.y) > MERGE_RADIUS)
+                    .map(|s| [s.centroid[0], s.centroid[1]])
+                    .collect()
+            })
+            .unwrap_or_default();
+        let margin = 0.12;
+        let (x0, x1) = (
+            ws.table_center[0] - ws.table_size[0] / 2.0 + margin,
+            ws.table_center[0] + ws.table_size[0] / 2.0 - margin,
+        );
+        let mut candidates = Vec::new();
+        for i in 0..=((x1 - x0) / 0.05).floor() as i32 {
+            for j in -4..=4 {
+                let c = [x0 + 0.05 * f64::from(i), ws.table_center[1] + 0.05 * f64::from(j)];
+                let free = others
+                    .iter()
+                    .all(|o| (o[0] - c[0]).hypot(o[1] - c[1]) >= HANDOFF_CLEARANCE)
+                    && ws.places.iter().all(|p| {
+                        (c[0] - p.center[0]).abs() > p.size[0] / 2.0 + p.wall_thickness + 0.08
+                            || (c[1] - p.center[1]).abs() > p.size[1] / 2.0 + p.wall_thickness + 0.08
+                    });
+                if free {
+                    candidates.push(c);
+                }
+            }
+        }
+        let cost = |c: &[f64; 2]| (c[1] - ws.table_center[1]).abs() + 0.5 * (c[0] - 0.55).abs();
+        candidates.sort_by(|a, b| cost(a).total_cmp(&cost(b)));
+        for c in candidates {
+            if arms_reaching(self.hw, table_z, &Vec3::new(c[0], c[1], table_z))?.len() == 2 {
+                self.handoff = c;
+                return Ok(Some(c));
+            }
+        }
+        Ok(None)
+    }
+
+    /// The latest percept.
+    pub fn last_percept(&self) -> Option<&Percept> {
+        self.percepts.last()
+    }
+
+    /// The watcher (its eyes, the places it was told).
+    pub fn watcher(&self) -> &Watcher {
+        &self.watcher
+    }
+
+    fn percept_now(&mut self) -> Result<(), RobotError> {
+        let t = self.hw.time_secs() - self.t0;
+        let p = self.watcher.percept(self.hw, t)?;
+        let o = self.bank.observe(&p);
+        self.last_x = bound_x(&o, self.bound_arms.as_deref());
+        self.sink.percept(self.hw, self.watcher.eyes(), &p);
+        self.percepts.push(p);
+        self.next_percept = t + self.percept_period;
+        Ok(())
+    }
+
+    /// Runs the hardware for `seconds` with no new references, observing.
+    pub fn settle(&mut self, seconds: f64) -> Result<(), RobotError> {
+        let dt = 1.0 / crate::skills::CONTROL_HZ;
+        let steps = (seconds / dt).round() as usize;
+        for _ in 0..steps {
+            self.hw.advance(dt)?;
+            self.sink.tick(self.hw, "");
+            if self.hw.time_secs() - self.t0 + 1e-9 >= self.next_percept {
+                self.percept_now()?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Runs a skill with an observer that feeds the monitors at the percept rate.
+    fn with_observer<R>(
+        &mut self,
+        f: impl FnOnce(&mut dyn Hardware, &mut [ReachControl; 2], &[HandControl; 2], &mut Observer<'_>) -> R,
+    ) -> Result<R, RobotError> {
+        let mut error: Option<RobotError> = None;
+        let t0 = self.t0;
+        let period = self.percept_period;
+        let watcher = &mut self.watcher;
+        let bank = &mut self.bank;
+        let last_x = &mut self.last_x;
+        let percepts = &mut self.percepts;
+        let next = &mut self.next_percept;
+        let sink = &mut *self.sink;
+        let bound_arms = self.bound_arms.clone();
+        let mut callback = |h: &mut dyn Hardware, activity: &str| {
+            sink.tick(h, activity);
+            let t = h.time_secs() - t0;
+            if t + 1e-9 >= *next && error.is_none() {
+                match watcher.percept(h, t) {
+                    Ok(p) => {
+                        let o = bank.observe(&p);
+                        *last_x = bound_x(&o, bound_arms.as_deref());
+                        sink.percept(h, watcher.eyes(), &p);
+                        percepts.push(p);
+                    }
+                    Err(e) => error = Some(e),
+                }
+                *next = t + period;
+            }
+        };
+        let mut obs = Observer::new(&mut callback);
+        let r = f(&mut *self.hw, &mut self.reach, &self.hand, &mut obs);
+        let hw_error = obs.take_error();
+        drop(obs);
+        if let Some(e) = hw_error {
+            return Err(e.into());
+        }
+        match error {
+            Some(e) => Err(e),
+            None => Ok(r),
+        }
+    }
+
+    /// The object the binding names: the tracked segment with that id in the latest percept; else
+    /// the target already bound, at the segment now seen nearest where it was.
+    fn resolve_target(&self, binding: &Binding) -> Result<(Option<u32>, SeenObject), RobotError> {
+        let table_z = self.workspace.table_z;
+        let id: Option<u32> = binding.object.as_deref().and_then(|s| s.parse().ok());
+        let segments = self.percepts.last().map(|p| p.segments.as_slice()).unwrap_or(&[]);
+        if let Some(s) = segments.iter().find(|s| Some(s.id) == id) {
+            return Ok((id, SeenObject::from_percept(s, table_z)));
+        }
+        if let Some((tid, seen)) = &self.target
+            && (id.is_none() || *tid == id)
+        {
+            let near = segments
+                .iter()
+                .filter(|s| s.seen)
+                .map(|s| ((Vec3::from(s.centroid) - seen.centroid).xy().norm(), s))
+                .filter(|(d, _)| *d < TARGET_GATE)
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .map(|(_, s)| SeenObject::from_percept(s, table_z));
+            return Ok((*tid, near.unwrap_or_else(|| seen.clone())));
+        }
+        Err(RobotError::Binding {
+            action: "reach_object".into(),
+            message: match &binding.object {
+                Some(o) => format!("no tracked segment `{o}` (objects are the segments the robot sees)"),
+                None => "no object".into(),
+            },
+        })
+    }
+
+    fn touch(&self, arm: Arm) -> TouchState {
+        let mut buf = Vec::new();
+        TouchState::of(&hand_fingertips(self.hw, arm, &mut buf))
+    }
+}
+
+impl SchemaPlant for RobotPlant<'_> {
+    type Error = RobotError;
+
+    fn observe(&mut self) -> Result<Vec<bool>, RobotError> {
+        Ok(self.last_x.clone())
+    }
+
+    fn run(&mut self, action: &str, binding: &Binding) -> Result<ActionOutcome, RobotError> {
+        let table_z = self.workspace.table_z;
+        let outcome = match action {
+            "search_track" => ActionOutcome::Converged,
+            "reach_object" => {
+                let arm = parse_arm(action, binding.arm.as_deref())?;
+                self.arms_used.push(arm);
+                let resolved = match &self.target {
+                    Some(t) if binding.object.is_none() => Ok(t.clone()),
+                    _ => self.resolve_target(binding),
+                };
+                let (id, seen) = match resolved {
+                    Ok(t) => t,
+                    Err(e) => {
+                        self.settle(0.3)?;
+                        return Ok(ActionOutcome::Failed(e.to_string()));
+                    }
+                };
+                let target = seen.centroid;
+                let k = arm.index();
+                // The other arm, if it hovers near the object (it just let go of it at the handoff),
+                // is in this arm's way and in the head's view: back to its parked pose first.
+                let other = 1 - k;
+                let other_palm = self.reach[other].tool_pose(self.hw).translation.vector;
+                if (other_palm.x - target.x).hypot(other_palm.y - target.y) < CLEAR_RADIUS {
+                    let park = park_pose(Arm::BOTH[other], table_z);
+                    self.with_observer(|hw, reach, _, obs| {
+                        reach[other].set_goal(hw, park);
+                        run_until(hw, &mut reach[other], obs, 3.0, |h, r| r.at_goal(h, 0.02, 0.1));
+                    })?;
+                }
+                // Look at it and let the tracker refresh what is seen there.
+                self.look(&target, 0.5)?;
+                let (id, seen) = match self.resolve_target(&Binding {
+                    object: id.map(|i| i.to_string()),
+                    ..binding.clone()
+                }) {
+                    Ok(t) => t,
+                    Err(_) => (id, seen),
+                };
+                self.target = Some((id, seen.clone()));
+                self.held = None;
+                self.grasp_palm = None;
+                let arc = finger_arc(self.hw.model(), arm)?;
+                let current = self.reach[k].tool_pose(self.hw);
+                let plan = plan_top_grasp(&arc, &seen, table_z, &current);
+                let r = self.with_observer(|hw, reach, hand, obs| {
+                    approach_grasp(hw, &mut reach[k], &hand[k], &plan, obs, &mut |_, _| {})
+                })?;
+                match r {
+                    Ok(p) => {
+                        self.plan = Some(p);
+                        ActionOutcome::Converged
+                    }
+                    Err(why) => ActionOutcome::Failed(why),
+                }
+            }
+            "grasp" => {
+                let arm = parse_arm(action, binding.arm.as_deref())?;
+                let k = arm.index();
+                if self.target.is_none() {
+                    ActionOutcome::Failed("no object to grasp (no reach yet)".into())
+                } else {
+                    let r = self.with_observer(|hw, reach, hand, obs| close_grasp(hw, &mut reach[k], &hand[k], obs))?;
+                    match r {
+                        Ok(()) => {
+                            self.grasp_palm = Some(self.reach[k].tool_pose(self.hw));
+                            ActionOutcome::Converged
+                        }
+                        Err(why) => ActionOutcome::Failed(why),
+                    }
+                }
+            }
+            "hold" => {
+                let arm = parse_arm(action, binding.arm.as_deref())?;
+                let k = arm.index();
+                let (Some((_, seen)), Some(plan), Some(grasp_palm)) = (self.target.clone(), self.plan, self.grasp_palm)
+                else {
+                    return Ok(ActionOutcome::Failed("nothing grasped to hold (no grasp yet)".into()));
+                };
+                // A hold asked for again while the object is already up (the monitors had not yet
+                // seen the first one converge) rises no further: judge it from where it was grasped.
+                let palm_z = self.reach[k].tool_pose(self.hw).translation.z;
+                let touch = self.touch(arm);
+                if self.held.is_some() && palm_z - grasp_palm.translation.z > 0.08 && touch.holding() {
+                    ActionOutcome::Converged
+                } else {
+                    let g = self.with_observer(|hw, reach, _, obs| lift_and_weigh(hw, &mut reach[k], &plan, obs))?;
+                    if g.lifted {
+                        let load = g.weighed.unwrap_or(0.0);
+                        self.held = Some(Held::new(&seen, &grasp_palm, table_z, load));
+                        ActionOutcome::Converged
+                    } else {
+                        // Let go of whatever is left so that a re-grasp starts from an open hand.
+                        self.with_observer(|hw, reach, hand, obs| {
+                            release_and_retreat(hw, &mut reach[k], &hand[k], obs)
+                        })?;
+                        self.held = None;
+                        ActionOutcome::Failed(g.outcome)
+                    }
+                }
+            }
+            "place" => {
+                let arm = parse_arm(action, binding.arm.as_deref())?;
+                let k = arm.index();
+                let Some(held) = self.held else {
+                    return Ok(ActionOutcome::Failed("nothing held to place (no hold yet)".into()));
+                };
+                let (target, wall) = if binding.transfer {
+                    (self.handoff, 0.0)
+                } else {
+                    let name = binding.place.as_deref().ok_or_else(|| RobotError::Binding {
+                        action: action.into(),
+                        message: "no place".into(),
+                    })?;
+                    let p = self.workspace.place(name)?.clone();
+                    let palm = self.percepts.last().map(|q| q.hands[k].palm);
+                    (self.free_spot(p.center, p.size, held.radius, palm), p.wall_height)
+                };
+                self.watcher
+                    .look_at(self.hw, &Vec3::new(target[0], target[1], table_z + 0.05))?;
+                let transfer = binding.transfer;
+                let r = self.with_observer(|hw, reach, hand, obs| {
+                    transport_over(hw, &mut reach[k], &held, target, table_z, wall, obs)?;
+                    lower_until_supported(hw, &mut reach[k], &held, table_z, obs);
+                    if transfer {
+                        // The transfer ends with the hand open: the other hand takes it from here.
+                        release_and_retreat(hw, &mut reach[k], &hand[k], obs);
+                    }
+                    Ok::<(), String>(())
+                })?;
+                if transfer {
+                    // The object rests on the handoff spot: the next reach sees it there.
+                    if let Some((id, seen)) = self.target.as_mut() {
+                        let dx = target[0] - seen.extent.center[0];
+                        let dy = target[1] - seen.extent.center[1];
+                        seen.centroid.x += dx;
+                        seen.centroid.y += dy;
+                        seen.extent.center = target;
+                        let _ = id;
+                    }
+                    self.held = None;
+                }
+                match r {
+                    Ok(()) => ActionOutcome::Converged,
+                    Err(why) => {
+                        self.held = None;
+                        ActionOutcome::Failed(why)
+                    }
+                }
+            }
+            "release" => {
+                let arm = parse_arm(action, binding.arm.as_deref())?;
+                let k = arm.index();
+                self.with_observer(|hw, reach, hand, obs| release_and_retreat(hw, &mut reach[k], &hand[k], obs))?;
+                // An object wedged between the half-opened fingers came up with the hand: open
+                // fully, let it drop, and retreat again.
+                if self.touch(arm).loaded > 0 {
+                    self.with_observer(|hw, reach, hand, obs| {
+                        hand[k].set(hw, 0.0, 0.0);
+                        idle(hw, obs, 0.6);
+                        release_and_retreat(hw, &mut reach[k], &hand[k], obs);
+                    })?;
+                }
+                self.held = None;
+                if self.touch(arm).loaded > 0 {
+                    ActionOutcome::Failed("the fingertips still feel the object after opening".into())
+                } else {
+                    ActionOutcome::Converged
+                }
+            }
+            other => ActionOutcome::Failed(format!("Dexter has no controller for `{other}`")),
+        };
+        // Let the monitors see the result.
+        self.settle(0.3)?;
+        if std::env::var_os("PBD_DEBUG_EXEC").is_some()
+            && let Some(p) = self.percepts.last()
+        {
+            eprintln!("after {action} ({outcome:?}): x = {:?}", self.last_x);
+            if let Some(plan) = &self.plan {
+                eprintln!(
+                    "  plan grasp at {:?} width {:.3}",
+                    plan.grasp.translation.vector.as_slice(),
+                    plan.width
+                );
+            }
+            for h in &p.hands {
+                eprintln!(
+                    "  hand {} palm {:?} speed {:.3} load {:.2}",
+                    h.arm, h.palm, h.palm_speed, h.load
+                );
+            }
+            for sg in &p.segments {
+                eprintln!(
+                    "  segment {} at {:?} seen {} extent {:?}",
+                    sg.id, sg.centroid, sg.seen, sg.extent
+                );
+            }
+        }
+        Ok(outcome)
+    }
+}
+
+/// ψ for Pick-And-Place on Dexter (5.31–5.32): the arm whose workspace holds both the object and the
+/// place; if none does, a transfer — the arm that reaches the object puts it on the handoff spot,
+/// and the arm that reaches the place takes it from there.
+#[derive(Debug, Clone)]
+pub struct PickPlacePolicy {
+    /// The object (the tracked segment's id, as text).
+    pub object: String,
+    /// The place.
+    pub place: String,
+    /// The arm that picks first.
+    pub pick_arm: Arm,
+    /// The arm that places (differs from `pick_arm` for a transfer).
+    pub place_arm: Arm,
+    transferred: bool,
+}
+
+impl PickPlacePolicy {
+    /// Decides the arms for `object` at `object_at` and `place`: one arm if one reaches both, else a
+    /// transfer. `None` if no arm reaches the object or none reaches the place.
+    pub fn decide(
+        hw: &dyn Hardware,
+        workspace: &Workspace,
+        object: &str,
+        object_at: &Vec3,
+        place: &str,
+        handoff: [f64; 2],
+    ) -> Result<Option<PickPlacePolicy>, RobotError> {
+        let table_z = workspace.table_z;
+        let p = workspace.place(place)?;
+        let at_object = arms_reaching(hw, table_z, object_at)?;
+        let at_place = arms_reaching(
+            hw,
+            table_z,
+            &Vec3::new(p.center[0], p.center[1], table_z + p.wall_height),
+        )?;
+        let both: Vec<Arm> = at_object.iter().copied().filter(|a| at_place.contains(a)).collect();
+        // Prefer the arm on the object's side.
+        let side = if object_at.y >= 0.0 { Arm::Left } else { Arm::Right };
+        let pick = |v: &[Arm]| v.iter().copied().find(|&a| a == side).or_else(|| v.first().copied());
+        if let Some(arm) = pick(&both) {
+            return Ok(Some(PickPlacePolicy {
+                object: object.into(),
+                place: place.into(),
+                pick_arm: arm,
+                place_arm: arm,
+                transferred: false,
+            }));
+        }
+        let hand_spot = Vec3::new(handoff[0], handoff[1], table_z);
+        let at_handoff = arms_reaching(hw, table_z, &hand_spot)?;
+        let a = at_object.iter().copied().find(|a| at_handoff.contains(a));
+        let b = at_place.iter().copied().find(|b| at_handoff.contains(b));
+        Ok(match (a, b) {
+            (Some(a), Some(b)) => Some(PickPlacePolicy {
+                object: object.into(),
+                place: place.into(),
+                pick_arm: a,
+                place_arm: b,
+                transferred: false,
+            }),
+            _ => None,
+        })
+    }
+
+    /// Whether this assignment needs a transfer.
+    pub fn is_transfer(&self) -> bool {
+        self.pick_arm != self.place_arm
+    }
+}
+
+impl schema::ProceduralPolicy for PickPlacePolicy {
+    fn bind(&mut self, _schema: &schema::Schema, state: &str, action: &str) -> Binding {
+        if state == "transfer_placed" {
+            self.transferred = true;
+        }
+        let arm = if self.transferred {
+            self.place_arm
+        } else {
+            self.pick_arm
+        };
+        let transfer = action == "place" && self.is_transfer() && !self.transferred;
+        Binding {
+            arm: Some(arm.prefix().to_string()),
+            object: Some(self.object.clone()),
+            place: Some(if transfer {
+                HANDOFF.to_string()
+            } else {
+                self.place.clone()
+            }),
+            transfer,
+        }
+    }
+}

@@ -1,0 +1,259 @@
+//! Dexter's eyes: the head's verging stereo pair (and the fixed chassis pair), read through
+//! [`Hardware::capture`], turned into segmented, stereo-matched, triangulated blobs (§5.1.2, §6.2.1).
+//! The cameras' poses come from the robot's kinematics at the encoder readings.
+//!
+//! Search-Track (§3.2.2.1) is an image-based servo on the head: pan and tilt move so that the tracked
+//! blob's mean image position (over both cameras) is at the image centre, and each camera's vergence
+//! centres it in that camera; its convergence predicate says when the blob is foveated.
+
+use control_basis::hardware::{Camera, Image};
+use control_basis::math::Vec3;
+use control_basis::{Hardware, Predicate, PredicateSettings, PredicateTracker};
+
+use crate::body::Body;
+use crate::error::RobotError;
+use crate::vision::{Frame, SegmentConfig, StereoBlob, StereoCameras, StereoConfig, StereoPipeline, SupportPlane};
+
+/// Which stereo pair.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pair {
+    /// The head's verging pair (moves with pan, tilt, vergence).
+    Head,
+    /// The fixed pair on the chassis.
+    Chassis,
+}
+
+impl Pair {
+    /// The camera names (left, right) of the pair.
+    pub fn camera_names(self) -> (&'static str, &'static str) {
+        match self {
+            Pair::Head => ("head/left", "head/right"),
+            Pair::Chassis => ("chassis/left", "chassis/right"),
+        }
+    }
+
+    fn index(self) -> usize {
+        match self {
+            Pair::Head => 0,
+            Pair::Chassis => 1,
+        }
+    }
+}
+
+/// One stereo pair's devices and buffers.
+#[derive(Debug)]
+struct PairState {
+    cameras: [usize; 2],
+    frames: [String; 2],
+    pipeline: StereoPipeline,
+    images: [Image; 2],
+    masks: [Vec<bool>; 2],
+    backgrounds: [Image; 2],
+}
+
+/// The stereo pipelines of both pairs with their buffers, and the last blobs.
+#[derive(Debug)]
+pub struct Eyes {
+    pairs: [PairState; 2],
+    body: Body,
+    blobs: Vec<StereoBlob>,
+}
+
+impl Eyes {
+    /// Eyes on `hw`'s cameras; objects rest on the table plane at `table_z` (their centroids, heights
+    /// and footprints come from the support-plane estimate).
+    pub fn new(hw: &dyn Hardware, table_z: f64) -> Result<Self, RobotError> {
+        let pair = |p: Pair| -> Result<PairState, RobotError> {
+            let (l, r) = p.camera_names();
+            let cameras = [hw.camera_index(l)?, hw.camera_index(r)?];
+            let info = &hw.cameras()[cameras[0]];
+            let mut support = SupportPlane::at(table_z);
+            support.pixel_noise = info.pixel_noise;
+            let config = StereoConfig {
+                support: Some(support),
+                ..StereoConfig::default()
+            };
+            Ok(PairState {
+                frames: [
+                    hw.cameras()[cameras[0]].optical_frame.clone(),
+                    hw.cameras()[cameras[1]].optical_frame.clone(),
+                ],
+                cameras,
+                pipeline: StereoPipeline::new(SegmentConfig::for_noise(info.pixel_noise), config),
+                images: [Image::default(), Image::default()],
+                masks: [Vec::new(), Vec::new()],
+                backgrounds: [Image::default(), Image::default()],
+            })
+        };
+        Ok(Eyes {
+            pairs: [pair(Pair::Head)?, pair(Pair::Chassis)?],
+            body: Body::new(),
+            blobs: Vec::new(),
+        })
+    }
+
+    /// The two cameras of `pair` where the robot's kinematics put them now.
+    pub fn cameras(&mut self, hw: &dyn Hardware, pair: Pair) -> Result<StereoCameras, RobotError> {
+        let p = &self.pairs[pair.index()];
+        let (il, ir) = (
+            &hw.cameras()[p.cameras[0]].intrinsics,
+            &hw.cameras()[p.cameras[1]].intrinsics,
+        );
+        let (fl, fr) = (p.frames[0].clone(), p.frames[1].clone());
+        Ok(StereoCameras {
+            left: Camera::new(il, self.body.pose(hw, &fl)?)?,
+            right: Camera::new(ir, self.body.pose(hw, &fr)?)?,
+        })
+    }
+
+    /// Captures `pair` and returns the stereo blobs (re-capturing the backgrounds when the cameras
+    /// moved).
+    pub fn perceive(&mut self, hw: &mut dyn Hardware, pair: Pair) -> Result<&[StereoBlob], RobotError> {
+        let cams = self.cameras(hw, pair)?;
+        let p = &mut self.pairs[pair.index()];
+        if p.pipeline.needs_background(&cams) {
+            for k in 0..2 {
+                hw.capture_background(p.cameras[k], &mut p.backgrounds[k])?;
+            }
+            p.pipeline.set_backgrounds(&cams, &p.backgrounds[0], &p.backgrounds[1]);
+        }
+        for k in 0..2 {
+            hw.capture(p.cameras[k], &mut p.images[k], &mut p.masks[k])?;
+        }
+        let frames = [
+            Frame {
+                image: &p.images[0],
+                self_mask: &p.masks[0],
+            },
+            Frame {
+                image: &p.images[1],
+                self_mask: &p.masks[1],
+            },
+        ];
+        p.pipeline.process(&cams, frames, &mut self.blobs)?;
+        Ok(&self.blobs)
+    }
+
+    /// The blobs of the last [`Eyes::perceive`].
+    pub fn blobs(&self) -> &[StereoBlob] {
+        &self.blobs
+    }
+
+    /// The last images of `pair` (left, right).
+    pub fn images(&self, pair: Pair) -> (&Image, &Image) {
+        let p = &self.pairs[pair.index()];
+        (&p.images[0], &p.images[1])
+    }
+
+    /// The pipeline of `pair` (segmenters, settings).
+    pub fn pipeline(&self, pair: Pair) -> &StereoPipeline {
+        &self.pairs[pair.index()].pipeline
+    }
+}
+
+/// Search-Track on the head (§3.2.2.1): foveate a blob with pan, tilt and vergence.
+#[derive(Debug, Clone)]
+pub struct SearchTrack {
+    pan: usize,
+    tilt: usize,
+    verge: [usize; 2],
+    /// Servo gain (1/s).
+    pub gain: f64,
+    tracker: PredicateTracker,
+}
+
+/// What Search-Track saw on one tick.
+#[derive(Debug, Clone, Copy)]
+pub struct TrackObservation {
+    /// The tracked blob's triangulated centroid (if seen by both cameras).
+    pub centroid: Option<Vec3>,
+    /// Image error (normalised, rad-like units) that the servo drives to zero.
+    pub error: f64,
+    /// Convergence predicate of the tracking controller.
+    pub predicate: Predicate,
+}
+
+impl SearchTrack {
+    /// The head's motor units of `hw`.
+    pub fn new(hw: &dyn Hardware) -> Result<Self, RobotError> {
+        Ok(SearchTrack {
+            pan: hw.dof_index("head/pan_joint")?,
+            tilt: hw.dof_index("head/tilt_joint")?,
+            verge: [
+                hw.dof_index("head/left_vergence_joint")?,
+                hw.dof_index("head/right_vergence_joint")?,
+            ],
+            gain: 4.0,
+            tracker: PredicateTracker::new(PredicateSettings {
+                epsilon: 1e-4,
+                ..PredicateSettings::default()
+            })?,
+        })
+    }
+
+    /// Points the head (pan, tilt, symmetric vergence) at the world point `target` — the search
+    /// phase, before a blob is foveated. The pan axis comes from the robot's kinematics.
+    pub fn look_at(&self, hw: &mut dyn Hardware, body: &mut Body, target: &Vec3) -> Result<(), RobotError> {
+        let tilt_axis = body.pose(hw, "head/pan_link")?.translation.vector + Vec3::new(0.0, 0.0, 0.1);
+        let d = target - tilt_axis;
+        let pan = d.y.atan2(d.x);
+        let tilt = (-d.z).atan2((d.x * d.x + d.y * d.y).sqrt());
+        let dist = d.norm().max(0.1);
+        let verge = (0.06 / dist).atan();
+        hw.set_joint_reference(self.pan, pan, 0.0);
+        hw.set_joint_reference(self.tilt, tilt, 0.0);
+        hw.set_joint_reference(self.verge[0], -verge, 0.0);
+        hw.set_joint_reference(self.verge[1], verge, 0.0);
+        Ok(())
+    }
+
+    /// One tracking tick of `dt` seconds on `blob`: image-based servo of pan/tilt on the mean image
+    /// error and of each vergence on its own camera's error.
+    pub fn track(
+        &mut self,
+        hw: &mut dyn Hardware,
+        cams: &StereoCameras,
+        blob: &StereoBlob,
+        dt: f64,
+    ) -> TrackObservation {
+        let q = hw.joint_positions();
+        let (q_pan, q_tilt, q_verge) = (q[self.pan], q[self.tilt], [q[self.verge[0]], q[self.verge[1]]]);
+        let mut errs = [None, None];
+        for (k, (seg, cam)) in [(&blob.left, &cams.left), (&blob.right, &cams.right)]
+            .into_iter()
+            .enumerate()
+        {
+            if let Some(s) = seg {
+                let c = s.features.centroid;
+                errs[k] = Some(((c[0] - cam.cx) / cam.fx, (c[1] - cam.cy) / cam.fy));
+            }
+        }
+        let seen = errs.iter().flatten().count();
+        let error = if seen == 0 {
+            f64::INFINITY
+        } else {
+            let (eu, ev) = errs.iter().flatten().fold((0.0, 0.0), |a, e| (a.0 + e.0, a.1 + e.1));
+            let (eu, ev) = (eu / seen as f64, ev / seen as f64);
+            let k = self.gain * dt;
+            // Image u grows to the right (pan negative), v downwards (tilt positive looks down).
+            hw.set_joint_reference(self.pan, q_pan - k * eu, -self.gain * eu);
+            hw.set_joint_reference(self.tilt, q_tilt + k * ev, self.gain * ev);
+            for (i, e) in errs.iter().enumerate() {
+                if let Some((u, _)) = e {
+                    // Differential part only: the common part is pan's job.
+                    let du = u - eu;
+                    hw.set_joint_reference(self.verge[i], q_verge[i] - k * du, -self.gain * du);
+                }
+            }
+            eu * eu + ev * ev
+        };
+        let predicate = self
+            .tracker
+            .update(if error.is_finite() { Some(error) } else { None }, dt);
+        TrackObservation {
+            centroid: blob.centroid,
+            error,
+            predicate,
+        }
+    }
+}

@@ -1,0 +1,875 @@
+//! Dexter's skills, sequenced from control-basis controllers on what the robot senses:
+//! Search-Track → Reach (pre-grasp) → Reach (descend) → Grasp → Reach (lift) → Reach (transport) →
+//! Place (lower until the support takes the load) → open → Reach (retreat). Every transition is
+//! taken on a controller's convergence predicate or a sensor event — never on a scripted joint
+//! trajectory, and never on the world's truth:
+//!
+//! * grasps are planned from the seen object: the support-plane centroid, the measured height and
+//!   the footprint's principal axes ([`SeenObject`], §6.2.1);
+//! * the Grasp predicate converges on the fingertip force/torque sensors (opposing, squeezing
+//!   contacts, fingers still; §3.1.3.3);
+//! * a grasp holds when, lifted 10 cm, the fingertips carry a measured load (§6.5);
+//! * Place lowers until the fingertip load falls to half of what was weighed (the support took it).
+
+use control_basis::hardware::{ForceTorque, HardwareError};
+use control_basis::math::{Iso3, Vec3};
+use control_basis::{Chain, Hardware, IkSettings, inverse_kinematics};
+use nalgebra::Translation3;
+use serde::Serialize;
+
+use crate::arm::Arm;
+use crate::body::Body;
+use crate::control::{FLEX_CLOSED, HandControl, ReachControl, top_down_orientation};
+use crate::error::RobotError;
+use crate::eyes::{Eyes, Pair, SearchTrack};
+use crate::vision::{StereoBlob, StereoCameras};
+
+/// Control rate (Hz): the control-basis stack runs every `1 / CONTROL_HZ` s.
+pub const CONTROL_HZ: f64 = 200.0;
+
+/// Height of the palm surface above the table when an arm is parked (m).
+const PARK_HEIGHT: f64 = 0.32;
+
+/// A fingertip counts as loaded above this force (N).
+pub const CONTACT_FORCE: f64 = 0.25;
+
+/// Smallest load (N) the fingertips must carry after a lift for the grasp to hold: a third of the
+/// lightest household object's weight (45 g).
+pub const MIN_LOAD: f64 = 0.15;
+
+/// A top-down grasp for an object: where the palm surface goes and how the fingers close.
+#[derive(Debug, Clone, Copy)]
+pub struct GraspPlan {
+    /// Palm-surface pose at the grasp.
+    pub grasp: Iso3,
+    /// Flexion of the pre-shape (rad).
+    pub preshape: f64,
+    /// Object width across the fingers (m).
+    pub width: f64,
+}
+
+/// An object as the robot sees it on the table: centroid, height and footprint (§6.2.1), from the
+/// support-plane measurement when it applies, else from the silhouette's size.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SeenObject {
+    /// Centroid (m, world).
+    pub centroid: Vec3,
+    /// Extent (height, footprint).
+    pub extent: schema::SeenExtent,
+}
+
+impl SeenObject {
+    /// What a stereo blob says about a resting object on the table at `table_z`; `None` if it was
+    /// not triangulated.
+    pub fn from_blob(blob: &StereoBlob, cams: &StereoCameras, table_z: f64) -> Option<SeenObject> {
+        let c = blob.centroid?;
+        Some(SeenObject {
+            centroid: c,
+            extent: extent_of(blob, cams, table_z)?,
+        })
+    }
+
+    /// From a tracked segment's percept (its extent, or a coarse one from its height above the
+    /// table).
+    pub fn from_percept(s: &schema::SegmentPercept, table_z: f64) -> SeenObject {
+        let centroid = Vec3::from(s.centroid);
+        let extent = s.extent.clone().unwrap_or_else(|| {
+            let h = (2.0 * (centroid.z - table_z)).clamp(0.02, 0.4);
+            schema::SeenExtent {
+                height: h,
+                center: [centroid.x, centroid.y],
+                major_axis: [1.0, 0.0],
+                half_major: 0.04,
+                half_minor: 0.04,
+                model: "coarse".into(),
+            }
+        });
+        SeenObject { centroid, extent }
+    }
+
+    /// Top of the object (m, world).
+    pub fn top(&self, table_z: f64) -> f64 {
+        table_z + self.extent.height
+    }
+
+    /// Horizontal radius of the footprint's bounding box (m).
+    pub fn radius(&self) -> f64 {
+        self.extent.half_major.hypot(self.extent.half_minor)
+    }
+}
+
+/// The measured extent of a blob: prism or sphere from the support-plane estimate, else a coarse
+/// disc from the silhouette area at the triangulated range and a height from the centroid.
+pub fn extent_of(blob: &StereoBlob, cams: &StereoCameras, table_z: f64) -> Option<schema::SeenExtent> {
+    use crate::vision::CentroidSource;
+    let c = blob.centroid?;
+    let footprint = blob.footprint;
+    let (height, model) = match blob.source {
+        CentroidSource::Prism { height } => (height, "prism"),
+        CentroidSource::Round { radius } => (2.0 * radius, "round"),
+        CentroidSource::Triangulated => ((2.0 * (c.z - table_z)).clamp(0.02, 0.4), "coarse"),
+    };
+    let f = match footprint {
+        Some(f) => f,
+        None => {
+            let mut r = 0.0;
+            let mut n = 0.0;
+            for (seg, cam) in [(&blob.left, &cams.left), (&blob.right, &cams.right)] {
+                if let Some(s) = seg {
+                    let range = (c - cam.position()).dot(&cam.axis()).max(0.05);
+                    r += (s.features.pixel_count as f64 / std::f64::consts::PI).sqrt() * cam.metres_per_pixel(range);
+                    n += 1.0;
+                }
+            }
+            crate::vision::Footprint::disc([c.x, c.y], if n > 0.0 { r / n } else { 0.04 })
+        }
+    };
+    Some(schema::SeenExtent {
+        height,
+        center: f.center,
+        major_axis: f.major_axis,
+        half_major: f.half_major,
+        half_minor: f.half_minor,
+        model: model.into(),
+    })
+}
+
+/// Fingertip geometry of the BarrettHand, sampled along the flexion arc of finger 3 in the palm
+/// surface frame: (flexion, lateral distance of the tip centre from the palm axis, depth below the
+/// palm surface).
+pub fn finger_arc(model: &control_basis::RobotModel, arm: Arm) -> Result<Vec<(f64, f64, f64)>, RobotError> {
+    let p = arm.prefix();
+    let chain = Chain::new(
+        model,
+        &format!("{p}/bhand/palm_surface_link"),
+        &format!("{p}/bhand/finger_3/tip_link"),
+    )?;
+    let mut state = chain.new_state();
+    let mut out = Vec::new();
+    for k in 0..=100 {
+        let m = FLEX_CLOSED * k as f64 / 100.0;
+        state.set_q(&chain, &[m])?;
+        control_basis::forward_kinematics(&chain, &mut state);
+        let t = state.tip_pose().translation.vector;
+        out.push((m, t.y, t.z));
+    }
+    Ok(out)
+}
+
+/// Plans a top-down grasp of an object of horizontal half extent `half_along(d)` along unit
+/// direction `d`, standing at (`center`) from `bottom` to `top` on a table at `table_z`, for a hand
+/// currently at orientation `current`: the fingers close across the narrowest direction, contact at
+/// mid-height, the palm above the object and the sweeping tips above the table.
+#[allow(clippy::too_many_arguments)]
+pub fn plan_top_grasp_geometry(
+    arc: &[(f64, f64, f64)],
+    half_along: &dyn Fn(Vec3) -> f64,
+    center: [f64; 2],
+    bottom: f64,
+    top: f64,
+    table_z: f64,
+    current: &Iso3,
+) -> GraspPlan {
+    const TIP_RADIUS: f64 = 0.01;
+    // The narrower horizontal axis: test a few directions in the object's footprint.
+    let mut best = (f64::INFINITY, Vec3::x());
+    for k in 0..36 {
+        let a = std::f64::consts::PI * k as f64 / 36.0;
+        let d = Vec3::new(a.cos(), a.sin(), 0.0);
+        let w = half_along(d);
+        if w < best.0 - 1e-9 {
+            best = (w, d);
+        }
+    }
+    let (half_width, axis) = best;
+    let height = top - bottom;
+    // Depth below the palm at which the tip first comes within the object's half width.
+    let target_lateral = half_width + TIP_RADIUS - 0.004; // a little squeeze
+    let max_depth = arc.iter().map(|a| a.2).fold(f64::NEG_INFINITY, f64::max) + TIP_RADIUS;
+    let contact_depth = arc
+        .iter()
+        .find(|a| a.1 <= target_lateral)
+        .map(|a| a.2)
+        .unwrap_or(max_depth - TIP_RADIUS);
+    // Contact at mid-height, but keep the palm above the object and the sweeping tips above the table.
+    let mid = bottom + 0.5 * height;
+    let mut palm_z = (mid + contact_depth).max(top + 0.008);
+    palm_z = palm_z.max(table_z + max_depth + 0.004);
+    // Pre-shape: open enough to clear the object by 2.5 cm on each side.
+    let clear = half_width + TIP_RADIUS + 0.025;
+    let preshape = arc
+        .iter()
+        .rev()
+        .find(|a| a.1 >= clear)
+        .map(|a| a.0)
+        .unwrap_or(0.0)
+        .min(0.9);
+    let rot = top_down_orientation(&axis, &current.rotation);
+    let grasp = Iso3::from_parts(Translation3::new(center[0], center[1], palm_z), rot);
+    GraspPlan {
+        grasp,
+        preshape,
+        width: 2.0 * half_width,
+    }
+}
+
+/// Plans a top-down grasp of a seen object resting on the table at `table_z` (its footprint's
+/// principal axes and measured height; §6.2.1), for a hand at orientation `current`.
+pub fn plan_top_grasp(arc: &[(f64, f64, f64)], seen: &SeenObject, table_z: f64, current: &Iso3) -> GraspPlan {
+    let e = &seen.extent;
+    plan_top_grasp_geometry(
+        arc,
+        &|d: Vec3| e.half_extent_along([d.x, d.y]),
+        e.center,
+        table_z,
+        table_z + e.height,
+        table_z,
+        current,
+    )
+}
+
+/// Whether `arm` can put its palm at `pose` (IK within limits).
+pub fn reachable(model: &control_basis::RobotModel, arm: Arm, pose: &Iso3, seed: u64) -> Result<bool, RobotError> {
+    let chain = Chain::new(model, "world", &crate::control::tool_link(arm))?;
+    let settings = IkSettings {
+        position_tolerance: 2e-3,
+        orientation_tolerance: 2e-2,
+        restarts: 20,
+        seed,
+        ..IkSettings::default()
+    };
+    let q0 = HOME_ARM_GUESS;
+    let sol = inverse_kinematics(&chain, pose, &q0, &settings)?;
+    Ok(sol.converged)
+}
+
+/// A start for IK near the parked posture. The arms are mirror images under
+/// `q_right = S q_left`, `S = diag(−1, 1, −1, 1, −1, 1, −1)` (assets/README-dexter.md), so the guess,
+/// symmetric under S, serves both.
+pub const HOME_ARM_GUESS: [f64; 7] = [0.0, 0.9, 0.0, 1.6, 0.0, 0.0, 0.0];
+
+/// The parked pose of an arm's palm: above the near corner of the table on its own side.
+pub fn park_pose(arm: Arm, table_z: f64) -> Iso3 {
+    let s = if arm == Arm::Left { 1.0 } else { -1.0 };
+    let rot = top_down_orientation(&Vec3::x(), &control_basis::math::Rot3::identity());
+    Iso3::from_parts(Translation3::new(0.42, s * 0.32, table_z + PARK_HEIGHT), rot)
+}
+
+/// Runs the hardware for `seconds`, ticking `reach` at the control rate and calling the observer
+/// after every control step; stops early when `until` returns true. Returns whether `until` fired.
+/// A hardware failure stops the loop and is kept in the observer ([`Observer::take_error`]).
+pub fn run_until(
+    hw: &mut dyn Hardware,
+    reach: &mut ReachControl,
+    obs: &mut Observer<'_>,
+    seconds: f64,
+    mut until: impl FnMut(&mut dyn Hardware, &mut ReachControl) -> bool,
+) -> bool {
+    let dt_c = 1.0 / CONTROL_HZ;
+    let n = (seconds * CONTROL_HZ).ceil() as usize;
+    for _ in 0..n {
+        if obs.error.is_some() {
+            return false;
+        }
+        reach.tick(hw, dt_c);
+        if let Err(e) = hw.advance(dt_c) {
+            obs.error = Some(e);
+            return false;
+        }
+        (obs.callback)(hw, obs.activity);
+        if until(hw, reach) {
+            return true;
+        }
+    }
+    false
+}
+
+/// Advances the hardware by `seconds` with no controller ticking (references held), observing.
+pub fn idle(hw: &mut dyn Hardware, obs: &mut Observer<'_>, seconds: f64) {
+    let dt_c = 1.0 / CONTROL_HZ;
+    for _ in 0..(seconds * CONTROL_HZ).ceil() as usize {
+        if obs.error.is_some() {
+            return;
+        }
+        if let Err(e) = hw.advance(dt_c) {
+            obs.error = Some(e);
+            return;
+        }
+        (obs.callback)(hw, obs.activity);
+    }
+}
+
+/// Receives the head's stereo images (left, right).
+pub type ImageCallback<'a> = dyn FnMut(&dyn Hardware, &crate::vision::Image, &crate::vision::Image) + 'a;
+
+/// Receives the hardware after every control tick with a description of the current activity
+/// (for logs, progress and visualisation), and keeps the first hardware failure.
+pub struct Observer<'a> {
+    callback: &'a mut dyn FnMut(&mut dyn Hardware, &str),
+    images: Option<&'a mut ImageCallback<'a>>,
+    /// What the robot is doing.
+    pub activity: &'static str,
+    error: Option<HardwareError>,
+}
+
+impl std::fmt::Debug for Observer<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Observer").field("activity", &self.activity).finish()
+    }
+}
+
+impl<'a> Observer<'a> {
+    /// An observer calling `callback(hw, activity)` after every control tick.
+    pub fn new(callback: &'a mut dyn FnMut(&mut dyn Hardware, &str)) -> Self {
+        Observer {
+            callback,
+            images: None,
+            activity: "",
+            error: None,
+        }
+    }
+
+    /// Also receive the head's stereo images (left, right) every time the robot looks.
+    pub fn with_images(mut self, images: &'a mut ImageCallback<'a>) -> Self {
+        self.images = Some(images);
+        self
+    }
+
+    /// The first hardware failure, if any (the skills stop at it).
+    pub fn take_error(&mut self) -> Option<HardwareError> {
+        self.error.take()
+    }
+
+    /// `Err` with the first hardware failure, if any.
+    pub fn check(&mut self) -> Result<(), RobotError> {
+        match self.error.take() {
+            Some(e) => Err(e.into()),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The fingertip sensors of one hand (F1, F2, F3), world-aligned.
+pub fn hand_fingertips(hw: &dyn Hardware, arm: Arm, buf: &mut Vec<ForceTorque>) -> [ForceTorque; 3] {
+    buf.resize(hw.force_torque_frames().len(), ForceTorque::default());
+    hw.read_force_torque(buf);
+    let k = 3 * arm.index();
+    if buf.len() < k + 3 {
+        return [ForceTorque::default(); 3];
+    }
+    [buf[k], buf[k + 1], buf[k + 2]]
+}
+
+/// What the fingertips of one hand say: loaded fingers, whether F3 opposes F1 or F2 with a squeeze
+/// (horizontal forces pointing against each other), and the load they carry (−Σ f_z, N).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TouchState {
+    /// Fingers whose force exceeds [`CONTACT_FORCE`].
+    pub loaded: usize,
+    /// F3 and F1 or F2 loaded, squeezing from opposite sides.
+    pub opposed: bool,
+    /// Vertical load carried by the fingers (N, positive = the hand holds weight up).
+    pub load: f64,
+}
+
+impl TouchState {
+    /// From the three fingertip readings.
+    pub fn of(tips: &[ForceTorque; 3]) -> Self {
+        let loaded_tip = |t: &ForceTorque| t.in_contact && t.force_norm() > CONTACT_FORCE;
+        let loaded = tips.iter().filter(|t| loaded_tip(t)).count();
+        let f3 = tips[2].force;
+        let opposed = loaded_tip(&tips[2])
+            && tips[..2]
+                .iter()
+                .any(|t| loaded_tip(t) && t.force[0] * f3[0] + t.force[1] * f3[1] < 0.0);
+        let load = -tips.iter().map(|t| t.force[2]).sum::<f64>();
+        TouchState { loaded, opposed, load }
+    }
+
+    /// Whether the hand holds something: two loaded fingers (the holding test the monitors use).
+    pub fn holding(&self) -> bool {
+        self.loaded >= 2
+    }
+}
+
+/// How a grasp-and-lift went (the seed's grasp criterion, §6.5: the hand rises 10 cm and the object
+/// is still held), judged on the robot's own sensors.
+#[derive(Debug, Clone, Serialize)]
+pub struct GraspOutcome {
+    /// After the 10 cm lift, two fingertips are loaded and carry at least [`MIN_LOAD`].
+    pub lifted: bool,
+    /// What happened.
+    pub outcome: String,
+    /// How far the palm rose (m, from the encoders).
+    pub rose: f64,
+    /// The load the fingertips carried while held still after the lift (N), if it was lifted.
+    pub weighed: Option<f64>,
+}
+
+/// Reach the pre-grasp 10 cm above `plan.grasp` with the hand pre-shaped, descend, close until the
+/// Grasp predicate converges (opposing fingers squeezing, hand still), lift 10 cm, hold still and
+/// weigh the object through the fingertip sensors. `phase(name, time)` is told when each phase begins.
+pub fn grasp_and_lift(
+    hw: &mut dyn Hardware,
+    reach: &mut ReachControl,
+    hand: &HandControl,
+    plan: &GraspPlan,
+    obs: &mut Observer<'_>,
+    phase: &mut dyn FnMut(&str, f64),
+) -> GraspOutcome {
+    let fail = |outcome: String| GraspOutcome {
+        lifted: false,
+        outcome,
+        rose: 0.0,
+        weighed: None,
+    };
+    let plan = match approach_grasp(hw, reach, hand, plan, obs, phase) {
+        Ok(p) => p,
+        Err(why) => return fail(why),
+    };
+    phase("grasp", hw.time_secs());
+    if let Err(why) = close_grasp(hw, reach, hand, obs) {
+        return fail(why);
+    }
+    phase("lift", hw.time_secs());
+    lift_and_weigh(hw, reach, &plan, obs)
+}
+
+/// Reach (§3.1) to the pre-grasp 10 cm above `plan.grasp` with the hand pre-shaped — a straight line
+/// at hover height, the configuration servo if that stalls — then descend to the grasp pose. Returns
+/// the plan actually used (F3 may be on either side: the IK solution nearer the current
+/// configuration wins), or why the reach failed.
+pub fn approach_grasp(
+    hw: &mut dyn Hardware,
+    reach: &mut ReachControl,
+    hand: &HandControl,
+    plan: &GraspPlan,
+    obs: &mut Observer<'_>,
+    phase: &mut dyn FnMut(&str, f64),
+) -> Result<GraspPlan, String> {
+    // 1. Pre-grasp: above the object, hand pre-shaped.
+    obs.activity = "reach pre-grasp";
+    hand.set(hw, plan.preshape, 0.0);
+    // The hand is symmetric enough that F3 may be on either side: take the IK solution nearest the
+    // current configuration among both.
+    let mut best: Option<(f64, Iso3)> = None;
+    let q_now = reach.chain_configuration(hw);
+    for flip in [false, true] {
+        let mut g = plan.grasp;
+        if flip {
+            g.rotation *= control_basis::math::Rot3::from_axis_angle(&Vec3::z_axis(), std::f64::consts::PI);
+        }
+        let mut pre = g;
+        pre.translation.vector.z += 0.10;
+        if let Ok(Some(q)) = reach.solve_ik(hw, &pre, 11 + flip as u64) {
+            let d = (q - &q_now).amax();
+            if best.as_ref().is_none_or(|b| d < b.0) {
+                best = Some((d, g));
+            }
+        }
+    }
+    let Some((_, grasp_pose)) = best else {
+        return Err("pre-grasp out of reach (no IK solution)".into());
+    };
+    let plan = GraspPlan {
+        grasp: grasp_pose,
+        ..*plan
+    };
+    let mut pre = plan.grasp;
+    pre.translation.vector.z += 0.10;
+    // Large motion in configuration space to a hover pose high above the pre-grasp (a joint-space
+    // path may dip; high above, it cannot sweep through the objects), then straight down.
+    let mut hover = pre;
+    hover.translation.vector.z = hover
+        .translation
+        .vector
+        .z
+        .max(reach.tool_pose(hw).translation.z)
+        .max(pre.translation.z + 0.08);
+    // First a straight line (Cartesian Reach ◁ Manipulability) at hover height; if it stalls (a
+    // local minimum or a joint limit), the configuration servo to an IK solution takes over.
+    reach.set_goal(hw, hover);
+    if !run_until(hw, reach, obs, 5.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
+        match reach.set_goal_via_ik(hw, hover, 17) {
+            Ok(true) => {}
+            _ => return Err("hover above the object out of reach (no IK solution)".into()),
+        }
+        if !run_until(hw, reach, obs, 8.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
+            let (d, _) = reach.goal_error(hw);
+            return Err(format!("hover above the object not reached ({:.1} cm away)", d * 100.0));
+        }
+    }
+    reach.set_goal(hw, pre);
+    if !run_until(hw, reach, obs, 4.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
+        let (d, _) = reach.goal_error(hw);
+        return Err(format!("pre-grasp not reached ({:.1} cm away)", d * 100.0));
+    }
+    // 2. Descend.
+    phase("reach grasp", hw.time_secs());
+    obs.activity = "reach grasp";
+    reach.max_speed = 0.15;
+    reach.set_goal(hw, plan.grasp);
+    if !run_until(hw, reach, obs, 4.0, |s, r| r.at_goal(s, 0.004, 0.03)) {
+        let (d, _) = reach.goal_error(hw);
+        return Err(format!("grasp pose not reached ({:.1} cm away)", d * 100.0));
+    }
+    Ok(plan)
+}
+
+/// Grasp (§3.1.3.3): close the hand until the Grasp predicate converges on the fingertip sensors —
+/// F3 and F1 or F2 loaded and squeezing from opposite sides, the fingers still — for 0.15 s. Returns
+/// why it did not converge.
+pub fn close_grasp(
+    hw: &mut dyn Hardware,
+    reach: &mut ReachControl,
+    hand: &HandControl,
+    obs: &mut Observer<'_>,
+) -> Result<(), String> {
+    let arm = reach.arm();
+    obs.activity = "grasp";
+    hand.set(hw, FLEX_CLOSED, 0.0);
+    let mut still = 0;
+    let mut buf = Vec::new();
+    let grasped = run_until(hw, reach, obs, 3.0, |h, _| {
+        let touch = TouchState::of(&hand_fingertips(h, arm, &mut buf));
+        if touch.opposed && hand.max_flex_speed(h) < 0.1 {
+            still += 1;
+        } else {
+            still = 0;
+        }
+        still >= 30
+    });
+    if !grasped {
+        return Err("grasp did not converge (no opposing contacts)".into());
+    }
+    Ok(())
+}
+
+/// Lift 10 cm with the grasp, hold still and weigh the object through the fingertip sensors (the
+/// seed's grasp criterion, §6.5: the hand rises 10 cm and the object is still held — here: still
+/// loads two fingertips with at least [`MIN_LOAD`]).
+pub fn lift_and_weigh(
+    hw: &mut dyn Hardware,
+    reach: &mut ReachControl,
+    plan: &GraspPlan,
+    obs: &mut Observer<'_>,
+) -> GraspOutcome {
+    let arm = reach.arm();
+    let mut buf = Vec::new();
+    obs.activity = "lift";
+    let z_before = reach.tool_pose(hw).translation.z;
+    let mut lift = plan.grasp;
+    lift.translation.vector.z += 0.10;
+    reach.max_speed = 0.10;
+    reach.set_goal(hw, lift);
+    run_until(hw, reach, obs, 3.0, |h, r| r.at_goal(h, 0.005, 0.03));
+    // Hold still: the palm and the fingers at rest, then weigh: the fingers carry the object, so
+    // Σ f_z = −m·g at rest.
+    let mut quiet = 0;
+    let mut last = reach.tool_pose(hw).translation.vector;
+    run_until(hw, reach, obs, 1.0, |h, r| {
+        let p = r.tool_pose(h).translation.vector;
+        let speed = (p - last).norm() * CONTROL_HZ;
+        last = p;
+        quiet = if speed < 0.002 { quiet + 1 } else { 0 };
+        quiet >= 20
+    });
+    let mut sum = 0.0;
+    let mut n = 0usize;
+    let mut loaded = usize::MAX;
+    run_until(hw, reach, obs, 0.5, |h, _| {
+        let t = TouchState::of(&hand_fingertips(h, arm, &mut buf));
+        sum += t.load;
+        loaded = loaded.min(t.loaded);
+        n += 1;
+        false
+    });
+    let rose = reach.tool_pose(hw).translation.z - z_before;
+    let load = sum / n.max(1) as f64;
+    let lifted = rose > 0.08 && loaded >= 2 && loaded != usize::MAX && load >= MIN_LOAD;
+    GraspOutcome {
+        lifted,
+        outcome: if lifted {
+            "lifted".into()
+        } else if rose <= 0.08 {
+            format!("the hand did not rise ({:.1} cm)", rose * 100.0)
+        } else {
+            format!(
+                "object not held after lift ({} loaded fingertips, load {load:.2} N)",
+                loaded.min(3)
+            )
+        },
+        rose,
+        weighed: lifted.then_some(load),
+    }
+}
+
+/// What the robot knows about an object in its hand: where it sits relative to the palm (from
+/// where it was seen when grasped) and its measured weight.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Held {
+    /// Horizontal offset (world x, y) of the object's centre from the palm at the grasp (m).
+    pub offset_xy: [f64; 2],
+    /// How far the object's bottom hangs below the palm surface (m): the palm height at the grasp
+    /// above the table the object rested on.
+    pub below: f64,
+    /// Its weight as the fingertips measured it after the lift (N).
+    pub load: f64,
+    /// Its footprint radius (m), for room in the place.
+    pub radius: f64,
+}
+
+impl Held {
+    /// What is known after grasping `seen` (resting on the table at `table_z`) with the palm at
+    /// `palm_at_grasp`, and weighing `load`.
+    pub fn new(seen: &SeenObject, palm_at_grasp: &Iso3, table_z: f64, load: f64) -> Self {
+        let p = palm_at_grasp.translation.vector;
+        Held {
+            offset_xy: [seen.extent.center[0] - p.x, seen.extent.center[1] - p.y],
+            below: p.z - table_z,
+            load,
+            radius: seen.radius(),
+        }
+    }
+}
+
+/// Reach ◁ Grasp: carry the held object up to a safe height (clearing walls of `wall_height`) and
+/// over `target` (x, y of where the object's centre should go): a straight line, the configuration
+/// servo if that stalls. Fails if the fingertips lose the object or the place is not reached.
+#[allow(clippy::too_many_arguments)]
+pub fn transport_over(
+    hw: &mut dyn Hardware,
+    reach: &mut ReachControl,
+    held: &Held,
+    target: [f64; 2],
+    table_z: f64,
+    wall_height: f64,
+    obs: &mut Observer<'_>,
+) -> Result<(), String> {
+    obs.activity = "transport";
+    let arm = reach.arm();
+    let safe_z = table_z + wall_height + held.below + 0.08;
+    let mut up = reach.tool_pose(hw);
+    up.translation.vector.z = up.translation.vector.z.max(safe_z);
+    reach.max_speed = 0.3;
+    reach.set_goal(hw, up);
+    run_until(hw, reach, obs, 3.0, |h, r| r.at_goal(h, 0.01, 0.05));
+    // Over the target: object centre above it.
+    let mut over = up;
+    over.translation.vector.x = target[0] - held.offset_xy[0];
+    over.translation.vector.y = target[1] - held.offset_xy[1];
+    reach.set_goal(hw, over);
+    let straight = run_until(hw, reach, obs, 6.0, |h, r| r.at_goal(h, 0.01, 0.05));
+    if !straight && reach.set_goal_via_ik(hw, over, 23).unwrap_or(false) {
+        run_until(hw, reach, obs, 8.0, |h, r| r.at_goal(h, 0.01, 0.05));
+    }
+    let mut buf = Vec::new();
+    let touch = TouchState::of(&hand_fingertips(hw, arm, &mut buf));
+    if !touch.holding() || touch.load < 0.3 * held.load.max(MIN_LOAD) {
+        return Err("object dropped during transport (the fingertips lost the load)".into());
+    }
+    if !reach.at_goal(hw, 0.01, 0.05) {
+        let (d, _) = reach.goal_error(hw);
+        return Err(format!("place not reached ({:.1} cm away)", d * 100.0));
+    }
+    Ok(())
+}
+
+/// Place (§3.3.3): lower the held object until the support takes the load — the fingertips carry
+/// less than half of what they weighed — at most down to the table at `table_z`. Returns whether
+/// the reference was met.
+pub fn lower_until_supported(
+    hw: &mut dyn Hardware,
+    reach: &mut ReachControl,
+    held: &Held,
+    table_z: f64,
+    obs: &mut Observer<'_>,
+) -> bool {
+    obs.activity = "place";
+    let arm = reach.arm();
+    let mut down = reach.tool_pose(hw);
+    down.translation.vector.z = table_z + 0.002 + held.below - 0.02;
+    reach.max_speed = 0.09;
+    reach.set_goal(hw, down);
+    let mut supported = 0;
+    let mut buf = Vec::new();
+    let threshold = 0.5 * held.load.max(MIN_LOAD);
+    let touched = run_until(hw, reach, obs, 5.0, |h, _| {
+        let t = TouchState::of(&hand_fingertips(h, arm, &mut buf));
+        if t.load < threshold {
+            supported += 1;
+        } else {
+            supported = 0;
+        }
+        supported >= 4
+    });
+    if !touched {
+        // The hand reached its lowest target without the support taking the load (the object
+        // rests on a wall or another object, or is still held by friction): release anyway.
+        obs.activity = "place (no support felt)";
+    }
+    touched
+}
+
+/// Release: hold the hand where it is, open it, and retreat 12 cm up.
+pub fn release_and_retreat(
+    hw: &mut dyn Hardware,
+    reach: &mut ReachControl,
+    hand: &HandControl,
+    obs: &mut Observer<'_>,
+) {
+    let here = reach.tool_pose(hw);
+    reach.set_goal(hw, here);
+    obs.activity = "release";
+    hand.set(hw, 0.3, 0.0);
+    run_until(hw, reach, obs, 0.5, |_, _| false);
+    obs.activity = "retreat";
+    let mut away = here;
+    away.translation.vector.z += 0.12;
+    reach.max_speed = 0.3;
+    reach.set_goal(hw, away);
+    run_until(hw, reach, obs, 2.0, |s, r| r.at_goal(s, 0.01, 0.05));
+}
+
+/// Search-Track (§3.2.2.1): points the head at `nominal`, then foveates the blob nearest to the
+/// running estimate at the camera rate (`frame_secs`) until the tracking predicate converges, and
+/// returns what was seen — the mean triangulated centroid of the last frames, the extent and the
+/// appearance feature b of §6.2.1 (the 2×2 second moment averaged over the stereo pair and the
+/// frames) — with the cameras' mid-point. `Ok(Err(why))` if the object is not seen.
+pub fn locate_object(
+    hw: &mut dyn Hardware,
+    eyes: &mut Eyes,
+    nominal: &Vec3,
+    table_z: f64,
+    frame_secs: f64,
+    obs: &mut Observer<'_>,
+) -> Result<Result<Located, String>, RobotError> {
+    let mut body = Body::new();
+    let mut track = SearchTrack::new(hw)?;
+    track.look_at(hw, &mut body, nominal)?;
+    // Let the head get there (saccade).
+    idle(hw, obs, 0.4);
+    obs.check()?;
+    let mut estimate = *nominal;
+    let mut recent: Vec<(Vec3, [[f64; 2]; 2], StereoBlob, StereoCameras)> = Vec::new();
+    for _frame in 0..40 {
+        let cams = eyes.cameras(hw, Pair::Head)?;
+        eyes.perceive(hw, Pair::Head)?;
+        if let Some(f) = obs.images.as_mut() {
+            let (l, r) = eyes.images(Pair::Head);
+            f(hw, l, r);
+        }
+        let nearest = eyes
+            .blobs()
+            .iter()
+            .filter(|b| b.left.is_some() && b.right.is_some())
+            .filter_map(|b| b.centroid.map(|c| (b, (c - estimate).xy().norm())))
+            .filter(|(_, d)| *d < 0.12)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(b, _)| *b);
+        match nearest {
+            Some(blob) => {
+                let o = track.track(hw, &cams, &blob, frame_secs);
+                if let Some(c) = o.centroid {
+                    estimate = c;
+                    if o.error < 4e-4 && !blob.truncated() {
+                        recent.push((c, blob.mean_covariance(), blob, cams.clone()));
+                    } else {
+                        recent.clear();
+                    }
+                }
+            }
+            None => recent.clear(),
+        }
+        if recent.len() >= 3 {
+            let n = recent.len() as f64;
+            let c = recent.iter().fold(Vec3::zeros(), |a, r| a + r.0) / n;
+            let mut b = [[0.0; 2]; 2];
+            for (_, m, _, _) in &recent {
+                for i in 0..2 {
+                    for j in 0..2 {
+                        b[i][j] += m[i][j] / n;
+                    }
+                }
+            }
+            // Exactly symmetric (the two cameras' matrices are, up to rounding).
+            let off = 0.5 * (b[0][1] + b[1][0]);
+            b[0][1] = off;
+            b[1][0] = off;
+            let (_, _, blob, cams) = recent.last().expect("three frames");
+            let mut extent = extent_of(blob, cams, table_z).expect("a triangulated blob");
+            // The footprint centre from the averaged centroid when it is only a disc.
+            if extent.model != "prism" {
+                extent.center = [c.x, c.y];
+            }
+            let eye = 0.5 * (cams.left.position() + cams.right.position());
+            return Ok(Ok(Located {
+                seen: SeenObject { centroid: c, extent },
+                appearance: b,
+                eye,
+                frames: recent.len(),
+            }));
+        }
+        idle(hw, obs, frame_secs);
+        obs.check()?;
+    }
+    Ok(Err(format!(
+        "search-track: no stereo blob foveated near ({:.2}, {:.2}, {:.2})",
+        nominal.x, nominal.y, nominal.z
+    )))
+}
+
+/// What Search-Track found.
+#[derive(Debug, Clone)]
+pub struct Located {
+    /// The object as seen.
+    pub seen: SeenObject,
+    /// b: the 2×2 second-moment matrix of the segment averaged over the stereo pair and the frames
+    /// (px², §6.2.1).
+    pub appearance: [[f64; 2]; 2],
+    /// The cameras' mid-point.
+    pub eye: Vec3,
+    /// Frames averaged.
+    pub frames: usize,
+}
+
+/// Chooses an arm among `candidates` that reaches the grasp of `seen` and the place at `place_xy`
+/// (walls `wall_height`), preferring the one on the object's side. `Err(reasons)` if none does.
+#[allow(clippy::too_many_arguments)]
+pub fn choose_arm(
+    hw: &dyn Hardware,
+    candidates: &[Arm],
+    arc: &[(f64, f64, f64)],
+    seen: &SeenObject,
+    place_xy: [f64; 2],
+    wall_height: f64,
+    table_z: f64,
+) -> Result<Result<Arm, String>, RobotError> {
+    let mut order = candidates.to_vec();
+    if seen.centroid.y < 0.0 {
+        order.reverse();
+    }
+    let mut reasons = Vec::new();
+    for arm in order {
+        let park = park_pose(arm, table_z);
+        let plan = plan_top_grasp(arc, seen, table_z, &park);
+        let mut over = plan.grasp;
+        over.translation.vector.x = place_xy[0];
+        over.translation.vector.y = place_xy[1];
+        over.translation.vector.z = table_z + wall_height + 0.15;
+        let g = reachable(hw.model(), arm, &plan.grasp, 3)?;
+        let p = reachable(hw.model(), arm, &over, 4)?;
+        if g && p {
+            return Ok(Ok(arm));
+        }
+        reasons.push(format!(
+            "{arm} arm {}",
+            match (g, p) {
+                (false, false) => "reaches neither the object nor the place",
+                (false, true) => "does not reach the object",
+                _ => "does not reach the place",
+            }
+        ));
+    }
+    Ok(Err(reasons.join("; ")))
+}
