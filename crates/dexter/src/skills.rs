@@ -563,16 +563,16 @@ pub fn lift_and_weigh(
     reach.max_speed = 0.10;
     reach.set_goal(hw, lift);
     run_until(hw, reach, obs, 3.0, |h, r| r.at_goal(h, 0.005, 0.03));
-    // Hold still: the palm and the fingers at rest, then weigh: the fingers carry the object, so
-    // Σ f_z = −m·g at rest.
+    // Hold still until the load the fingertips feel settles (the object stops swinging in the
+    // hand), then weigh: the fingers carry the object, so Σ f_z = −m·g at rest.
     let mut quiet = 0;
-    let mut last = reach.tool_pose(hw).translation.vector;
-    run_until(hw, reach, obs, 1.0, |h, r| {
-        let p = r.tool_pose(h).translation.vector;
-        let speed = (p - last).norm() * CONTROL_HZ;
-        last = p;
-        quiet = if speed < 0.002 { quiet + 1 } else { 0 };
-        quiet >= 20
+    let mut last = f64::NAN;
+    run_until(hw, reach, obs, 1.5, |h, _| {
+        let load = TouchState::of(&hand_fingertips(h, arm, &mut buf)).load;
+        let steady = (load - last).abs() < 0.002 + 0.003 * load.abs();
+        last = load;
+        quiet = if steady { quiet + 1 } else { 0 };
+        quiet >= 40
     });
     let mut sum = 0.0;
     let mut n = 0usize;
