@@ -7,6 +7,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Subcommand, ValueEnum};
 
+pub mod execute;
 pub mod features;
 pub mod sorting;
 
@@ -16,6 +17,9 @@ pub enum ExperimentCommand {
     /// Sorting experiments on rendered catalog features: success vs examples per class with χ²
     /// p-values, size sorting, relevance ROC, incremental pmfs, feature selection.
     Sorting(SortingArgs),
+    /// A learned model executed by the robot on N random new scenes drawn from a catalog: per-object
+    /// decisions and outcomes, placed fraction with a 95 % interval, failure causes by phase.
+    Execute(execute::ExecuteExperimentArgs),
 }
 
 /// Which experiment.
@@ -78,5 +82,6 @@ pub struct SortingArgs {
 pub fn main(cmd: ExperimentCommand, out: &mut dyn Write) -> anyhow::Result<()> {
     match cmd {
         ExperimentCommand::Sorting(args) => sorting::run(&args, out),
+        ExperimentCommand::Execute(args) => execute::run(&args, out),
     }
 }

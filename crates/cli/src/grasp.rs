@@ -24,7 +24,7 @@ use grasp_topics::{Config, Corpus, DemoGrasp, DpConfig, GraspModel};
 use nalgebra::{Matrix2, Vector3};
 use serde::Serialize;
 
-mod common;
+pub(crate) mod common;
 mod eval;
 mod report;
 
