@@ -10,7 +10,7 @@
 
 use std::collections::BTreeMap;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -25,6 +25,7 @@ use dexter_sim::hardware::{SimRobot, workspace};
 use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
 use dexter_sim::scene::Scene;
 use dexter_sim::snapshot::ObjectState;
+use schema::procedural::{Features, ProceduralModel};
 use schema::{ExecReport, Library, Percept};
 use serde::{Deserialize, Serialize};
 
@@ -226,6 +227,43 @@ pub enum Decider<'a> {
     Model(&'a std::path::Path),
 }
 
+/// `pbd execute --model`: relevance and place for every segment the robot sees (the procedural
+/// model's decision on the robot's own percepts).
+pub fn decide(path: &Path, places: &[String], segments: &[schema::SegmentPercept]) -> Result<(String, Vec<Decision>)> {
+    let model = ProceduralModel::load(path)?;
+    let mut out = Vec::new();
+    for seg in segments {
+        let f = Features::from(seg);
+        let p = model.predict(&f)?;
+        let posterior: BTreeMap<String, f64> = p.places.iter().cloned().collect();
+        let lb = p.relevance.bayes_factor.log_b10;
+        let place = if p.relevance.relevant {
+            if !places.contains(&p.map_place) {
+                Err(format!("its place `{}` is not in this scene", p.map_place))
+            } else {
+                Ok(p.map_place.clone())
+            }
+        } else {
+            Err(format!(
+                "not part of the task (ln B10 = {lb:.1} ≤ {:.1})",
+                p.relevance.log_threshold
+            ))
+        };
+        out.push(Decision {
+            segment: seg.id,
+            at: seg.centroid,
+            reason: format!(
+                "MAP place {} (p = {:.3}), ln B10 = {lb:.1}",
+                p.map_place, p.map_probability
+            ),
+            place,
+            posterior,
+            log_bayes_factor: Some(lb),
+        });
+    }
+    Ok(("pick_and_place".into(), out))
+}
+
 /// Gaze points (x, y) that cover the table in front of the robot.
 fn scan_points(ws: &dexter::exec::Workspace) -> Vec<Vec3> {
     let mut out = Vec::new();
@@ -335,7 +373,7 @@ pub fn execute_scene(
                     reason: format!("the demonstration placed its object in {p}"),
                 })
                 .collect(),
-            Decider::Model(path) => crate::learn::decide(path, &place_names, &seen)?.1,
+            Decider::Model(path) => decide(path, &place_names, &seen)?.1,
         };
         let mut matched = vec![false; truth0.len()];
         for d in decisions {

@@ -16,7 +16,6 @@ use schema::Library;
 use schema::procedural::{Example, Features, Hyper, ProceduralModel};
 use serde::Serialize;
 
-use crate::execute::Decision;
 use crate::infer::{INFER_FORMAT, InferFile};
 
 /// Arguments of `pbd learn`.
@@ -237,41 +236,4 @@ fn explain(path: &Path, args: &LearnArgs, out: &mut dyn Write) -> Result<()> {
         writeln!(out, "picture: {p}")?;
     }
     Ok(())
-}
-
-/// `pbd execute --model`: relevance and place for every segment the robot sees (the procedural
-/// model's decision on the robot's own percepts).
-pub fn decide(path: &Path, places: &[String], segments: &[schema::SegmentPercept]) -> Result<(String, Vec<Decision>)> {
-    let model = ProceduralModel::load(path)?;
-    let mut out = Vec::new();
-    for seg in segments {
-        let f = Features::from(seg);
-        let p = model.predict(&f)?;
-        let posterior: BTreeMap<String, f64> = p.places.iter().cloned().collect();
-        let lb = p.relevance.bayes_factor.log_b10;
-        let place = if p.relevance.relevant {
-            if !places.contains(&p.map_place) {
-                Err(format!("its place `{}` is not in this scene", p.map_place))
-            } else {
-                Ok(p.map_place.clone())
-            }
-        } else {
-            Err(format!(
-                "not part of the task (ln B10 = {lb:.1} ≤ {:.1})",
-                p.relevance.log_threshold
-            ))
-        };
-        out.push(Decision {
-            segment: seg.id,
-            at: seg.centroid,
-            reason: format!(
-                "MAP place {} (p = {:.3}), ln B10 = {lb:.1}",
-                p.map_place, p.map_probability
-            ),
-            place,
-            posterior,
-            log_bayes_factor: Some(lb),
-        });
-    }
-    Ok(("pick_and_place".into(), out))
 }

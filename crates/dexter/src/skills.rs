@@ -510,8 +510,21 @@ pub fn approach_grasp(
     reach.max_speed = 0.15;
     reach.set_goal(hw, plan.grasp);
     if !run_until(hw, reach, obs, 4.0, |s, r| r.at_goal(s, 0.004, 0.03)) {
-        let (d, _) = reach.goal_error(hw);
-        return Err(format!("grasp pose not reached ({:.1} cm away)", d * 100.0));
+        // A palm stopped just above its goal, over the object, rests on the object's top (its
+        // measured height was a little high): the fingers can close from there.
+        let palm = reach.tool_pose(hw).translation.vector;
+        let goal = plan.grasp.translation.vector;
+        let resting = (palm.xy() - goal.xy()).norm() < 0.006 && palm.z > goal.z && palm.z - goal.z < 0.02;
+        if !resting {
+            let (d, _) = reach.goal_error(hw);
+            return Err(format!("grasp pose not reached ({:.1} cm away)", d * 100.0));
+        }
+        // Lift the palm off the top by 5 mm so that it does not press the object into the
+        // fingers (which would then carry more than its weight).
+        let mut off = reach.tool_pose(hw);
+        off.translation.vector.z += 0.005;
+        reach.set_goal(hw, off);
+        run_until(hw, reach, obs, 0.5, |s, r| r.at_goal(s, 0.002, 0.03));
     }
     Ok(plan)
 }

@@ -90,6 +90,8 @@ pub struct Summary {
     pub scenes: usize,
     /// Objects presented.
     pub objects: usize,
+    /// Report rows: one per seen segment, plus one per unseen object.
+    pub rows: usize,
     /// Objects the robot decided to execute.
     pub executed: usize,
     /// Of those, placed in the chosen place.
@@ -253,8 +255,15 @@ pub fn run(args: &ExecuteExperimentArgs, out: &mut dyn Write) -> Result<()> {
     }
     let executed = rows.iter().filter(|r| r.decision == "execute").count();
     let placed = rows.iter().filter(|r| r.decision == "execute" && r.placed).count();
-    let task_rows: Vec<&ObjectRow> = rows.iter().filter(|r| r.intended != "-").collect();
-    let task_ok = task_rows.iter().filter(|r| r.placed && r.place == r.intended).count();
+    // Task objects, once each (an object seen as two segments has two rows): done if any row placed
+    // it in its intended place.
+    let mut task_objects: BTreeMap<(usize, String), bool> = BTreeMap::new();
+    for r in rows.iter().filter(|r| r.intended != "-" && r.object != "-") {
+        *task_objects.entry((r.scene, r.object.clone())).or_insert(false) |= r.placed && r.place == r.intended;
+    }
+    let task_total = task_objects.len();
+    let task_ok = task_objects.values().filter(|&&v| v).count();
+    let presented: usize = scenes.iter().map(|s| s.resolved.len()).sum();
     let mut failures = BTreeMap::new();
     for r in rows.iter().filter(|r| !r.failure.is_empty()) {
         let phase = r.failure.split(':').next().unwrap_or("?").trim().to_string();
@@ -262,7 +271,8 @@ pub fn run(args: &ExecuteExperimentArgs, out: &mut dyn Write) -> Result<()> {
     }
     let summary = Summary {
         scenes: args.scenes,
-        objects: rows.len(),
+        objects: presented,
+        rows: rows.len(),
         executed,
         placed,
         placed_fraction: if executed > 0 {
@@ -271,12 +281,12 @@ pub fn run(args: &ExecuteExperimentArgs, out: &mut dyn Write) -> Result<()> {
             0.0
         },
         placed_interval: wilson(placed, executed),
-        task_success: if task_rows.is_empty() {
+        task_success: if task_total == 0 {
             0.0
         } else {
-            task_ok as f64 / task_rows.len() as f64
+            task_ok as f64 / task_total as f64
         },
-        task_interval: wilson(task_ok, task_rows.len()),
+        task_interval: wilson(task_ok, task_total),
         decision_accuracy: rows.iter().filter(|r| r.decision_correct).count() as f64 / rows.len().max(1) as f64,
         failures,
         sim_time: reports.iter().map(|r| r.sim_time).sum(),
@@ -334,7 +344,10 @@ fn markdown(args: &ExecuteExperimentArgs, s: &Summary, rows: &[ObjectRow]) -> St
         args.task.join(", ")
     );
     m.push_str("| figure | value |\n|---|---|\n");
-    m.push_str(&format!("| objects presented | {} |\n", s.objects));
+    m.push_str(&format!(
+        "| objects presented | {} ({} report rows: seen segments and unseen objects) |\n",
+        s.objects, s.rows
+    ));
     m.push_str(&format!(
         "| decided relevant and executed | {} |\n| placed / executed | {}/{} = {:.3} (95 % CI {:.3}–{:.3}) |\n",
         s.executed, s.placed, s.executed, s.placed_fraction, s.placed_interval.0, s.placed_interval.1
