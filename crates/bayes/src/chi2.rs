@@ -3,7 +3,7 @@
 //! expectation, with scipy's semantics (`chi2_contingency`, `chisquare`).
 //!
 //! Statistic Σ(O − E)²/E; p-value = χ² survival function Q(dof/2, stat/2)
-//! ([`chi2_sf`](crate::special::chi2_sf)), accurate in relative terms down to ~1e-300.
+//! ([`crate::special::chi2_sf`]), accurate in relative terms down to ~1e-300.
 
 use serde::{Deserialize, Serialize};
 

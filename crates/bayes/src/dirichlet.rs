@@ -14,7 +14,7 @@
 //! The sequence probability depends on the counts only (exchangeability, §5.1), which is why
 //! the counts are sufficient and the posterior is the same whatever the order of the
 //! demonstrations (§5.2.1). Gamma-function differences go through
-//! [`ln_gamma_diff`](crate::special::ln_gamma_diff), so huge γ keeps full accuracy.
+//! [`crate::special::ln_gamma_diff`], so huge γ keeps full accuracy.
 
 use rand::{Rng, RngExt};
 use rand_distr::{Distribution, Gamma};

@@ -7,7 +7,7 @@
 //!   − ((ν+d)/2)·ln1p(m/ν)`, m = (x−loc)ᵀΣ⁻¹(x−loc); Σ is the *shape* (scale) matrix, the
 //!   covariance is Σν/(ν−2).
 //! * `inv_wishart_log_pdf(X, ν, Ψ) = (ν/2) ln|Ψ| − (νp/2) ln 2 − ln Γ_p(ν/2) − ((ν+p+1)/2) ln|X|
-//!   − ½ tr(ΨX⁻¹)`, X ~ IW(ν, Ψ) ⇔ X⁻¹ ~ Wishart(ν, Ψ⁻¹), E[X] = Ψ/(ν−p−1); ν > p − 1.
+//!   − ½ tr(ΨX⁻¹)`, X ~ IW(ν, Ψ) ⇔ X⁻¹ ~ Wishart(ν, Ψ⁻¹), E\[X\] = Ψ/(ν−p−1); ν > p − 1.
 //!
 //! Every matrix goes through a Cholesky factorisation L Lᵀ: `ln|A| = 2 Σ ln Lᵢᵢ`, quadratic
 //! forms are `|L⁻¹v|²` by forward substitution, and `tr(ΨX⁻¹) = ‖L_X⁻¹ L_Ψ‖²_F`, so nothing is

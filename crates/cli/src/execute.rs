@@ -100,6 +100,39 @@ pub struct ObjectReport {
     pub failure: Option<String>,
 }
 
+impl ObjectReport {
+    /// A report for an object the robot did not execute (`ignore`, `skip`, `unseen`).
+    #[allow(clippy::too_many_arguments)]
+    fn not_executed(
+        object: String,
+        segment: Option<u32>,
+        decision: &str,
+        reason: String,
+        place: Option<String>,
+        posterior: BTreeMap<String, f64>,
+        log_bayes_factor: Option<f64>,
+        final_position: [f64; 3],
+        failure: Option<String>,
+    ) -> Self {
+        ObjectReport {
+            object,
+            segment,
+            decision: decision.into(),
+            reason,
+            place,
+            posterior,
+            log_bayes_factor,
+            arms: vec![],
+            transfer: false,
+            contingencies: vec![],
+            execution: None,
+            final_position,
+            success: false,
+            failure,
+        }
+    }
+}
+
 /// The whole report.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ExecuteReport {
@@ -295,7 +328,7 @@ pub fn execute_scene(
 ) -> Result<ExecuteReport> {
     let schema_name = "pick_and_place".to_string();
     let schema = library.schema(&schema_name)?.clone();
-    let mut sim = DexterSim::new(
+    let mut sim = dexter_sim::hardware::parked_sim(
         scene,
         SimSettings {
             seed,
@@ -303,10 +336,6 @@ pub fn execute_scene(
         },
     )?;
     let table_z = scene.spec.table.height;
-    dexter_sim::hardware::park_robot(&mut sim, table_z)?;
-    for _ in 0..200 {
-        sim.step();
-    }
     let truth0: Vec<ObjectState> = (0..sim.objects().len()).map(|i| sim.object_state(i)).collect();
     let names = sim.header().object_names.clone();
     let labels: Vec<String> = scene.resolved.iter().map(|r| r.label.clone()).collect();
@@ -391,22 +420,17 @@ pub fn execute_scene(
             };
             let place = match d.place {
                 Err(why) => {
-                    reports.push(ObjectReport {
-                        object: label,
-                        segment: Some(d.segment),
-                        decision: "ignore".into(),
-                        reason: why,
-                        place: None,
-                        posterior: d.posterior,
-                        log_bayes_factor: d.log_bayes_factor,
-                        arms: vec![],
-                        transfer: false,
-                        contingencies: vec![],
-                        execution: None,
-                        final_position: final_of(&logger),
-                        success: false,
-                        failure: None,
-                    });
+                    reports.push(ObjectReport::not_executed(
+                        label,
+                        Some(d.segment),
+                        "ignore",
+                        why,
+                        None,
+                        d.posterior,
+                        d.log_bayes_factor,
+                        final_of(&logger),
+                        None,
+                    ));
                     continue;
                 }
                 Ok(p) => p,
@@ -435,22 +459,17 @@ pub fn execute_scene(
             let handoff = plant.handoff();
             let policy = PickPlacePolicy::decide(&*plant.hw, &ws, &segment_now.to_string(), &at, &place, handoff)?;
             let Some(mut policy) = policy else {
-                reports.push(ObjectReport {
-                    object: label,
-                    segment: Some(d.segment),
-                    decision: "skip".into(),
-                    reason: format!("no arm reaches segment {}, or none reaches `{place}`", d.segment),
-                    place: Some(place),
-                    posterior: d.posterior,
-                    log_bayes_factor: d.log_bayes_factor,
-                    arms: vec![],
-                    transfer: false,
-                    contingencies: vec![],
-                    execution: None,
-                    final_position: final_of(&logger),
-                    success: false,
-                    failure: Some("reach: out of both arms' workspace".into()),
-                });
+                reports.push(ObjectReport::not_executed(
+                    label,
+                    Some(d.segment),
+                    "skip",
+                    format!("no arm reaches segment {}, or none reaches `{place}`", d.segment),
+                    Some(place),
+                    d.posterior,
+                    d.log_bayes_factor,
+                    final_of(&logger),
+                    Some("reach: out of both arms' workspace".into()),
+                ));
                 continue;
             };
             let transfer = policy.is_transfer();
@@ -510,22 +529,17 @@ pub fn execute_scene(
             for (i, m) in matched.iter().enumerate() {
                 if !m {
                     let v = truth0[i].pose.translation.vector;
-                    reports.push(ObjectReport {
-                        object: labels[i].clone(),
-                        segment: None,
-                        decision: "unseen".into(),
-                        reason: "no tracked segment matched it".into(),
-                        place: None,
-                        posterior: BTreeMap::new(),
-                        log_bayes_factor: None,
-                        arms: vec![],
-                        transfer: false,
-                        contingencies: vec![],
-                        execution: None,
-                        final_position: [v.x, v.y, v.z],
-                        success: false,
-                        failure: Some("perception: not seen".into()),
-                    });
+                    reports.push(ObjectReport::not_executed(
+                        labels[i].clone(),
+                        None,
+                        "unseen",
+                        "no tracked segment matched it".into(),
+                        None,
+                        BTreeMap::new(),
+                        None,
+                        [v.x, v.y, v.z],
+                        Some("perception: not seen".into()),
+                    ));
                 }
             }
         }

@@ -380,18 +380,13 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
     }
     let scene = Scene::open(&args.scene)?;
     let seed = args.seed.unwrap_or(scene.spec.seed);
-    let mut sim = DexterSim::new(
+    let mut sim = dexter_sim::hardware::parked_sim(
         &scene,
         SimSettings {
             seed,
             ..SimSettings::default()
         },
     )?;
-    let table_z = scene.spec.table.height;
-    dexter_sim::hardware::park_robot(&mut sim, table_z)?;
-    for _ in 0..200 {
-        sim.step();
-    }
     let (source, task_list, source_name) = match &args.teleop {
         Some(path) => {
             let stream = TeleopStream::load(path)?;

@@ -392,3 +392,14 @@ pub fn park_robot(sim: &mut DexterSim, table_z: f64) -> Result<(), SimError> {
     }
     sim.set_configuration(&q)
 }
+
+/// A fresh simulation of `scene` with `settings`, the robot parked ([`park_robot`]) and the objects
+/// settled for 0.2 s: the start of every run.
+pub fn parked_sim(scene: &Scene, settings: crate::physics::SimSettings) -> Result<DexterSim, SimError> {
+    let mut sim = DexterSim::new(scene, settings)?;
+    park_robot(&mut sim, scene.spec.table.height)?;
+    for _ in 0..200 {
+        sim.step();
+    }
+    Ok(sim)
+}

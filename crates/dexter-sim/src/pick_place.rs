@@ -97,11 +97,14 @@ pub fn plan_top_grasp_shape(
     )
 }
 
+/// Receives the head's images (time, left, right).
+pub type WorldImages<'a> = dyn FnMut(f64, &Image, &Image) + 'a;
+
 /// Receives the world during a run: after every control period with the robot's current activity,
 /// and the head's images whenever the robot looks (time, left, right).
 pub struct WorldObserver<'a> {
     tick: &'a mut dyn FnMut(&DexterSim, &str),
-    images: Option<&'a mut dyn FnMut(f64, &Image, &Image)>,
+    images: Option<&'a mut WorldImages<'a>>,
 }
 
 impl std::fmt::Debug for WorldObserver<'_> {
@@ -117,7 +120,7 @@ impl<'a> WorldObserver<'a> {
     }
 
     /// Also receive the head's images.
-    pub fn with_images(mut self, images: &'a mut dyn FnMut(f64, &Image, &Image)) -> Self {
+    pub fn with_images(mut self, images: &'a mut WorldImages<'a>) -> Self {
         self.images = Some(images);
         self
     }

@@ -233,8 +233,8 @@ impl ScriptedDexter {
                 let (o, d) = cam.ray(f64::from(u), f64::from(v));
                 let c = Self::shade(&o, &d, box_center);
                 let i = 3 * (v as usize * cam.width as usize + u as usize);
-                for ch in 0..3 {
-                    out.rgb[i + ch] = (c[ch] * 255.0).round() as u8;
+                for (px, ch) in out.rgb[i..i + 3].iter_mut().zip(c) {
+                    *px = (ch * 255.0).round() as u8;
                 }
             }
         }

@@ -14,7 +14,7 @@ pub enum SchemaError {
     /// A file is not valid TOML/JSON.
     #[error("{path}: {message}")]
     Parse {
-        /// The file (or "<builtin>").
+        /// The file (or `"<builtin>"`).
         path: String,
         /// The parser's message.
         message: String,
@@ -22,7 +22,7 @@ pub enum SchemaError {
     /// A field has an invalid value.
     #[error("{path}: {field}: {message}")]
     Invalid {
-        /// The file (or "<builtin>", or the stream).
+        /// The file (or `"<builtin>"`, or the stream).
         path: String,
         /// Where in the file, as a TOML/JSON path.
         field: String,

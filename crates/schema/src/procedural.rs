@@ -9,7 +9,7 @@
 //! (§5.3.4):
 //!
 //! * **colour** — the object's kept *colour terms* (black, grey, white, red, orange, yellow, green,
-//!   blue, purple, pink: [`crate::percept::color_term`], after the 20th-percentile rule of
+//!   blue, purple, pink: `dexter::vision::color::color_term`, after the 20th-percentile rule of
 //!   §5.1.2.1), shared out as `D` weighted draws ([`Features::color_draws`]), black, grey and
 //!   white left out when the chromatic terms cover ≥ 30 % of the object (the *chromatic rule*:
 //!   shading, highlights and labels are on every object). **Departures from the seed**: (i) the
@@ -172,7 +172,7 @@ pub struct Features {
     /// Segment size in pixels in the left and right camera; 0 = not seen by that camera.
     pub pixels: [u32; 2],
     /// The kept colour terms as (term, share) ([`SegmentPercept::colors`],
-    /// [`crate::percept::color_term`]): the colour observations of the colour unit
+    /// `dexter::vision::color::color_term`): the colour observations of the colour unit
     /// ([`Features::color_draws`]). Empty in features written before the terms were added, which
     /// the model refuses with a message to re-run `pbd infer`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

@@ -141,7 +141,7 @@ pub struct StereoConfig {
     pub max_range: f64,
     /// Correction of the triangulated centroid.
     pub depth_correction: DepthCorrection,
-    /// The known plane objects rest on (the table): when set, [`StereoVision`] measures each
+    /// The known plane objects rest on (the table): when set, [`StereoPipeline`] measures each
     /// object's height and places its centroid on the silhouette-centroid rays at half that height
     /// ([`crate::vision::support`]).
     pub support: Option<SupportPlane>,
