@@ -92,9 +92,14 @@ impl SeenObject {
         table_z + self.extent.height
     }
 
-    /// Horizontal radius of the footprint's bounding box (m).
+    /// Horizontal radius of the footprint (m): a sphere's radius, else the circle around the
+    /// footprint's bounding box.
     pub fn radius(&self) -> f64 {
-        self.extent.half_major.hypot(self.extent.half_minor)
+        if self.extent.model == "round" {
+            self.extent.half_major
+        } else {
+            self.extent.half_major.hypot(self.extent.half_minor)
+        }
     }
 }
 
@@ -716,6 +721,10 @@ pub fn lower_until_supported(
         }
         supported >= 4
     });
+    // Converged (or out of travel): hold the hand where it is, so that it does not keep pressing
+    // the object into the support while the release is prepared.
+    let here = reach.tool_pose(hw);
+    reach.set_goal(hw, here);
     if !touched {
         // The hand reached its lowest target without the support taking the load (the object
         // rests on a wall or another object, or is still held by friction): release anyway.
