@@ -58,48 +58,7 @@ fn builtin_scene_text(name: &str) -> Option<&'static str> {
     }
 }
 
-/// A primitive shape in the object's own frame (origin at the shape's centre; cylinder and capsule
-/// axes along local z).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
-pub enum Shape {
-    /// A box with full side lengths `size = [x, y, z]`.
-    Box {
-        /// Full side lengths (m).
-        size: [f64; 3],
-    },
-    /// An upright cylinder.
-    Cylinder {
-        /// Radius (m).
-        radius: f64,
-        /// Full height (m).
-        height: f64,
-    },
-    /// A sphere.
-    Sphere {
-        /// Radius (m).
-        radius: f64,
-    },
-    /// A capsule: a cylinder of `height` (the straight part) capped by two hemispheres.
-    Capsule {
-        /// Radius (m).
-        radius: f64,
-        /// Length of the straight part (m).
-        height: f64,
-    },
-}
-
-impl Shape {
-    /// The `kind` string of the shape in TOML (`box`, `cylinder`, `sphere`, `capsule`).
-    pub fn kind(&self) -> &'static str {
-        match self {
-            Shape::Box { .. } => "box",
-            Shape::Cylinder { .. } => "cylinder",
-            Shape::Sphere { .. } => "sphere",
-            Shape::Capsule { .. } => "capsule",
-        }
-    }
-}
+pub use crate::geometry::Shape;
 
 /// One colour patch of an object's surface.
 ///

@@ -15,9 +15,9 @@ use clap::Args;
 use dexter_sim::grasp_trial::{self, Percept, TrialOutcome};
 use grasp_topics::{Corpus, GraspModel, naive_baseline};
 use rand::seq::SliceRandom;
-use serde::Serialize;
 
 use super::common::{self, Method, Presenter, Rejections, select_candidates};
+use super::report::{EvalSummary, ObjectResult, Trial};
 use super::{PresentArgs, command_for, learn_config, mat2, model_summary, record_scripted};
 
 /// Arguments of `pbd grasp eval`.
@@ -71,90 +71,6 @@ pub struct EvalArgs {
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
-}
-
-/// One executed candidate.
-#[derive(Debug, Clone, Serialize)]
-pub struct Trial {
-    /// Test presentation.
-    pub object: String,
-    /// Generator.
-    pub method: Method,
-    /// Candidate index (rank order, from 1).
-    pub candidate: usize,
-    /// Prototype (model candidates).
-    pub prototype: Option<usize>,
-    /// Palm-surface position in the object frame (m).
-    pub position: Option<[f64; 3]>,
-    /// Palm-surface orientation `[w, x, y, z]`.
-    pub orientation: Option<[f64; 4]>,
-    /// Success (§6.5 criterion).
-    pub success: bool,
-    /// How far the object rose (m).
-    pub rose: f64,
-    /// What happened.
-    pub outcome: String,
-    /// Simulated seconds.
-    pub sim_time: f64,
-}
-
-/// Per test presentation.
-#[derive(Debug, Clone, Serialize)]
-pub struct ObjectResult {
-    /// Presentation.
-    pub object: String,
-    /// Model successes (of `candidates`).
-    pub model: usize,
-    /// Naive successes.
-    pub naive: usize,
-    /// Appearance b seen (px²), if seen.
-    pub appearance: Option<[[f64; 2]; 2]>,
-    /// Most probable prototype for its appearance (6.28), from 1.
-    pub top_prototype: Option<usize>,
-    /// Model candidates dropped.
-    pub model_rejected: Rejections,
-    /// Naive candidates dropped.
-    pub naive_rejected: Rejections,
-}
-
-/// Significance of the difference.
-#[derive(Debug, Clone, Serialize)]
-pub struct Significance {
-    /// One-sided Fisher exact test, H1: the model succeeds more often.
-    pub fisher_one_sided_p: f64,
-    /// Pearson χ² on the 2×2 table with Yates' correction (two-sided).
-    pub chi2: f64,
-    /// Its p-value.
-    pub chi2_p: f64,
-}
-
-/// `summary.json` / `--json`.
-#[derive(Debug, Clone, Serialize)]
-pub struct EvalSummary {
-    /// Seed.
-    pub seed: u64,
-    /// Training presentations (with at least one kept grasp).
-    pub train: Vec<String>,
-    /// Test presentations.
-    pub test: Vec<String>,
-    /// Candidates per object and method.
-    pub candidates: usize,
-    /// Demonstrations kept / attempted (when recorded here).
-    pub demos_kept: Option<(usize, usize)>,
-    /// The model.
-    pub model: super::ModelSummary,
-    /// Per object.
-    pub objects: Vec<ObjectResult>,
-    /// Model successes / attempts.
-    pub model_total: (usize, usize),
-    /// Naive successes / attempts.
-    pub naive_total: (usize, usize),
-    /// Test.
-    pub significance: Significance,
-    /// Wall-clock seconds of the whole run.
-    pub wall_time: f64,
-    /// Files written.
-    pub files: Vec<String>,
 }
 
 struct Prepared {
