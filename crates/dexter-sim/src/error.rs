@@ -44,6 +44,9 @@ pub enum SimError {
     /// The robot model is unusable for the simulator.
     #[error(transparent)]
     Model(#[from] control_basis::CbError),
+    /// A schema library, procedural model or executive error.
+    #[error(transparent)]
+    Schema(#[from] schema::SchemaError),
     /// The robot side failed (invalid binding, hardware error).
     #[error(transparent)]
     Robot(Box<dexter::RobotError>),
@@ -57,5 +60,11 @@ pub fn from_robot(e: dexter::RobotError) -> SimError {
     match e {
         dexter::RobotError::Model(m) => SimError::Model(m),
         other => SimError::Robot(Box::new(other)),
+    }
+}
+
+impl From<dexter::RobotError> for SimError {
+    fn from(e: dexter::RobotError) -> Self {
+        from_robot(e)
     }
 }

@@ -25,6 +25,8 @@
 
 pub mod convert;
 pub mod error;
+pub mod execute;
+pub mod experiment;
 pub mod geometry;
 pub mod grasp_trial;
 pub mod hardware;

@@ -1,0 +1,527 @@
+//! The robot executing a task in a scene, evaluated: the robot side ([`dexter`]) looks over the
+//! table, decides per seen segment (a learned procedural model's relevance and place, or a
+//! demonstration's place) and runs Pick-And-Place with ψ on [`SimRobot`]; this module matches
+//! segments to objects by the truth at the start and judges each outcome by the truth at the end —
+//! the only truth it reads. `pbd execute` and `pbd experiment execute` are built on
+//! [`execute_scene`].
+
+use std::cell::RefCell;
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::rc::Rc;
+
+use control_basis::Hardware;
+use control_basis::math::Vec3;
+use dexter::exec::{ExecSink, PickPlacePolicy, RobotPlant};
+use dexter::eyes::Eyes;
+use schema::procedural::{Features, ProceduralModel};
+use schema::{ExecReport, Library, Percept};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{SimError, from_robot};
+use crate::hardware::{SimRobot, parked_sim, workspace};
+use crate::physics::{DexterSim, SimSettings};
+use crate::scene::Scene;
+use crate::snapshot::ObjectState;
+
+/// Receives what happens during an execution (logs, progress). Every method has a default that
+/// ignores it.
+pub trait RunLog {
+    /// After every control period: the world (for snapshots), with the robot's current activity.
+    fn world(&mut self, _sim: &DexterSim, _activity: &str) {}
+    /// The robot's activity changed (or a new object is started), at time `t`.
+    fn activity(&mut self, _t: f64, _activity: &str) {}
+    /// A percept, with the truth beside it (object names and positions, for `/pbd/truth`).
+    fn percept(&mut self, _t: f64, _percept: &Percept, _truth: &[(String, [f64; 3])]) {}
+    /// The outcome of one object.
+    fn outcome(&mut self, _t: f64, _object: &str, _success: bool) {}
+}
+
+/// A [`RunLog`] that ignores everything.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct NoLog;
+
+impl RunLog for NoLog {}
+
+/// What happened to one object.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ObjectReport {
+    /// Scene label of the object the segment was (the evaluator's matching, by the truth at the
+    /// start; `-` for a segment that matches no object).
+    pub object: String,
+    /// The robot's segment (track id) the decision was made on; `None` for an object it never saw.
+    pub segment: Option<u32>,
+    /// `execute`, `ignore` (not relevant) or `skip` (unreachable).
+    pub decision: String,
+    /// Why (posterior, Bayes factor, reachability).
+    pub reason: String,
+    /// The place chosen.
+    pub place: Option<String>,
+    /// Posterior over places (from a model).
+    pub posterior: BTreeMap<String, f64>,
+    /// log Bayes factor of relevance (from a model).
+    pub log_bayes_factor: Option<f64>,
+    /// Arms used, in order.
+    pub arms: Vec<String>,
+    /// A hand-to-hand transfer was used.
+    pub transfer: bool,
+    /// Contingencies taken.
+    pub contingencies: Vec<String>,
+    /// The executive's report.
+    pub execution: Option<ExecReport>,
+    /// Where the object ended, and whether it is inside the chosen place.
+    pub final_position: [f64; 3],
+    /// Object at rest inside the chosen place.
+    pub success: bool,
+    /// Why it failed, by phase (`perception`, `decision`, `reach`, `grasp`, `hold`, `place`,
+    /// `release`, `outcome`), when it did.
+    pub failure: Option<String>,
+}
+
+impl ObjectReport {
+    /// A report for an object the robot did not execute (`ignore`, `skip`, `unseen`).
+    #[allow(clippy::too_many_arguments)]
+    fn not_executed(
+        object: String,
+        segment: Option<u32>,
+        decision: &str,
+        reason: String,
+        place: Option<String>,
+        posterior: BTreeMap<String, f64>,
+        log_bayes_factor: Option<f64>,
+        final_position: [f64; 3],
+        failure: Option<String>,
+    ) -> Self {
+        ObjectReport {
+            object,
+            segment,
+            decision: decision.into(),
+            reason,
+            place,
+            posterior,
+            log_bayes_factor,
+            arms: vec![],
+            transfer: false,
+            contingencies: vec![],
+            execution: None,
+            final_position,
+            success: false,
+            failure,
+        }
+    }
+}
+
+/// The whole report.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ExecuteReport {
+    /// The scene.
+    pub scene: String,
+    /// The schema executed.
+    pub schema: String,
+    /// Per object.
+    pub objects: Vec<ObjectReport>,
+    /// Relevant objects placed in their chosen place.
+    pub placed: usize,
+    /// Objects decided relevant.
+    pub relevant: usize,
+    /// Simulated and wall time (s).
+    pub sim_time: f64,
+    /// Wall time (s).
+    pub wall_time: f64,
+    /// The MCAP log.
+    pub mcap: Option<String>,
+}
+
+/// What the hook and the robot's sink share during a run.
+struct Shared<'l> {
+    log: &'l mut dyn RunLog,
+    names: Vec<String>,
+    last_activity: String,
+    objects: Vec<ObjectState>,
+}
+
+impl Shared<'_> {
+    fn world(&mut self, sim: &DexterSim) {
+        self.objects.clear();
+        self.objects
+            .extend((0..sim.objects().len()).map(|i| sim.object_state(i)));
+        let Shared { log, last_activity, .. } = self;
+        log.world(sim, last_activity);
+    }
+}
+
+/// The robot side's sink: activity changes and percepts (with the truth beside them).
+struct RobotSink<'l>(Rc<RefCell<Shared<'l>>>);
+
+impl ExecSink for RobotSink<'_> {
+    fn tick(&mut self, hw: &dyn Hardware, activity: &str) {
+        let mut l = self.0.borrow_mut();
+        if !activity.is_empty() && activity != l.last_activity {
+            l.last_activity = activity.to_string();
+            l.log.activity(hw.time_secs(), activity);
+        }
+    }
+
+    fn percept(&mut self, hw: &dyn Hardware, _eyes: &Eyes, p: &Percept) {
+        let mut l = self.0.borrow_mut();
+        let truth: Vec<(String, [f64; 3])> = l
+            .names
+            .iter()
+            .zip(&l.objects)
+            .map(|(n, o)| {
+                let v = o.pose.translation.vector;
+                (n.clone(), [v.x, v.y, v.z])
+            })
+            .collect();
+        l.log.percept(hw.time_secs(), p, &truth);
+    }
+}
+
+/// What to do with one seen segment: a place or a reason to leave it.
+#[derive(Debug, Clone)]
+pub struct Decision {
+    /// The robot's segment (track id).
+    pub segment: u32,
+    /// Where it was seen (m, world).
+    pub at: [f64; 3],
+    /// `Ok(place)` to execute, `Err(reason)` to ignore.
+    pub place: std::result::Result<String, String>,
+    /// Posterior over places.
+    pub posterior: BTreeMap<String, f64>,
+    /// log B10.
+    pub log_bayes_factor: Option<f64>,
+    /// Why.
+    pub reason: String,
+}
+
+/// How the robot decides per segment.
+#[derive(Debug, Clone)]
+pub enum Decider<'a> {
+    /// Every segment goes to this place (a demonstration's place).
+    Place(String),
+    /// A learned procedural model.
+    Model(&'a std::path::Path),
+}
+
+/// `pbd execute --model`: relevance and place for every segment the robot sees (the procedural
+/// model's decision on the robot's own percepts).
+pub fn decide(
+    path: &Path,
+    places: &[String],
+    segments: &[schema::SegmentPercept],
+) -> Result<(String, Vec<Decision>), SimError> {
+    let model = ProceduralModel::load(path)?;
+    let mut out = Vec::new();
+    for seg in segments {
+        let f = Features::from(seg);
+        let p = model.predict(&f)?;
+        let posterior: BTreeMap<String, f64> = p.places.iter().cloned().collect();
+        let lb = p.relevance.bayes_factor.log_b10;
+        let place = if p.relevance.relevant {
+            if !places.contains(&p.map_place) {
+                Err(format!("its place `{}` is not in this scene", p.map_place))
+            } else {
+                Ok(p.map_place.clone())
+            }
+        } else {
+            Err(format!(
+                "not part of the task (ln B10 = {lb:.1} ≤ {:.1})",
+                p.relevance.log_threshold
+            ))
+        };
+        out.push(Decision {
+            segment: seg.id,
+            at: seg.centroid,
+            reason: format!(
+                "MAP place {} (p = {:.3}), ln B10 = {lb:.1}",
+                p.map_place, p.map_probability
+            ),
+            place,
+            posterior,
+            log_bayes_factor: Some(lb),
+        });
+    }
+    Ok(("pick_and_place".into(), out))
+}
+
+/// Gaze points (x, y) that cover the table in front of the robot.
+fn scan_points(ws: &dexter::exec::Workspace) -> Vec<Vec3> {
+    let mut out = Vec::new();
+    let (cx, cy) = (ws.table_center[0], ws.table_center[1]);
+    let hy = (ws.table_size[1] / 2.0 - 0.1).max(0.0);
+    for x in [cx - 0.08, cx + 0.1] {
+        for k in 0..4 {
+            let y = cy - hy + 2.0 * hy * f64::from(k) / 3.0;
+            out.push(Vec3::new(x, y, ws.table_z + 0.03));
+        }
+    }
+    out
+}
+
+/// Executes the task in `scene` as the robot: look over the table, decide per seen segment, run
+/// the schema with ψ on each relevant one; the evaluator matches segments to objects by the truth at
+/// the start and judges each outcome by the truth at the end. `only`: restrict to the segment
+/// nearest this scene object (a user pointing at it).
+#[allow(clippy::too_many_arguments)]
+pub fn execute_scene(
+    scene: &Scene,
+    scene_name: &str,
+    library: &Library,
+    decider: &Decider<'_>,
+    seed: u64,
+    only: Option<&str>,
+    log: &mut dyn RunLog,
+) -> Result<ExecuteReport, SimError> {
+    let schema_name = "pick_and_place".to_string();
+    let schema = library.schema(&schema_name)?.clone();
+    let mut sim = parked_sim(
+        scene,
+        SimSettings {
+            seed,
+            ..SimSettings::default()
+        },
+    )?;
+    let table_z = scene.spec.table.height;
+    let truth0: Vec<ObjectState> = (0..sim.objects().len()).map(|i| sim.object_state(i)).collect();
+    let names = sim.header().object_names.clone();
+    let labels: Vec<String> = scene.resolved.iter().map(|r| r.label.clone()).collect();
+    let logger = Rc::new(RefCell::new(Shared {
+        log,
+        names,
+        last_activity: String::new(),
+        objects: truth0.clone(),
+    }));
+    let wall = std::time::Instant::now();
+    let t_start = sim.time();
+    let ws = workspace(scene);
+    let hook_logger = logger.clone();
+    let mut hw = SimRobot::new(&mut sim, scene, seed)?
+        .with_hook(Box::new(move |s: &DexterSim| hook_logger.borrow_mut().world(s)));
+    let mut sink = RobotSink(logger.clone());
+    let mut reports = Vec::new();
+    {
+        let mut plant = RobotPlant::new(&mut hw, &ws, library, &mut sink).map_err(from_robot)?;
+        // Look over the table: the tracker gathers what is there.
+        for at in scan_points(&ws) {
+            plant.look(&at, 0.6).map_err(from_robot)?;
+        }
+        let seen: Vec<schema::SegmentPercept> = plant
+            .last_percept()
+            .map(|p| {
+                p.segments
+                    .iter()
+                    .filter(|s| !ws.places.iter().any(|pl| pl.contains([s.centroid[0], s.centroid[1]])))
+                    .cloned()
+                    .collect()
+            })
+            .unwrap_or_default();
+        // The evaluator: which object each segment is (nearest at the start, within 8 cm).
+        let match_object = |c: &[f64; 3]| -> Option<usize> {
+            truth0
+                .iter()
+                .enumerate()
+                .map(|(i, o)| ((o.pose.translation.vector - Vec3::from(*c)).xy().norm(), i))
+                .filter(|(d, _)| *d < 0.08)
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .map(|(_, i)| i)
+        };
+        let mut seen = seen;
+        if let Some(label) = only {
+            let i = scene.object_index(label)?;
+            seen.retain(|s| match_object(&s.centroid) == Some(i));
+            seen.truncate(1);
+        }
+        let place_names: Vec<String> = ws.places.iter().map(|p| p.name.clone()).collect();
+        let decisions = match decider {
+            Decider::Place(p) => seen
+                .iter()
+                .map(|s| Decision {
+                    segment: s.id,
+                    at: s.centroid,
+                    place: Ok(p.clone()),
+                    posterior: BTreeMap::new(),
+                    log_bayes_factor: None,
+                    reason: format!("the demonstration placed its object in {p}"),
+                })
+                .collect(),
+            Decider::Model(path) => decide(path, &place_names, &seen)?.1,
+        };
+        let mut matched = vec![false; truth0.len()];
+        for d in decisions {
+            let obj = match_object(&d.at);
+            if let Some(i) = obj {
+                matched[i] = true;
+            }
+            let label = obj.map(|i| labels[i].clone()).unwrap_or_else(|| "-".into());
+            let final_of = |l: &Rc<RefCell<Shared<'_>>>| {
+                obj.map(|i| {
+                    let v = l.borrow().objects[i].pose.translation.vector;
+                    [v.x, v.y, v.z]
+                })
+                .unwrap_or(d.at)
+            };
+            let place = match d.place {
+                Err(why) => {
+                    reports.push(ObjectReport::not_executed(
+                        label,
+                        Some(d.segment),
+                        "ignore",
+                        why,
+                        None,
+                        d.posterior,
+                        d.log_bayes_factor,
+                        final_of(&logger),
+                        None,
+                    ));
+                    continue;
+                }
+                Ok(p) => p,
+            };
+            {
+                let mut l = logger.borrow_mut();
+                let t = plant.hw.time_secs();
+                l.log.activity(t, &format!("{label} (segment {}) → {place}", d.segment));
+            }
+            // Look where it was decided on, then find it: its track, or (the tracker may have re-identified it while
+            // the head looked elsewhere) the seen segment nearest where it was decided on.
+            plant.look(&Vec3::from(d.at), 0.6).map_err(from_robot)?;
+            let now = plant.last_percept().and_then(|p| {
+                p.segments.iter().find(|s| s.id == d.segment).or_else(|| {
+                    p.segments
+                        .iter()
+                        .map(|s| ((Vec3::from(s.centroid) - Vec3::from(d.at)).xy().norm(), s))
+                        .filter(|(dist, _)| *dist < 0.08)
+                        .min_by(|a, b| a.0.total_cmp(&b.0))
+                        .map(|(_, s)| s)
+                })
+            });
+            let (segment_now, at) = now
+                .map(|s| (s.id, Vec3::from(s.centroid)))
+                .unwrap_or((d.segment, Vec3::from(d.at)));
+            plant.plan_handoff(&at).map_err(from_robot)?;
+            let handoff = plant.handoff();
+            let policy = PickPlacePolicy::decide(&*plant.hw, &ws, &segment_now.to_string(), &at, &place, handoff)?;
+            let Some(mut policy) = policy else {
+                reports.push(ObjectReport::not_executed(
+                    label,
+                    Some(d.segment),
+                    "skip",
+                    format!("no arm reaches segment {}, or none reaches `{place}`", d.segment),
+                    Some(place),
+                    d.posterior,
+                    d.log_bayes_factor,
+                    final_of(&logger),
+                    Some("reach: out of both arms' workspace".into()),
+                ));
+                continue;
+            };
+            let transfer = policy.is_transfer();
+            plant.bind_arms(&[policy.pick_arm, policy.place_arm]);
+            let arms_before = plant.arms_used.len();
+            let exec = schema::execute(library, &schema, &mut plant, &mut policy, 20)?;
+            let arms: Vec<String> = plant.arms_used[arms_before..]
+                .iter()
+                .map(|a| a.prefix().to_string())
+                .collect();
+            // Let the object come to rest, then judge by the truth.
+            plant.settle(0.5).map_err(from_robot)?;
+            let (success, final_position) = match obj {
+                Some(i) => {
+                    let o = logger.borrow().objects[i];
+                    let p = o.pose.translation.vector;
+                    let spec = scene.place(&place)?;
+                    (
+                        spec.contains([p.x, p.y]) && o.linvel.norm() < 0.02 && p.z < table_z + spec.wall_height + 0.2,
+                        [p.x, p.y, p.z],
+                    )
+                }
+                None => (false, d.at),
+            };
+            let failure = (!success).then(|| failure_cause(&exec, obj.is_some()));
+            {
+                let t = plant.hw.time_secs();
+                logger.borrow_mut().log.outcome(t, &label, success);
+            }
+            reports.push(ObjectReport {
+                object: label,
+                segment: Some(d.segment),
+                decision: "execute".into(),
+                reason: d.reason,
+                place: Some(place),
+                posterior: d.posterior,
+                log_bayes_factor: d.log_bayes_factor,
+                arms,
+                transfer,
+                contingencies: exec.contingencies.clone(),
+                execution: Some(exec),
+                final_position,
+                success,
+                failure,
+            });
+        }
+        if only.is_none() {
+            // Objects the robot never saw (the evaluator's view).
+            for (i, m) in matched.iter().enumerate() {
+                if !m {
+                    let v = truth0[i].pose.translation.vector;
+                    reports.push(ObjectReport::not_executed(
+                        labels[i].clone(),
+                        None,
+                        "unseen",
+                        "no tracked segment matched it".into(),
+                        None,
+                        BTreeMap::new(),
+                        None,
+                        [v.x, v.y, v.z],
+                        Some("perception: not seen".into()),
+                    ));
+                }
+            }
+        }
+    }
+    let sim_time = hw.sim().time() - t_start;
+    drop(hw);
+    drop(sink);
+    let relevant = reports
+        .iter()
+        .filter(|r| r.decision == "execute" || r.decision == "skip")
+        .count();
+    let placed = reports.iter().filter(|r| r.success).count();
+    Ok(ExecuteReport {
+        scene: scene_name.to_string(),
+        schema: schema_name,
+        objects: reports,
+        placed,
+        relevant,
+        sim_time,
+        wall_time: wall.elapsed().as_secs_f64(),
+        mcap: None,
+    })
+}
+
+/// The phase an unsuccessful execution failed in: the first failed action of the executive, else
+/// the outcome.
+fn failure_cause(exec: &ExecReport, matched: bool) -> String {
+    if !matched {
+        return "perception: the segment matches no object".into();
+    }
+    let phase = |a: &str| {
+        match a {
+            "reach_object" => "reach",
+            "grasp" => "grasp",
+            "hold" => "hold",
+            "place" => "place",
+            "release" => "release",
+            other => other,
+        }
+        .to_string()
+    };
+    match exec.steps.iter().rev().find_map(|s| match &s.outcome {
+        schema::ActionOutcome::Failed(why) => Some((phase(&s.action), why.clone())),
+        _ => None,
+    }) {
+        Some((p, why)) => format!("{p}: {why}"),
+        None if !exec.reached_goal => "executive: no goal state reached".into(),
+        None => "outcome: not at rest inside the place".into(),
+    }
+}
