@@ -619,13 +619,12 @@ impl SchemaPlant for RobotPlant<'_> {
                 })?;
                 if transfer {
                     // The object rests on the handoff spot: the next reach sees it there.
-                    if let Some((id, seen)) = self.target.as_mut() {
+                    if let Some((_, seen)) = self.target.as_mut() {
                         let dx = target[0] - seen.extent.center[0];
                         let dy = target[1] - seen.extent.center[1];
                         seen.centroid.x += dx;
                         seen.centroid.y += dy;
                         seen.extent.center = target;
-                        let _ = id;
                     }
                     self.held = None;
                 }
