@@ -345,7 +345,6 @@ pub(crate) fn sample_categorical<R: Rng + ?Sized>(rng: &mut R, probs: &[f64]) ->
 mod tests {
     use super::*;
     use rand::SeedableRng;
-    use rand::rngs::StdRng;
 
     #[test]
     fn bad_input_is_an_error() {
@@ -380,7 +379,7 @@ mod tests {
 
     #[test]
     fn posterior_samples_have_the_posterior_mean_even_for_tiny_gamma() {
-        let mut rng = StdRng::seed_from_u64(5);
+        let mut rng = crate::rng::seeded(5);
         for gamma in [1e-7, 0.5, 30.0] {
             let d = SymmetricDirichlet::new(3, gamma).unwrap();
             let c = CategoryCounts::from_counts(vec![2, 0, 5]).unwrap();
@@ -405,7 +404,7 @@ mod tests {
         let d = SymmetricDirichlet::new(3, 1.0).unwrap();
         let c = CategoryCounts::from_counts(vec![6, 1, 0]).unwrap();
         let draw = |seed| {
-            let mut rng = StdRng::seed_from_u64(seed);
+            let mut rng = crate::rng::seeded(seed);
             (0..30_000)
                 .map(|_| d.sample_predictive(&mut rng, &c).unwrap())
                 .collect::<Vec<_>>()
@@ -417,7 +416,7 @@ mod tests {
             let f = xs.iter().filter(|&&x| x == k).count() as f64 / xs.len() as f64;
             assert!((f - w).abs() < 0.01);
         }
-        let mut rng = StdRng::seed_from_u64(1);
+        let mut rng = crate::rng::seeded(1);
         let seq = d.sample_predictive_sequence(&mut rng, &c, 50).unwrap();
         assert_eq!(seq.len(), 50);
         assert!(seq.iter().all(|&k| k < 3));

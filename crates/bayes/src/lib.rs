@@ -33,6 +33,7 @@ pub mod dirichlet;
 pub mod error;
 pub mod hmm;
 pub mod multivariate;
+pub mod rng;
 pub mod special;
 pub mod univariate;
 

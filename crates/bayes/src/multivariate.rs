@@ -249,7 +249,6 @@ pub fn sample_inv_wishart<R: Rng + ?Sized>(rng: &mut R, df: f64, scale_chol: &Ch
 mod tests {
     use super::*;
     use rand::SeedableRng;
-    use rand::rngs::StdRng;
 
     #[test]
     fn bad_matrices_are_errors() {
@@ -279,7 +278,7 @@ mod tests {
         let psi = DMatrix::from_row_slice(2, 2, &[2.0, 0.3, 0.3, 1.0]);
         let chol = cholesky("psi", &psi).unwrap();
         let df = 9.5;
-        let mut rng = StdRng::seed_from_u64(7);
+        let mut rng = crate::rng::seeded(7);
         let n = 40_000;
         let mut mean = DMatrix::zeros(2, 2);
         for _ in 0..n {
@@ -296,7 +295,7 @@ mod tests {
         let chol = cholesky("cov", &cov).unwrap();
         let mean = DVector::from_vec(vec![1.0, -2.0]);
         let draw = |seed| {
-            let mut rng = StdRng::seed_from_u64(seed);
+            let mut rng = crate::rng::seeded(seed);
             (0..20_000)
                 .map(|_| sample_mvn(&mut rng, &mean, &chol).unwrap())
                 .collect::<Vec<_>>()

@@ -390,7 +390,6 @@ impl NormalInverseGamma {
 mod tests {
     use super::*;
     use rand::SeedableRng;
-    use rand::rngs::StdRng;
 
     #[test]
     fn invalid_parameters_are_errors() {
@@ -427,7 +426,7 @@ mod tests {
     fn predictive_samples_match_student_t_moments() {
         let post = NormalInverseGamma::new(2.0, 3.0, 6.0, 4.0).unwrap();
         let t = post.predictive();
-        let mut rng = StdRng::seed_from_u64(11);
+        let mut rng = crate::rng::seeded(11);
         let n = 100_000;
         let xs: Vec<f64> = (0..n).map(|_| post.sample_predictive(&mut rng)).collect();
         let ys: Vec<f64> = (0..n).map(|_| t.sample(&mut rng)).collect();

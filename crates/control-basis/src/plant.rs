@@ -80,7 +80,7 @@ pub struct KinematicPlant {
     setpoint: Vec<f64>,
     time: f64,
     encoder_noise: f64,
-    rng: SplitMix64,
+    rng: bayes::rng::Generator,
     noisy: Vec<f64>,
 }
 
@@ -98,7 +98,7 @@ impl KinematicPlant {
             limits,
             time: 0.0,
             encoder_noise: 0.0,
-            rng: SplitMix64(0),
+            rng: bayes::rng::seeded(0),
         })
     }
 
@@ -112,7 +112,7 @@ impl KinematicPlant {
             });
         }
         self.encoder_noise = sigma;
-        self.rng = SplitMix64(seed);
+        self.rng = bayes::rng::seeded(seed);
         Ok(self)
     }
 
@@ -157,7 +157,7 @@ impl Plant for KinematicPlant {
         for (n, q) in self.noisy.iter_mut().zip(&self.q) {
             *n = *q
                 + if self.encoder_noise > 0.0 {
-                    self.encoder_noise * self.rng.normal()
+                    self.encoder_noise * bayes::rng::Draw::normal(&mut self.rng)
                 } else {
                     0.0
                 };
@@ -170,23 +170,3 @@ impl Plant for KinematicPlant {
     }
 }
 
-/// SplitMix64 with Box–Muller: a tiny deterministic generator so the plant needs no RNG dependency.
-#[derive(Debug, Clone)]
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self) -> f64 {
-        ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-    fn normal(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform(), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
-}

@@ -10,8 +10,7 @@ use control_basis::{
     Potential, QpComposer, QpSettings, QpStatus, Reference, RobotModel, Sensor, StackSettings, forward_kinematics,
 };
 use nalgebra::{DVector, Vector3};
-use rand::rngs::StdRng;
-use rand::{RngExt, SeedableRng};
+use rand::RngExt;
 
 /// A Barrett WAM 7-DOF written from the published kinematics (joint origins as in the jhu-lcsr
 /// `barrett_model` URDF, which equal the standard DH table a = [0, 0, 0.045, −0.045, 0, 0, 0],
@@ -140,7 +139,7 @@ fn pose_at(chain: &Chain, q: &[f64]) -> nalgebra::Isometry3<f64> {
     s.link_poses()[tip(chain)]
 }
 
-fn uniform_q(chain: &Chain, rng: &mut StdRng, margin_fraction: f64) -> Vec<f64> {
+fn uniform_q(chain: &Chain, rng: &mut bayes::rng::Generator, margin_fraction: f64) -> Vec<f64> {
     chain
         .dofs()
         .iter()
@@ -191,7 +190,7 @@ fn qp_composition_respects_joint_limits_in_every_step_of_1000_random_runs() {
     let ticks = if cfg!(debug_assertions) { 5 } else { 200 };
     let chain = wam();
     let n = chain.dof();
-    let mut rng = StdRng::seed_from_u64(2011);
+    let mut rng = bayes::rng::seeded(2011);
     let mut state = chain.new_state();
     let mut stack = reach_with_manipulability(&chain, false);
     let mut qp = QpComposer::new(&chain, QpSettings::default()).unwrap();
@@ -313,7 +312,7 @@ fn qp_composition_respects_joint_limits_in_every_step_of_1000_random_runs() {
 fn qp_agrees_with_the_pseudoinverse_law_when_no_limit_is_active() {
     let chain = wam();
     let n = chain.dof();
-    let mut rng = StdRng::seed_from_u64(7);
+    let mut rng = bayes::rng::seeded(7);
     let mut state = chain.new_state();
     let mut stack = reach_with_manipulability(&chain, true);
     let forced = QpSettings {

@@ -17,7 +17,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::SimError;
 use crate::execute::{Decider, ExecuteReport, NoLog, execute_scene};
-use crate::rng::SplitMix64;
+use bayes::rng::{Draw, Generator};
+use rand::Rng as _;
 use crate::scene::{ObjectPlacement, Scene};
 
 /// What to run.
@@ -110,7 +111,7 @@ pub fn wilson(k: usize, n: usize) -> (f64, f64) {
 
 /// Draws `k` presentations of `base`'s catalog at random poses on its table, clear of the places
 /// (8 cm) and of each other (14 cm between centres).
-pub fn random_scene(base: &Scene, k: usize, rng: &mut SplitMix64) -> Result<Scene, SimError> {
+pub fn random_scene(base: &Scene, k: usize, rng: &mut Generator) -> Result<Scene, SimError> {
     let names: Vec<String> = base
         .catalog
         .presentation_names()
@@ -131,8 +132,8 @@ pub fn random_scene(base: &Scene, k: usize, rng: &mut SplitMix64) -> Result<Scen
         let mut tries = 0;
         while objects.len() < k && tries < 500 {
             tries += 1;
-            let x = t.center[0] - t.size[0] / 2.0 + 0.12 + rng.next_f64() * (t.size[0] - 0.24);
-            let y = t.center[1] - 0.4 + rng.next_f64() * 0.8;
+            let x = t.center[0] - t.size[0] / 2.0 + 0.12 + rng.uniform() * (t.size[0] - 0.24);
+            let y = t.center[1] - 0.4 + rng.uniform() * 0.8;
             let clear_of_places = base.spec.places.iter().all(|p| {
                 (x - p.center[0]).abs() > p.size[0] / 2.0 + p.wall_thickness + 0.08
                     || (y - p.center[1]).abs() > p.size[1] / 2.0 + p.wall_thickness + 0.08
@@ -145,7 +146,7 @@ pub fn random_scene(base: &Scene, k: usize, rng: &mut SplitMix64) -> Result<Scen
             objects.push(ObjectPlacement {
                 presentation: name.clone(),
                 xy: [x, y],
-                yaw_deg: 360.0 * rng.next_f64(),
+                yaw_deg: 360.0 * rng.uniform(),
                 z: None,
             });
         }
@@ -170,8 +171,8 @@ pub fn run_scene(
     config: &ExperimentConfig,
     i: usize,
 ) -> Result<(Scene, ExecuteReport), SimError> {
-    let scene = random_scene(base, config.objects, &mut SplitMix64::stream(config.seed, i as u64))?;
-    let seed = SplitMix64::stream(config.seed ^ 0x5EED_0F5C_E4E5, i as u64).next_u64();
+    let scene = random_scene(base, config.objects, &mut bayes::rng::stream(config.seed, i as u64))?;
+    let seed = bayes::rng::stream(config.seed ^ 0x5EED_0F5C_E4E5, i as u64).next_u64();
     let report = execute_scene(
         &scene,
         &format!("{base_name}#{i}"),
@@ -274,8 +275,8 @@ mod tests {
     #[test]
     fn random_scenes_are_seeded_and_clear_of_each_other() {
         let base = Scene::builtin("sorting-demo").unwrap();
-        let a = random_scene(&base, 3, &mut SplitMix64::stream(1, 0)).unwrap();
-        let b = random_scene(&base, 3, &mut SplitMix64::stream(1, 0)).unwrap();
+        let a = random_scene(&base, 3, &mut bayes::rng::stream(1, 0)).unwrap();
+        let b = random_scene(&base, 3, &mut bayes::rng::stream(1, 0)).unwrap();
         assert_eq!(a.spec.objects, b.spec.objects);
         for (i, p) in a.spec.objects.iter().enumerate() {
             for q in &a.spec.objects[..i] {

@@ -384,7 +384,7 @@ pub struct GraspTeacher {
     arc: Vec<(f64, f64, f64)>,
     shoulder: Vec3,
     park: Iso3,
-    rng: crate::rng::SplitMix64,
+    rng: bayes::rng::Generator,
 }
 
 impl GraspTeacher {
@@ -399,7 +399,7 @@ impl GraspTeacher {
                 .translation
                 .vector,
             park: dexter::skills::park_pose(arm, table_z),
-            rng: crate::rng::SplitMix64::new(seed ^ 0x7EAC_4E55),
+            rng: bayes::rng::seeded(seed ^ 0x7EAC_4E55),
         })
     }
 
@@ -433,7 +433,7 @@ impl GraspTeacher {
         let mut noise = [0.0; 4];
         if !exact {
             for n in noise.iter_mut() {
-                *n = self.rng.normal();
+                *n = bayes::rng::Draw::normal(&mut self.rng);
             }
         }
         let (dx, dy, dz, dyaw) = (

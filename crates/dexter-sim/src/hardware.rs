@@ -17,7 +17,7 @@ use control_basis::{CbError, Plant, RobotModel};
 use crate::convert::iso_from_glam;
 use crate::error::SimError;
 use crate::physics::DexterSim;
-use crate::rng::SplitMix64;
+use rand::Rng as _;
 use crate::scene::Scene;
 use crate::snapshot::{Arm, FingertipWrench};
 use crate::vision::camera::SpecCamera;
@@ -49,7 +49,7 @@ pub struct SimCameras {
 /// pair's seed (`seed` for the head, `seed ^ 0xC4A5_5150` for the chassis).
 fn camera_seed(seed: u64, camera: usize) -> u64 {
     let pair_seed = if camera < 2 { seed } else { seed ^ 0xC4A5_5150 };
-    SplitMix64::stream(pair_seed, (camera % 2) as u64).next_u64()
+    bayes::rng::stream(pair_seed, (camera % 2) as u64).next_u64()
 }
 
 impl SimCameras {

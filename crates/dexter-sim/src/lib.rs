@@ -32,7 +32,7 @@ pub mod grasp_trial;
 pub mod hardware;
 pub mod physics;
 pub mod pick_place;
-pub mod rng;
+
 pub mod scene;
 pub mod snapshot;
 pub mod teach;

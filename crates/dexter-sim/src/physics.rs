@@ -32,7 +32,7 @@ use rapier3d_f64::prelude::*;
 use crate::convert::{iso_from_glam, iso_to_glam, vec_from_glam, vec_to_glam};
 use crate::error::SimError;
 use crate::geometry;
-use crate::rng::SplitMix64;
+use bayes::rng::{Draw, Generator};
 use crate::scene::{ObjectSpec, Scene};
 use crate::snapshot::{Arm, FingertipWrench, ObjectState, Snapshot, SnapshotHeader};
 
@@ -227,7 +227,7 @@ pub struct DexterSim {
     /// Encoder readings, refreshed by [`DexterSim::step`].
     q: Vec<f64>,
     qd: Vec<f64>,
-    rng: SplitMix64,
+    rng: Generator,
     time: f64,
     steps: u64,
     header: SnapshotHeader,
@@ -289,7 +289,7 @@ impl DexterSim {
 
         let mut sim = DexterSim {
             world,
-            rng: SplitMix64::new(settings.seed),
+            rng: bayes::rng::seeded(settings.seed),
             settings,
             dofs: Vec::new(),
             mimics: Vec::new(),
@@ -701,9 +701,9 @@ impl DexterSim {
                 format!("{}#{}", placed.presentation, count)
             };
             let (jp, jy) = self.settings.placement_jitter;
-            let dx = jp * (2.0 * self.rng.next_f64() - 1.0);
-            let dy = jp * (2.0 * self.rng.next_f64() - 1.0);
-            let dyaw = jy * (2.0 * self.rng.next_f64() - 1.0);
+            let dx = jp * (2.0 * self.rng.uniform() - 1.0);
+            let dy = jp * (2.0 * self.rng.uniform() - 1.0);
+            let dyaw = jy * (2.0 * self.rng.uniform() - 1.0);
             let mut pose = placed.pose;
             pose.translation.vector += Vec3::new(dx, dy, 0.0);
             pose.rotation = Rot3::from_axis_angle(&Vec3::z_axis(), dyaw) * pose.rotation;

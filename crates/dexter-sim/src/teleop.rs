@@ -28,7 +28,7 @@ use crate::error::SimError;
 use crate::geometry;
 use crate::physics::DexterSim;
 use crate::pick_place::plan_top_grasp_shape as plan_top_grasp;
-use crate::rng::SplitMix64;
+use bayes::rng::{Draw, Generator};
 use crate::scene::Scene;
 use crate::snapshot::Arm;
 use control_basis::Hardware;
@@ -460,7 +460,7 @@ pub struct Teacher {
     current: Option<Move>,
     pose: Iso3,
     flex: f64,
-    rng: SplitMix64,
+    rng: Generator,
     tremor: [(f64, f64, f64); 3],
     glove_period: f64,
     next_sample: f64,
@@ -490,7 +490,7 @@ impl Teacher {
     /// A teacher that does `tasks` one after the other (a sorting demo), each with its own arm; the
     /// teacher parks one hand before using the other.
     pub fn with_tasks(sim: &DexterSim, scene: &Scene, tasks: &[TeachTask], seed: u64) -> Result<Teacher, SimError> {
-        let mut rng = SplitMix64::new(seed ^ 0x7e4c_11e5);
+        let mut rng = bayes::rng::seeded(seed ^ 0x7e4c_11e5);
         let table_z = scene.spec.table.height;
         let mut steps = Vec::new();
         let mut first_arm = None;
@@ -508,7 +508,7 @@ impl Teacher {
             }
             first_arm = first_arm.or(Some(arm));
             last_arm = Some(arm);
-            let hesitate = |rng: &mut SplitMix64| Step::Pause(0.2 + 0.6 * rng.next_f64());
+            let hesitate = |rng: &mut Generator| Step::Pause(0.2 + 0.6 * rng.uniform());
             match task {
                 TeachTask::PickPlace {
                     object, place, retry, ..
@@ -574,12 +574,12 @@ impl Teacher {
                     while t < *seconds {
                         // Free space well above anything on the table.
                         let target = Vec3::new(
-                            0.35 + 0.25 * rng.next_f64(),
-                            s * (0.05 + 0.35 * rng.next_f64()),
-                            table_z + 0.30 + 0.15 * rng.next_f64(),
+                            0.35 + 0.25 * rng.uniform(),
+                            s * (0.05 + 0.35 * rng.uniform()),
+                            table_z + 0.30 + 0.15 * rng.uniform(),
                         );
                         steps.push(Step::WanderTo { target });
-                        let pause = 0.3 + 0.8 * rng.next_f64();
+                        let pause = 0.3 + 0.8 * rng.uniform();
                         steps.push(Step::Pause(pause));
                         t += 1.8 + pause;
                     }
@@ -593,9 +593,9 @@ impl Teacher {
         let arm = first_arm.ok_or_else(|| SimError::Task("no task for the teacher".into()))?;
         let tremor = std::array::from_fn(|_| {
             (
-                8.0 + 4.0 * rng.next_f64(),
-                std::f64::consts::TAU * rng.next_f64(),
-                0.0015 * (0.5 + rng.next_f64()),
+                8.0 + 4.0 * rng.uniform(),
+                std::f64::consts::TAU * rng.uniform(),
+                0.0015 * (0.5 + rng.uniform()),
             )
         });
         let pose = park_pose(arm, table_z);
@@ -661,7 +661,7 @@ impl Teacher {
         let dist = (to.translation.vector - self.pose.translation.vector).norm();
         let ang = self.pose.rotation.angle_to(&to.rotation);
         // Humans take longer for longer moves (Fitts); a little variability.
-        let duration = (0.4 + dist / speed + ang / 1.5) * (0.9 + 0.2 * self.rng.next_f64());
+        let duration = (0.4 + dist / speed + ang / 1.5) * (0.9 + 0.2 * self.rng.uniform());
         self.current = Some(Move {
             start: t,
             duration: duration.max((flex_to - self.flex).abs() / 2.0),
@@ -822,7 +822,7 @@ impl Teacher {
             }
             Step::WanderTo { target } => {
                 let to = Iso3::from_parts(Translation3::from(target), here.rotation);
-                let flex = 0.3 + 0.3 * self.rng.next_f64();
+                let flex = 0.3 + 0.3 * self.rng.uniform();
                 self.begin(t, to, flex, 0.2);
             }
         }

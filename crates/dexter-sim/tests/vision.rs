@@ -4,7 +4,7 @@
 
 use control_basis::math::{Iso3, Vec3};
 use dexter_sim::geometry::bounding_radius;
-use dexter_sim::rng::SplitMix64;
+use bayes::rng::Draw;
 use dexter_sim::scene::{CameraSpec, LightSpec, Shape};
 use dexter_sim::vision::fixtures::*;
 use dexter_sim::vision::*;
@@ -87,11 +87,11 @@ fn single_object_trials(spec: &CameraSpec, config: StereoConfig, n: usize) -> Ve
     let mut scene = base.clone();
     let mut out = Vec::with_capacity(n);
     for k in 0..n {
-        let mut rng = SplitMix64::new(1000 + k as u64);
+        let mut rng = bayes::rng::seeded(1000 + k as u64);
         let (shape, colors) = random_object(&mut rng);
-        let x = 0.4 + 0.4 * rng.next_f64();
-        let y = -0.25 + 0.5 * rng.next_f64();
-        let pose = resting_pose(&shape, x, y, rng.next_f64() * std::f64::consts::PI);
+        let x = 0.4 + 0.4 * rng.uniform();
+        let y = -0.25 + 0.5 * rng.uniform();
+        let pose = resting_pose(&shape, x, y, rng.uniform() * std::f64::consts::PI);
         scene.items.truncate(base.items.len());
         scene.push(RenderItem::from_catalog(&shape, pose, &colors, ItemLabel::Object(0)));
         let blobs = sv.perceive(&cams, &scene).unwrap();

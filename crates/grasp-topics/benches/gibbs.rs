@@ -6,12 +6,10 @@
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use grasp_topics::synthetic::{SyntheticSpec, sample_dataset, well_separated_prototypes};
 use grasp_topics::{Dataset, DpState, GibbsState, Hyperparameters};
-use rand::SeedableRng;
-use rand::rngs::Xoshiro256PlusPlus;
 use std::hint::black_box;
 
 fn data(m: usize, n: usize) -> Dataset {
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
+    let mut rng = bayes::rng::seeded(1);
     let spec = SyntheticSpec {
         objects: m,
         grasps_per_object: n,
@@ -37,7 +35,7 @@ fn bench(c: &mut Criterion) {
     ] {
         let d = data(m, n);
         let hyper = Hyperparameters::from_data(&d);
-        let mut rng = Xoshiro256PlusPlus::seed_from_u64(2);
+        let mut rng = bayes::rng::seeded(2);
         let mut state = GibbsState::new(&d, &hyper, a).unwrap();
         state.initialise(&d, &mut rng);
         g.throughput(Throughput::Elements((m * n * a) as u64));
@@ -48,7 +46,7 @@ fn bench(c: &mut Criterion) {
     // The DP variant (algorithm 8, m = 3 auxiliaries) on the headline size.
     let d = data(100, 20);
     let hyper = Hyperparameters::from_data(&d);
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
+    let mut rng = bayes::rng::seeded(3);
     let mut dp = DpState::new(&d, &hyper, 1.0, 3).unwrap();
     dp.initialise(&d, &mut rng);
     g.throughput(Throughput::Elements(2000));

@@ -244,12 +244,10 @@ pub(crate) fn v3a(v: &Vector3<f64>) -> [f64; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::SeedableRng;
-    use rand::rngs::Xoshiro256PlusPlus;
 
     #[test]
     fn wishart_mean_is_dof_times_scale() {
-        let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
+        let mut rng = bayes::rng::seeded(3);
         let s = Matrix2::new(0.5, 0.1, 0.1, 0.2);
         let l = cholesky(&s).unwrap();
         let n = 20_000;

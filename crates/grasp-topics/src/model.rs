@@ -12,8 +12,6 @@
 use std::path::Path;
 
 use nalgebra::{Matrix2, Matrix3, UnitQuaternion, Vector3};
-use rand::SeedableRng;
-use rand::rngs::Xoshiro256PlusPlus;
 use rand::{Rng, RngExt};
 use serde::{Deserialize, Serialize};
 
@@ -159,13 +157,6 @@ pub struct Fit {
     pub diagnostics: Diagnostics,
 }
 
-fn chain_seed(seed: u64, chain: usize) -> u64 {
-    // SplitMix64 step, so neighbouring chains get unrelated streams.
-    let mut z = seed.wrapping_add(0x9e37_79b9_7f4a_7c15u64.wrapping_mul(chain as u64 + 1));
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
 
 /// Relabels by decreasing size (ties: first appearance), so labels are deterministic.
 fn canonical_labels(z: &[usize]) -> Vec<usize> {
@@ -223,8 +214,8 @@ fn run_chain(
     config: &Config,
     chain: usize,
 ) -> Result<(ChainTrace, Vec<usize>)> {
-    let seed = chain_seed(config.seed, chain);
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let seed = bayes::rng::split(config.seed, chain as u64);
+    let mut rng = bayes::rng::seeded(seed);
     let mut state = match &config.nonparametric {
         None => {
             let mut s = GibbsState::new(data, hyper, config.prototypes)?;
@@ -259,20 +250,17 @@ fn run_chain(
     Ok((trace, best))
 }
 
-/// Runs `config.chains` chains on `data` (in parallel threads; results do not depend on thread
-/// timing) and returns the kept sample with the highest log joint.
+/// Runs `config.chains` chains on `data` (in parallel on rayon's pool, chain `c` on stream `c` of the
+/// seed: results do not depend on thread timing nor on the number of threads) and returns the kept
+/// sample with the highest log joint.
 pub fn fit(data: &Dataset, hyper: &Hyperparameters, config: &Config) -> Result<Fit> {
     config.validate()?;
     hyper.validate()?;
-    let results: Vec<Result<(ChainTrace, Vec<usize>)>> = std::thread::scope(|s| {
-        let handles: Vec<_> = (0..config.chains)
-            .map(|c| s.spawn(move || run_chain(data, hyper, config, c)))
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|_| Err(invalid("sampler", "a chain panicked"))))
-            .collect()
-    });
+    use rayon::prelude::*;
+    let results: Vec<Result<(ChainTrace, Vec<usize>)>> = (0..config.chains)
+        .into_par_iter()
+        .map(|c| run_chain(data, hyper, config, c))
+        .collect();
     let mut chains = Vec::with_capacity(results.len());
     let mut best: Option<(f64, usize, Vec<usize>)> = None;
     for (c, r) in results.into_iter().enumerate() {

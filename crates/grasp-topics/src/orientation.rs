@@ -7,8 +7,6 @@
 //! 2·acos |⟨q₁, q₂⟩|, which treats q and −q as the same rotation.
 
 use nalgebra::{Quaternion, UnitQuaternion};
-use rand::SeedableRng;
-use rand::rngs::Xoshiro256PlusPlus;
 use rand::{Rng, RngExt};
 use serde::{Deserialize, Serialize};
 
@@ -98,7 +96,7 @@ impl CanonicalOrientations {
                 quaternions: distinct.iter().map(from_unit).collect(),
             });
         }
-        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x6f72_6965_6e74_6174);
+        let mut rng = bayes::rng::seeded(seed ^ 0x6f72_6965_6e74_6174);
         let mut best: Option<(f64, Vec<usize>)> = None;
         for _ in 0..8 {
             let (cost, medoids) = k_medoids(orientations, q, &mut rng);

@@ -5,8 +5,6 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use grasp_topics::synthetic::{SyntheticSpec, sample_dataset, well_separated_prototypes};
 use grasp_topics::{DpState, GibbsState, Hyperparameters};
-use rand::SeedableRng;
-use rand::rngs::Xoshiro256PlusPlus;
 
 struct Counting;
 static ALLOCS: AtomicUsize = AtomicUsize::new(0);
@@ -32,7 +30,7 @@ static GLOBAL: Counting = Counting;
 
 #[test]
 fn sweeps_do_not_allocate() {
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(4);
+    let mut rng = bayes::rng::seeded(4);
     let spec = SyntheticSpec {
         objects: 10,
         grasps_per_object: 8,

@@ -5,8 +5,6 @@ use grasp_topics::{
     naive_baseline,
 };
 use nalgebra::{Isometry3, Matrix2, UnitQuaternion, Vector3};
-use rand::SeedableRng;
-use rand::rngs::Xoshiro256PlusPlus;
 
 fn good() -> String {
     r#"{"format": "pbd-grasp-corpus", "version": 1, "objects": [
@@ -178,7 +176,7 @@ fn bad_config_model_and_generation_inputs() {
     assert!(e.contains("hyperparameters.alpha"), "{e}");
 
     let m = GraspModel::learn(&c, &cfg).unwrap();
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(0);
+    let mut rng = bayes::rng::seeded(0);
     let e = m.generate(&Matrix2::new(1.0, 0.0, 0.0, -1.0), 3, &mut rng).unwrap_err();
     assert!(matches!(e, GraspError::NotPositiveDefinite { .. }), "{e}");
 
@@ -203,7 +201,7 @@ fn bad_config_model_and_generation_inputs() {
 
 #[test]
 fn naive_baseline_is_on_the_hemisphere_facing_the_centroid() {
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
+    let mut rng = bayes::rng::seeded(3);
     let dims = Vector3::new(0.06, 0.1, 0.2);
     let g = naive_baseline(&dims, 200, &mut rng).unwrap();
     for p in &g {

@@ -11,8 +11,6 @@
 
 use grasp_topics::synthetic::{SyntheticSpec, posterior_prototypes, prior_prototypes, redraw_data, sample_dataset};
 use grasp_topics::{AppearancePrior, Dataset, GibbsState, Hyperparameters, PositionPredictive, PositionPrior};
-use rand::SeedableRng;
-use rand::rngs::Xoshiro256PlusPlus;
 
 const M: usize = 2;
 const N: usize = 3;
@@ -83,8 +81,8 @@ fn stats(z: &[usize], d: &Dataset) -> [f64; 9] {
 /// Runs both simulators; returns the z-score of every statistic.
 fn geweke(sampler: &Hyperparameters, draws: usize, seed: u64) -> Vec<f64> {
     let truth = hyper();
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-    let forward = |rng: &mut Xoshiro256PlusPlus| {
+    let mut rng = bayes::rng::seeded(seed);
+    let forward = |rng: &mut bayes::rng::Generator| {
         let spec = SyntheticSpec {
             objects: M,
             grasps_per_object: N,

@@ -6,8 +6,6 @@
 use grasp_topics::synthetic::{SyntheticSpec, sample_dataset, well_separated_prototypes};
 use grasp_topics::{CanonicalOrientations, Config, DpConfig, GraspModel, Hyperparameters, adjusted_rand_index, fit};
 use nalgebra::{UnitQuaternion, Vector3};
-use rand::SeedableRng;
-use rand::rngs::Xoshiro256PlusPlus;
 
 const A_TRUE: usize = 6;
 const Q: usize = 4;
@@ -53,7 +51,7 @@ fn config(seed: u64) -> Config {
 
 #[test]
 fn finite_model_recovers_known_prototypes_from_a_corpus() {
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
+    let mut rng = bayes::rng::seeded(11);
     let syn = sample_dataset(&spec(), &mut rng).unwrap();
     let corpus = syn.to_corpus(&canonical(), 0.05, &mut rng);
     let model = GraspModel::learn(&corpus, &config(5)).unwrap();
@@ -74,7 +72,7 @@ fn finite_model_recovers_known_prototypes_from_a_corpus() {
 
 #[test]
 fn over_provisioned_finite_model_still_recovers() {
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(12);
+    let mut rng = bayes::rng::seeded(12);
     let syn = sample_dataset(&spec(), &mut rng).unwrap();
     let hyper = Hyperparameters::from_data(&syn.data);
     let cfg = Config {
@@ -99,7 +97,7 @@ fn over_provisioned_finite_model_still_recovers() {
 
 #[test]
 fn dp_chains_with_different_seeds_agree_on_the_number_of_prototypes() {
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(13);
+    let mut rng = bayes::rng::seeded(13);
     let syn = sample_dataset(&spec(), &mut rng).unwrap();
     let hyper = Hyperparameters::from_data(&syn.data);
     let cfg = Config {
@@ -137,7 +135,7 @@ fn dp_chains_with_different_seeds_agree_on_the_number_of_prototypes() {
 
 #[test]
 fn same_seed_same_model_and_generation_round_trips() {
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(14);
+    let mut rng = bayes::rng::seeded(14);
     let syn = sample_dataset(
         &SyntheticSpec {
             objects: 8,
@@ -175,7 +173,7 @@ fn same_seed_same_model_and_generation_round_trips() {
     let b0 = corpus.objects[0].appearance();
     let pz = a.prototype_probabilities(&b0).unwrap();
     assert!((pz.iter().sum::<f64>() - 1.0).abs() < 1e-9);
-    let mut g = Xoshiro256PlusPlus::seed_from_u64(1);
+    let mut g = bayes::rng::seeded(1);
     let pre = a.generate(&b0, 6, &mut g).unwrap();
     assert_eq!(pre.len(), 6);
     for p in &pre {

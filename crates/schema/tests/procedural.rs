@@ -11,9 +11,8 @@
 use std::collections::BTreeMap;
 
 use proptest::prelude::*;
-use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
-use rand::{RngExt, SeedableRng};
+use rand::RngExt;
 use schema::SchemaError;
 use schema::procedural::{Connectivity, Example, Features, Hyper, MODEL_VERSION, ProceduralModel, StructureChoice};
 use serde::Deserialize;
@@ -45,13 +44,13 @@ fn pool(bank: &Bank, color: Option<&str>, size: Option<&str>) -> Vec<usize> {
         .collect()
 }
 
-fn view<'a>(bank: &'a Bank, rng: &mut StdRng, p: usize) -> &'a Features {
+fn view<'a>(bank: &'a Bank, rng: &mut bayes::rng::Generator, p: usize) -> &'a Features {
     let v = rng.random_range(0..bank.features[p].len());
     &bank.features[p][v]
 }
 
 /// n demonstrations per class and the remaining presentations as tests (class index, features).
-fn split(bank: &Bank, pools: &[Vec<usize>], n: usize, rng: &mut StdRng) -> (Vec<Example>, Vec<(usize, Features)>) {
+fn split(bank: &Bank, pools: &[Vec<usize>], n: usize, rng: &mut bayes::rng::Generator) -> (Vec<Example>, Vec<(usize, Features)>) {
     let mut train = Vec::new();
     let mut test = Vec::new();
     for (k, pool) in pools.iter().enumerate() {
@@ -95,7 +94,7 @@ fn color_pairs() -> Vec<(&'static str, &'static str)> {
 fn sorting_success(bank: &Bank, pools: &[Vec<usize>], n: usize, structure: &str, trials: u64, seed: u64) -> (f64, f64) {
     let mut rates = Vec::new();
     for t in 0..trials {
-        let mut rng = StdRng::seed_from_u64(seed + t);
+        let mut rng = bayes::rng::seeded(seed + t);
         let (train, test) = split(bank, pools, n, &mut rng);
         let m = ProceduralModel::learn(hyper(structure), &train).unwrap();
         let ok = test
@@ -137,7 +136,7 @@ fn relevance_auc(bank: &Bank, pools: &[Vec<usize>], n: usize, structure: &str, t
         .collect();
     let mut aucs = Vec::new();
     for t in 0..trials {
-        let mut rng = StdRng::seed_from_u64(seed + t);
+        let mut rng = bayes::rng::seeded(seed + t);
         let (train, test) = split(bank, pools, n, &mut rng);
         let m = ProceduralModel::learn(hyper(structure), &train).unwrap();
         let mut scores: Vec<(f64, bool)> = test
@@ -261,7 +260,7 @@ fn selection_rates(b: &Bank, only: &[&str]) -> BTreeMap<String, f64> {
         for n in 1..=3 {
             let mut hits = 0;
             for t in 0..trials {
-                let mut rng = StdRng::seed_from_u64(400 + 1000 * n as u64 + t);
+                let mut rng = bayes::rng::seeded(400 + 1000 * n as u64 + t);
                 let (train, _) = split(b, pools, n, &mut rng);
                 let m = ProceduralModel::learn(Hyper::default(), &train).unwrap();
                 hits += usize::from(m.structure_posterior().unwrap().map() == *want);
@@ -341,7 +340,7 @@ proptest! {
     ) {
         let batch = ProceduralModel::learn(Hyper::default(), &examples).unwrap();
         let mut shuffled = examples.clone();
-        shuffled.shuffle(&mut StdRng::seed_from_u64(seed));
+        shuffled.shuffle(&mut bayes::rng::seeded(seed));
         let mut inc = ProceduralModel::new(Hyper::default()).unwrap();
         for e in &shuffled {
             inc.update(e).unwrap();
@@ -494,7 +493,7 @@ fn explain_and_samples_are_deterministic_and_plain() {
         "{:?}",
         e.places[1]
     );
-    let draw = |seed| m.sample_instances(&mut StdRng::seed_from_u64(seed), 20).unwrap();
+    let draw = |seed| m.sample_instances(&mut bayes::rng::seeded(seed), 20).unwrap();
     assert_eq!(draw(7), draw(7));
     assert!(
         draw(7)

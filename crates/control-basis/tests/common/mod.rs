@@ -2,8 +2,7 @@
 #![allow(dead_code)]
 
 use control_basis::{Chain, RobotModel};
-use rand::rngs::StdRng;
-use rand::{RngExt, SeedableRng};
+use rand::RngExt;
 
 /// WAM 7-DOF from the standard DH table of the WAM manual (a, α, d) with the 0.346 m shoulder offset.
 pub const WAM_URDF: &str = r#"<robot name="wam_dh">
@@ -26,7 +25,7 @@ pub fn wam_chain() -> Chain {
 }
 
 /// A uniformly random configuration within `shrink` × the joint ranges (about their middle).
-pub fn random_q(chain: &Chain, rng: &mut StdRng, shrink: f64) -> Vec<f64> {
+pub fn random_q(chain: &Chain, rng: &mut bayes::rng::Generator, shrink: f64) -> Vec<f64> {
     chain
         .dofs()
         .iter()
@@ -39,6 +38,6 @@ pub fn random_q(chain: &Chain, rng: &mut StdRng, shrink: f64) -> Vec<f64> {
 }
 
 /// A seeded RNG.
-pub fn rng(seed: u64) -> StdRng {
-    StdRng::seed_from_u64(seed)
+pub fn rng(seed: u64) -> bayes::rng::Generator {
+    bayes::rng::seeded(seed)
 }

@@ -2,7 +2,7 @@
 //! cameras, a table with two bins, catalog-like objects and a stand-in for the robot's link shapes.
 
 use crate::error::SimError;
-use crate::rng::SplitMix64;
+use bayes::rng::{Draw, Generator};
 use crate::scene::{CameraSpec, ColorPatch, Shape};
 use crate::vision::camera::SpecCamera;
 use crate::vision::render::{ItemLabel, RenderItem, RenderScene};
@@ -193,8 +193,8 @@ pub fn add_robot(scene: &mut RenderScene, reach: f64) {
 
 /// A random catalog-like object: a box, cylinder or sphere of 4–14 cm with 1–3 colour bands of
 /// well-separated saturated hues.
-pub fn random_object(rng: &mut SplitMix64) -> (Shape, Vec<ColorPatch>) {
-    let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.next_f64();
+pub fn random_object(rng: &mut Generator) -> (Shape, Vec<ColorPatch>) {
+    let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
     let shape = match (u(0.0, 3.0)) as u32 {
         0 => Shape::Box {
             size: [u(0.04, 0.14), u(0.04, 0.14), u(0.04, 0.14)],
@@ -234,7 +234,7 @@ pub fn resting_pose(shape: &Shape, x: f64, y: f64, yaw: f64) -> Iso3 {
 /// y −0.35–0.35, and (if `robot`) the 40 robot shapes with the hands over the table edge.
 /// Returns the scene and, per object, its item index and true centroid.
 pub fn typical_scene(seed: u64, n_objects: usize, robot: bool) -> (RenderScene, Vec<(usize, Vec3)>) {
-    let mut rng = SplitMix64::new(seed);
+    let mut rng = bayes::rng::seeded(seed);
     let mut scene = table_and_bins();
     if robot {
         add_robot(&mut scene, 1.0);
@@ -250,9 +250,9 @@ pub fn typical_scene(seed: u64, n_objects: usize, robot: bool) -> (RenderScene, 
         };
         let cy = -0.3 + 0.6 * i as f64 / (cols - 1) as f64;
         let (shape, colors) = random_object(&mut rng);
-        let jx = 0.02 * (rng.next_f64() - 0.5);
-        let jy = 0.02 * (rng.next_f64() - 0.5);
-        let yaw = rng.next_f64() * std::f64::consts::PI;
+        let jx = 0.02 * (rng.uniform() - 0.5);
+        let jy = 0.02 * (rng.uniform() - 0.5);
+        let yaw = rng.uniform() * std::f64::consts::PI;
         let pose = resting_pose(&shape, cx + jx, cy + jy, yaw);
         let idx = scene.push(RenderItem::from_catalog(&shape, pose, &colors, ItemLabel::Object(k)));
         truth.push((idx, pose.translation.vector));

@@ -1,11 +1,12 @@
-//! A fast seeded Gaussian source for pixel noise: the crate's [`SplitMix64`] + an inverse-CDF
+//! A fast seeded Gaussian source for pixel noise: the crate's [`Generator`] + an inverse-CDF
 //! quantile table.
 //!
 //! No dependency, fully deterministic: the same seed gives the same sequence. The table is built
 //! once with `ln` and `sqrt` of f64 (the platform libm), so images are bit-identical run to run on
 //! one machine.
 
-use crate::rng::SplitMix64;
+use bayes::rng::Generator;
+use rand::Rng as _;
 
 /// Bits of randomness per normal deviate: the table has `2^QUANTILE_BITS` entries.
 const QUANTILE_BITS: u32 = 12;
@@ -81,7 +82,7 @@ fn quantile_table() -> &'static [f32; QUANTILES] {
 /// Box–Muller, whose `ln`/`sqrt` per pair took a third of the render time.
 #[derive(Debug, Clone)]
 pub struct Gaussian {
-    rng: SplitMix64,
+    rng: Generator,
     bits: u64,
     left: u32,
 }
@@ -90,7 +91,7 @@ impl Gaussian {
     /// A source whose whole future is fixed by `seed`.
     pub fn new(seed: u64) -> Self {
         Self {
-            rng: SplitMix64::new(seed),
+            rng: bayes::rng::seeded(seed),
             bits: 0,
             left: 0,
         }

@@ -752,6 +752,7 @@ pub fn check_camera(camera: &Camera) -> Result<(), SimError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use bayes::rng::Draw;
     use crate::convert::iso_to_glam;
     use control_basis::math::iso_from_xyz_rpy;
 
@@ -761,11 +762,11 @@ mod tests {
         let shape = SharedShape::cuboid(0.05, 0.02, 0.07);
         let pose = iso_to_glam(&iso_from_xyz_rpy([0.6, 0.05, 0.82], [0.3, -0.7, 1.1]));
         let origin = DVec3::new(0.05, 0.06, 1.5);
-        let mut rng = crate::rng::SplitMix64::new(4);
+        let mut rng = bayes::rng::seeded(4);
         let mut hits = 0;
         for _ in 0..4000 {
             let target =
-                pose.translation + DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5) * 0.2;
+                pose.translation + DVec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 0.2;
             let dir = (target - origin).normalize();
             let parry = shape.cast_ray_and_get_normal(&pose, &Ray::new(origin, dir), f64::INFINITY, true);
             let ours = ray_box(
@@ -794,11 +795,11 @@ mod tests {
         let pose = iso_from_xyz_rpy([0.6, 0.05, 0.82], [0.3, -0.7, 1.1]);
         let gp = iso_to_glam(&pose);
         let origin = DVec3::new(0.05, 0.06, 1.5);
-        let mut rng = crate::rng::SplitMix64::new(3);
+        let mut rng = bayes::rng::seeded(3);
         let (mut hits, mut both) = (0, 0);
         for _ in 0..4000 {
             let target =
-                gp.translation + DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5) * 0.2;
+                gp.translation + DVec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 0.2;
             let dir = (target - origin).normalize();
             let parry = shape.cast_ray_and_get_normal(&gp, &Ray::new(origin, dir), f64::INFINITY, true);
             let ours = ray_cylinder(

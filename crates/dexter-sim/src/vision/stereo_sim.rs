@@ -30,9 +30,9 @@ pub struct StereoVision {
     masks: [Vec<bool>; 2],
 }
 
-/// Noise seeds of the left and right cameras: streams 0 and 1 of `seed` ([`crate::rng::SplitMix64::stream`]).
+/// Noise seeds of the left and right cameras: streams 0 and 1 of `seed` ([`bayes::rng::stream`]).
 fn camera_seeds(seed: u64) -> (u64, u64) {
-    let s = |k| crate::rng::SplitMix64::stream(seed, k).next_u64();
+    let s = |k| rand::Rng::next_u64(&mut bayes::rng::stream(seed, k));
     (s(0), s(1))
 }
 

@@ -3,8 +3,7 @@
 //! from the posterior predictive p(D̃ | D) so that the teacher can judge whether to demonstrate more.
 
 use rand::Rng;
-use rand::SeedableRng;
-use rand::rngs::StdRng;
+
 use serde::Serialize;
 
 use super::{COLORS, Connectivity, FeatureType, Features, PlacePrior, ProceduralModel, StructurePosterior};
@@ -192,7 +191,7 @@ impl ProceduralModel {
         let map = structure.map();
         let color_matters = structure.feature_probability(FeatureType::Color);
         let size_matters = structure.feature_probability(FeatureType::Size);
-        let mut rng = StdRng::seed_from_u64(0x05EE_D512);
+        let mut rng = bayes::rng::seeded(0x05EE_D512);
         let mut places = Vec::new();
         for (name, p) in &self.places {
             let pmf = self.color_pmf(name)?;

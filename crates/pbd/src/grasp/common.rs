@@ -13,7 +13,6 @@ use dexter_sim::teleop::{TeleopDriver, TeleopStream};
 use grasp_topics::{Corpus, GraspScene, HandModel, ObjectShape, PreGrasp, RankedPreGrasp, Rejection, filter_and_rank};
 use nalgebra::{Matrix2, Vector3};
 use rand::SeedableRng;
-use rand::rngs::Xoshiro256PlusPlus;
 use serde::Serialize;
 
 use super::{DemoRecord, PresentArgs};
@@ -152,8 +151,8 @@ pub fn select_candidates(
     percept: &Percept,
     method: Method,
     n: usize,
-    mut draw: impl FnMut(usize, &mut Xoshiro256PlusPlus) -> Result<Vec<PreGrasp>>,
-    rng: &mut Xoshiro256PlusPlus,
+    mut draw: impl FnMut(usize, &mut bayes::rng::Generator) -> Result<Vec<PreGrasp>>,
+    rng: &mut bayes::rng::Generator,
 ) -> Result<Selection> {
     let c = percept.centroid();
     let (shape, rotation) = seen_shape(percept);
@@ -242,8 +241,8 @@ pub fn mix(seed: u64, k: u64) -> u64 {
 }
 
 /// The random generator of stream `k` of `seed`.
-pub fn rng(seed: u64, k: u64) -> Xoshiro256PlusPlus {
-    Xoshiro256PlusPlus::seed_from_u64(mix(seed, k))
+pub fn rng(seed: u64, k: u64) -> bayes::rng::Generator {
+    bayes::rng::seeded(mix(seed, k))
 }
 
 /// Worker threads for simulations: `PBD_THREADS` or 2 (capped by the machine).

@@ -9,11 +9,10 @@
 //! transfer or not, contingencies, the outcome; and an MCAP log.
 
 use std::collections::BTreeMap;
-use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
+use serde::{Deserialize, Serialize};
 use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
 use dexter_sim::scene::Scene;
 use schema::{Library, Percept};
@@ -22,51 +21,68 @@ pub use dexter_sim::execute::{Decider, ExecuteReport, RunLog, execute_scene};
 
 use crate::infer::InferFile;
 use crate::mcap_log::{LogLevel, McapLog};
+use crate::progress::Progress;
 use crate::record::{TOPIC_PERCEPT, TOPIC_TRUTH};
 
-/// Arguments of `pbd execute`.
-#[derive(Debug, Args)]
-pub struct ExecuteArgs {
+/// Options of [`execute`].
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ExecuteOptions {
     /// Scene to act in: a built-in name (pick-place, sorting, sorting-new) or a TOML file.
-    #[arg(long, default_value = "sorting-new")]
     pub scene: String,
     /// A learned procedural model (from `pbd learn`): decides relevance and place per object.
-    #[arg(long, conflicts_with = "demo")]
     pub model: Option<PathBuf>,
     /// An inference (from `pbd infer`): its MAP schema, with the place its first instance used.
-    #[arg(long)]
     pub demo: Option<PathBuf>,
     /// Only this object (scene label); default: every object in the scene.
-    #[arg(long)]
     pub object: Option<String>,
-    /// Override the place (with --demo).
-    #[arg(long)]
+    /// Override the place (with `demo`).
     pub place: Option<String>,
     /// Schema library (TOML; default: the built-in library).
-    #[arg(long)]
     pub library: Option<PathBuf>,
     /// Seed of every random choice; default: the scene's seed.
-    #[arg(long)]
     pub seed: Option<u64>,
     /// Record the execution to this MCAP file.
-    #[arg(short, long)]
     pub output: Option<PathBuf>,
-    /// Print the report as JSON.
-    #[arg(long)]
-    pub json: bool,
+}
+
+impl Default for ExecuteOptions {
+    fn default() -> Self {
+        ExecuteOptions {
+            scene: "sorting-new".into(),
+            model: None,
+            demo: None,
+            object: None,
+            place: None,
+            library: None,
+            seed: None,
+            output: None,
+        }
+    }
 }
 
 /// Logs an execution to MCAP (snapshots at 30 Hz, activities, percepts and the truth beside them,
 /// outcomes) and shows progress.
-pub struct McapRunLog {
+pub struct McapRunLog<'a> {
     log: Option<McapLog>,
     header: dexter_sim::snapshot::SnapshotHeader,
     next_log: f64,
     error: Option<anyhow::Error>,
-    progress: indicatif::ProgressBar,
+    progress: &'a dyn Progress,
 }
 
-impl McapRunLog {
+impl<'a> McapRunLog<'a> {
+    /// A log to `log` (or none: progress only) of a run on a simulator with `header`.
+    pub fn new(log: Option<McapLog>, header: dexter_sim::snapshot::SnapshotHeader, progress: &'a dyn Progress) -> Self {
+        McapRunLog {
+            log,
+            header,
+            next_log: 0.0,
+            error: None,
+            progress,
+        }
+    }
+
     fn keep(&mut self, r: Result<()>) {
         if let Err(e) = r {
             self.error.get_or_insert(e);
@@ -74,8 +90,8 @@ impl McapRunLog {
     }
 
     /// Finishes the log; the first write error, if any.
-    fn finish(mut self) -> Result<()> {
-        self.progress.finish_and_clear();
+    pub fn finish(mut self) -> Result<()> {
+        self.progress.finish();
         if let Some(e) = self.error.take() {
             return Err(e.context("writing the MCAP log"));
         }
@@ -86,9 +102,8 @@ impl McapRunLog {
     }
 }
 
-impl RunLog for McapRunLog {
+impl RunLog for McapRunLog<'_> {
     fn world(&mut self, sim: &DexterSim, activity: &str) {
-        self.progress.tick();
         if sim.time() + 1e-9 >= self.next_log {
             self.next_log += 1.0 / 30.0;
             if let Some(log) = self.log.as_mut() {
@@ -99,7 +114,7 @@ impl RunLog for McapRunLog {
     }
 
     fn activity(&mut self, t: f64, activity: &str) {
-        self.progress.set_message(format!("{activity} (t = {t:.1} s)"));
+        self.progress.message(&format!("{activity} (t = {t:.1} s)"));
         if let Some(log) = self.log.as_mut() {
             let r = log.log_text(t, LogLevel::Info, activity);
             self.keep(r);
@@ -137,8 +152,9 @@ impl RunLog for McapRunLog {
     }
 }
 
-/// Runs `pbd execute`.
-pub fn main(args: ExecuteArgs, out: &mut dyn Write) -> Result<()> {
+/// `pbd execute`: the robot does the task of a model or an inference in a scene, from its own
+/// senses; the world judges every object.
+pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<ExecuteReport> {
     let library = match &args.library {
         Some(p) => Library::open(p)?,
         None => Library::builtin(),
@@ -203,13 +219,8 @@ pub fn main(args: ExecuteArgs, out: &mut dyn Write) -> Result<()> {
         None => None,
     };
     let sim = DexterSim::new(&scene, SimSettings::default())?;
-    let mut run_log = McapRunLog {
-        log,
-        header: sim.header().clone(),
-        next_log: 0.0,
-        error: None,
-        progress: crate::progress::spinner(args.json, "execute"),
-    };
+    progress.phase("execute", None);
+    let mut run_log = McapRunLog::new(log, sim.header().clone(), progress);
     drop(sim);
     let run = execute_scene(
         &scene,
@@ -224,57 +235,5 @@ pub fn main(args: ExecuteArgs, out: &mut dyn Write) -> Result<()> {
     let mut report = run?;
     finished?;
     report.mcap = args.output.as_ref().map(|p| p.display().to_string());
-    if args.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
-        return Ok(());
-    }
-    print_report(&report, out)
-}
-
-/// Prints an execution report as a table.
-pub fn print_report(r: &ExecuteReport, out: &mut dyn Write) -> Result<()> {
-    writeln!(out, "{} on scene {}:", r.schema, r.scene)?;
-    for o in &r.objects {
-        let arms = if o.arms.is_empty() {
-            "-".to_string()
-        } else {
-            o.arms.join("→")
-        };
-        writeln!(
-            out,
-            "  {:<16} {:<8} {:<10} arms {:<12} {:<9} {:<24} {}",
-            match o.segment {
-                Some(s) => format!("{} [{s}]", o.object),
-                None => o.object.clone(),
-            },
-            o.decision,
-            o.place.as_deref().unwrap_or("-"),
-            arms,
-            if o.transfer { "transfer" } else { "" },
-            if o.contingencies.is_empty() {
-                String::new()
-            } else {
-                format!("contingencies: {}", o.contingencies.join(", "))
-            },
-            match o.decision.as_str() {
-                "execute" =>
-                    if o.success {
-                        "PLACED".to_string()
-                    } else {
-                        format!("FAILED ({})", o.failure.as_deref().unwrap_or("?"))
-                    },
-                _ => o.reason.clone(),
-            }
-        )?;
-    }
-    writeln!(
-        out,
-        "placed {}/{} relevant objects in {:.1} s simulated ({:.1} s wall){}",
-        r.placed,
-        r.relevant,
-        r.sim_time,
-        r.wall_time,
-        r.mcap.as_ref().map(|m| format!("; log {m}")).unwrap_or_default()
-    )?;
-    Ok(())
+    Ok(report)
 }

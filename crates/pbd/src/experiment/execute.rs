@@ -7,50 +7,68 @@
 //! place by MAP) and runs Pick-And-Place with ψ on each relevant one. The evaluator matches segments to
 //! objects by the truth at the start and judges each outcome by the truth at the end. The task's
 //! intended decision per object comes from the catalog's colour labels (`--task red=bin-right,…`).
-//! The experiment itself is the library's [`dexter_sim::experiment`]; this file parses the arguments,
-//! runs the scenes on worker threads and writes per-object decisions and outcomes (CSV), the placed
-//! fraction with a 95 % Wilson interval, decision accuracy and failure causes by phase (Markdown,
-//! SVG).
+//! One scene is a pure function of (config, index) in [`dexter_sim::experiment`]; this module runs the
+//! scenes on the thread pool and writes per-object decisions and outcomes (`objects.csv`), the placed
+//! fraction with a 95 % Wilson interval, decision accuracy and failure causes by phase (`summary.md`).
 
 use std::collections::BTreeMap;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
 use dexter_sim::experiment::{ExperimentConfig, ObjectRow, Summary, run_scene, summarize};
 use dexter_sim::scene::Scene;
-use plotters::prelude::*;
+use serde::{Deserialize, Serialize};
 use schema::Library;
 
-/// `pbd experiment execute` arguments.
-#[derive(Debug, Args)]
-pub struct ExecuteExperimentArgs {
+use crate::progress::Progress;
+
+/// Options of the execute experiment ([`run`]).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ExecuteExperimentOptions {
     /// The learned procedural model (from `pbd learn`, e.g. `pbd-demo/model.json`).
-    #[arg(long)]
     pub model: PathBuf,
     /// Base scene: its table, bins and catalog (built-in name or TOML file).
-    #[arg(long, default_value = "sorting-demo")]
     pub scene: String,
     /// Number of random scenes.
-    #[arg(long, default_value_t = 50)]
     pub scenes: usize,
     /// Objects per scene.
-    #[arg(long, default_value_t = 3)]
     pub objects: usize,
-    /// The intended task: colour class = place, comma-separated (objects of other classes are not
-    /// part of the task).
-    #[arg(long, value_delimiter = ',', default_value = "red=bin-right,blue=bin-left")]
+    /// The intended task: `class=place` entries (objects of other classes are not part of the task).
     pub task: Vec<String>,
     /// Random seed (scenes and every run).
-    #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Output directory (objects.csv, summary.md, outcomes.svg).
-    #[arg(short, long)]
+    /// Output directory (objects.csv, summary.md).
     pub output: PathBuf,
-    /// Print the summary as JSON.
-    #[arg(long)]
-    pub json: bool,
+}
+
+impl Default for ExecuteExperimentOptions {
+    fn default() -> Self {
+        ExecuteExperimentOptions {
+            model: PathBuf::from("pbd-demo/model.json"),
+            scene: "sorting-demo".into(),
+            scenes: 50,
+            objects: 3,
+            task: vec!["red=bin-right".into(), "blue=bin-left".into()],
+            seed: 1,
+            output: PathBuf::from("experiment-execute"),
+        }
+    }
+}
+
+/// The experiment's result: per-object rows, the summary and its Markdown.
+#[derive(Debug, Clone, Serialize)]
+pub struct ExecuteExperimentRun {
+    /// The summary (placed fraction, intervals, failures by phase).
+    pub summary: Summary,
+    /// One row per seen segment or unseen object.
+    #[serde(skip)]
+    pub rows: Vec<ObjectRow>,
+    /// `summary.md`.
+    #[serde(skip)]
+    pub markdown: String,
+    /// The output directory.
+    pub output: PathBuf,
 }
 
 fn parse_task(task: &[String]) -> Result<BTreeMap<String, String>> {
@@ -64,8 +82,9 @@ fn parse_task(task: &[String]) -> Result<BTreeMap<String, String>> {
         .collect()
 }
 
-/// Runs the experiment.
-pub fn run(args: &ExecuteExperimentArgs, out: &mut dyn Write) -> Result<()> {
+/// Runs the experiment: the scenes in parallel on the thread pool, then `objects.csv` and `summary.md`
+/// in the output directory. The same seed gives the same files, whatever the number of threads.
+pub fn run(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> Result<ExecuteExperimentRun> {
     if args.scenes == 0 || args.objects == 0 {
         bail!("--scenes and --objects must be at least 1");
     }
@@ -86,32 +105,21 @@ pub fn run(args: &ExecuteExperimentArgs, out: &mut dyn Write) -> Result<()> {
     };
     let library = Library::builtin();
     let wall = std::time::Instant::now();
-    let bar = crate::progress::bar(args.json, args.scenes as u64, "execute");
+    progress.phase("execute", Some(args.scenes as u64));
     let indices: Vec<usize> = (0..args.scenes).collect();
-    let runs = crate::grasp::common::parallel_map(&indices, |_, &i| {
-        let r = run_scene(&base, &args.scene, &library, &config, i);
-        bar.inc(1);
-        Ok(r?)
-    })?;
-    bar.finish_and_clear();
+    let runs = crate::parallel::map(&indices, progress, |&i| Ok(run_scene(&base, &args.scene, &library, &config, i)?))?;
+    progress.finish();
     let (rows, summary) = summarize(&config, &runs);
     let wall_time = wall.elapsed().as_secs_f64();
     write_csv(&args.output.join("objects.csv"), &rows)?;
     let md = markdown(args, &summary, wall_time);
-    std::fs::write(args.output.join("summary.md"), &md)
-        .with_context(|| format!("cannot write {}", args.output.join("summary.md").display()))?;
-    outcome_chart(&args.output.join("outcomes.svg"), &summary)?;
-    if args.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&summary)?)?;
-    } else {
-        write!(out, "{md}")?;
-        writeln!(
-            out,
-            "files: objects.csv, summary.md, outcomes.svg in {}",
-            args.output.display()
-        )?;
-    }
-    Ok(())
+    crate::files::write_atomic(&args.output.join("summary.md"), md.as_bytes())?;
+    Ok(ExecuteExperimentRun {
+        summary,
+        rows,
+        markdown: md,
+        output: args.output.clone(),
+    })
 }
 
 fn write_csv(path: &Path, rows: &[ObjectRow]) -> Result<()> {
@@ -135,10 +143,10 @@ fn write_csv(path: &Path, rows: &[ObjectRow]) -> Result<()> {
             r.failure.replace('"', "'")
         ));
     }
-    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
+    crate::files::write_atomic(path, s.as_bytes())
 }
 
-fn markdown(args: &ExecuteExperimentArgs, s: &Summary, wall_time: f64) -> String {
+fn markdown(args: &ExecuteExperimentOptions, s: &Summary, wall_time: f64) -> String {
     let mut m = format!(
         "# Execution in new scenes\n\nModel `{}` on {} random scenes of {} objects drawn from the catalog of `{}` (seed {}); task {}.\n\n",
         args.model.display(),
@@ -173,49 +181,3 @@ fn markdown(args: &ExecuteExperimentArgs, s: &Summary, wall_time: f64) -> String
     m
 }
 
-fn outcome_chart(path: &Path, s: &Summary) -> Result<()> {
-    let root = SVGBackend::new(path, (720, 420)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let mut bars: Vec<(String, usize)> = vec![("placed".into(), s.placed)];
-    for (p, n) in &s.failures {
-        bars.push((p.clone(), *n));
-    }
-    let top = bars.iter().map(|b| b.1).max().unwrap_or(1).max(1) as f64 * 1.15;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!(
-                "placed {}/{} = {:.2} (95 % CI {:.2}-{:.2})",
-                s.placed, s.executed, s.placed_fraction, s.placed_interval.0, s.placed_interval.1
-            ),
-            ("sans-serif", 18),
-        )
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(50)
-        .build_cartesian_2d(0.0..bars.len() as f64, 0.0..top)?;
-    let labels: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
-    chart
-        .configure_mesh()
-        .disable_x_mesh()
-        .x_labels(bars.len())
-        .x_label_formatter(&|x| {
-            let i = x.floor() as usize;
-            if (x - x.floor() - 0.5).abs() < 0.26 {
-                labels.get(i).cloned().unwrap_or_default()
-            } else {
-                String::new()
-            }
-        })
-        .y_desc("objects")
-        .draw()?;
-    chart.draw_series(bars.iter().enumerate().map(|(i, b)| {
-        let color = if i == 0 {
-            RGBColor(44, 160, 44)
-        } else {
-            RGBColor(214, 39, 40)
-        };
-        Rectangle::new([(i as f64 + 0.15, 0.0), (i as f64 + 0.85, b.1 as f64)], color.filled())
-    }))?;
-    root.present()?;
-    Ok(())
-}

@@ -5,10 +5,10 @@
 //! and the real-time factor; `--mcap` records the run for Foxglove.
 
 use std::cell::RefCell;
-use std::io::Write;
+use std::fmt;
 use std::path::PathBuf;
 
-use clap::{Args, Subcommand, ValueEnum};
+use serde::{Deserialize, Serialize};
 use dexter_sim::Arm;
 use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
 use dexter_sim::pick_place::{PickPlaceReport, PickPlaceRequest, WorldObserver, pick_and_place_in};
@@ -16,62 +16,78 @@ use dexter_sim::scene::Scene;
 use dexter_sim::vision::Image;
 
 use crate::mcap_log::{LogLevel, McapLog};
-
-/// `pbd sim …` subcommands.
-#[derive(Debug, Subcommand)]
-pub enum SimCommand {
-    /// One pick-and-place: pick OBJECT and put it in PLACE, with either arm.
-    PickPlace(PickPlaceArgs),
-}
+use crate::progress::Progress;
 
 /// Which arm: left, right or auto (one that reaches both the object and the place).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum ArmChoice {
     /// The left arm.
     Left,
     /// The right arm.
     Right,
     /// Choose an arm that reaches both the object and the place.
+    #[default]
     Auto,
 }
 
-/// Arguments of `pbd sim pick-place`.
-#[derive(Debug, Args)]
-pub struct PickPlaceArgs {
-    /// Scene: a built-in name (pick-place, sorting, sorting-new) or a TOML file.
-    #[arg(long, default_value = "pick-place")]
-    pub scene: String,
-    /// Object to pick (presentation name as in the scene; default: the scene's first object).
-    #[arg(long)]
-    pub object: Option<String>,
-    /// Place to put it (default: the scene's first place).
-    #[arg(long)]
-    pub place: Option<String>,
-    /// Arm to use.
-    #[arg(long, value_enum, default_value_t = ArmChoice::Auto)]
-    pub arm: ArmChoice,
-    /// Seed of every random choice (encoder noise, placement jitter); default: the scene's seed.
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// Print the report as JSON.
-    #[arg(long)]
-    pub json: bool,
-    /// Record the run to this MCAP file (open it in Foxglove).
-    #[arg(long)]
-    pub mcap: Option<PathBuf>,
-    /// Logging rate of the MCAP file (Hz of simulated time).
-    #[arg(long, default_value_t = 30.0)]
-    pub log_hz: f64,
-}
-
-/// Runs a `pbd sim` subcommand.
-pub fn main(cmd: SimCommand, out: &mut dyn Write) -> anyhow::Result<()> {
-    match cmd {
-        SimCommand::PickPlace(args) => pick_place(args, out),
+impl ArmChoice {
+    /// The arm asked for, or `None` for [`ArmChoice::Auto`].
+    pub fn arm(self) -> Option<Arm> {
+        match self {
+            ArmChoice::Left => Some(Arm::Left),
+            ArmChoice::Right => Some(Arm::Right),
+            ArmChoice::Auto => None,
+        }
     }
 }
 
-fn pick_place(args: PickPlaceArgs, out: &mut dyn Write) -> anyhow::Result<()> {
+/// Options of [`pick_place`].
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PickPlaceOptions {
+    /// Scene: a built-in name (pick-place, sorting, sorting-new) or a TOML file.
+    pub scene: String,
+    /// Object to pick (presentation name as in the scene; default: the scene's first object).
+    pub object: Option<String>,
+    /// Place to put it (default: the scene's first place).
+    pub place: Option<String>,
+    /// Arm to use.
+    pub arm: ArmChoice,
+    /// Seed of every random choice (encoder noise, placement jitter); default: the scene's seed.
+    pub seed: Option<u64>,
+    /// Record the run to this MCAP file (open it in Foxglove).
+    pub mcap: Option<PathBuf>,
+    /// Logging rate of the MCAP file (Hz of simulated time).
+    pub log_hz: f64,
+}
+
+impl Default for PickPlaceOptions {
+    fn default() -> Self {
+        PickPlaceOptions {
+            scene: "pick-place".into(),
+            object: None,
+            place: None,
+            arm: ArmChoice::Auto,
+            seed: None,
+            mcap: None,
+            log_hz: 30.0,
+        }
+    }
+}
+
+/// The outcome of [`pick_place`], and where it was recorded.
+#[derive(Debug, Clone, Serialize)]
+pub struct PickPlaceRun {
+    /// The evaluator's report.
+    #[serde(flatten)]
+    pub report: PickPlaceReport,
+    /// The MCAP recording, if one was asked for.
+    pub mcap: Option<String>,
+}
+
+/// `pbd sim pick-place`: one pick-and-place with the robot's own skills, judged by the world.
+pub fn pick_place(args: &PickPlaceOptions, progress: &dyn Progress) -> anyhow::Result<PickPlaceRun> {
     // Config: every user mistake is reported here.
     let scene = Scene::open(&args.scene)?;
     let object = match &args.object {
@@ -106,11 +122,7 @@ fn pick_place(args: PickPlaceArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     let request = PickPlaceRequest {
         object: object.clone(),
         place: place.clone(),
-        arm: match args.arm {
-            ArmChoice::Left => Some(Arm::Left),
-            ArmChoice::Right => Some(Arm::Right),
-            ArmChoice::Auto => None,
-        },
+        arm: args.arm.arm(),
     };
     let log = match &args.mcap {
         Some(path) => {
@@ -131,7 +143,7 @@ fn pick_place(args: PickPlaceArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     };
 
     // Run.
-    let progress = crate::progress::spinner(args.json, "pick-place");
+    progress.phase("pick-place", None);
     let mut next_log = 0.0;
     let mut last_activity = String::new();
     // Both observers write to the one log; errors are kept and reported once the run is over.
@@ -148,12 +160,11 @@ fn pick_place(args: PickPlaceArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         let mut log = log.borrow_mut();
         if activity != last_activity {
             last_activity = activity.to_string();
-            progress.set_message(format!("{activity} (t = {:.1} s)", s.time()));
+            progress.message(&format!("{activity} (t = {:.1} s)", s.time()));
             if let Some(log) = log.as_mut() {
                 keep(log.log_text(s.time(), LogLevel::Info, activity));
             }
         }
-        progress.tick();
         if s.time() + 1e-9 >= next_log {
             next_log += log_period;
             if let Some(log) = log.as_mut() {
@@ -174,7 +185,7 @@ fn pick_place(args: PickPlaceArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         &request,
         &mut WorldObserver::new(&mut callback).with_images(&mut on_images),
     )?;
-    progress.finish_and_clear();
+    progress.finish();
     if let Some(e) = log_error.into_inner() {
         return Err(e.context("writing the MCAP log"));
     }
@@ -190,23 +201,15 @@ fn pick_place(args: PickPlaceArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         )?;
         log.finish()?;
     }
-    print_report(&report, args.json, args.mcap.as_deref(), out)
+    Ok(PickPlaceRun {
+        report,
+        mcap: args.mcap.as_ref().map(|p| p.display().to_string()),
+    })
 }
 
-fn print_report(
-    r: &PickPlaceReport,
-    json: bool,
-    mcap: Option<&std::path::Path>,
-    out: &mut dyn Write,
-) -> anyhow::Result<()> {
-    if json {
-        let mut v = serde_json::to_value(r)?;
-        if let Some(p) = mcap {
-            v["mcap"] = serde_json::Value::String(p.display().to_string());
-        }
-        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
-        return Ok(());
-    }
+impl fmt::Display for PickPlaceRun {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+    let r = &self.report;
     writeln!(
         out,
         "pick-place `{}` → `{}` with the {} arm: {}",
@@ -230,8 +233,9 @@ fn print_report(
     )?;
     let phases: Vec<String> = r.phases.iter().map(|(n, t)| format!("{n} @{t:.2}s")).collect();
     writeln!(out, "  phases       {}", phases.join(", "))?;
-    if let Some(p) = mcap {
-        writeln!(out, "  recording    {} (open in Foxglove)", p.display())?;
+    if let Some(p) = &self.mcap {
+        writeln!(out, "  recording    {p} (open in Foxglove)")?;
     }
     Ok(())
+    }
 }

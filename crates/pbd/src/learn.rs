@@ -7,63 +7,87 @@
 //! `--explain` says in plain words (and pictures) what was learned.
 
 use std::collections::BTreeMap;
-use std::io::Write;
+use std::fmt;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
 use schema::Library;
 use schema::procedural::{Example, Features, Hyper, ProceduralModel};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+
+use crate::progress::Progress;
 
 use crate::infer::{INFER_FORMAT, InferFile};
 
-/// Arguments of `pbd learn`.
-#[derive(Debug, Args)]
-pub struct LearnArgs {
+/// Options of [`learn`].
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LearnOptions {
     /// Demonstrations: inference files (`*.infer.json`) or recordings (`*.mcap`, inferred on the fly).
     pub demos: Vec<PathBuf>,
     /// Add the demonstrations to this model instead of starting afresh.
-    #[arg(long)]
     pub update: Option<PathBuf>,
     /// Output model (JSON).
-    #[arg(short, long)]
-    pub output: Option<PathBuf>,
-    /// Explain the model MODEL.json in plain words (no learning).
-    #[arg(long, value_name = "MODEL")]
-    pub explain: Option<PathBuf>,
-    /// With --explain: draw N synthetic task instances from the posterior predictive and render them.
-    #[arg(long, default_value_t = 0)]
-    pub samples: usize,
-    /// With --explain: directory for the pictures (default: next to the model).
-    #[arg(long)]
-    pub plots: Option<PathBuf>,
+    pub output: PathBuf,
     /// Relevance decision threshold on ln B10 (5.19–5.21) for a new model: an object belongs to the
     /// task when ln B10 exceeds it. 0 is the seed's rule (B10 > 1, even prior odds).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub relevance_threshold: f64,
-    /// Seed of the posterior-predictive samples.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Print the result as JSON.
-    #[arg(long)]
-    pub json: bool,
 }
 
-#[derive(Debug, Serialize)]
-struct LearnReport {
-    output: String,
-    examples: Vec<(String, String, String)>,
-    demonstrations: u64,
-    explanation: String,
+impl Default for LearnOptions {
+    fn default() -> Self {
+        LearnOptions {
+            demos: Vec::new(),
+            update: None,
+            output: PathBuf::from("model.json"),
+            relevance_threshold: 0.0,
+        }
+    }
+}
+
+/// What [`learn`] learned from, and what it says about the model.
+#[derive(Debug, Clone, Serialize)]
+pub struct LearnReport {
+    /// The model file written.
+    pub output: String,
+    /// (demonstration, place, the object's features in words) per example.
+    pub examples: Vec<(String, String, String)>,
+    /// Demonstrations the model holds (with an update, the old ones too).
+    pub demonstrations: u64,
+    /// The model explained in plain words.
+    pub explanation: String,
+}
+
+impl fmt::Display for LearnReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "learned from {} demonstrations → {}", self.demonstrations, self.output)?;
+        write!(f, "{}", self.explanation)
+    }
+}
+
+/// What [`explain`] says about a model, with samples from its posterior predictive (for pictures).
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelExplanation {
+    /// The explanation (structure posterior, per-place summaries, text).
+    #[serde(flatten)]
+    pub explanation: schema::procedural::Explanation,
+    /// Sampled task instances grouped by place: what the model expects to see in each.
+    #[serde(skip)]
+    pub samples_by_place: Vec<(String, Vec<Features>)>,
+    /// The predictive size density (5.15) per place.
+    #[serde(skip)]
+    pub size_densities: Vec<(String, bayes::univariate::StudentT)>,
+    /// (place index, size) of each sample.
+    #[serde(skip)]
+    pub sampled_sizes: Vec<(usize, f64)>,
 }
 
 /// Examples (features, place) from the Pick-And-Place instances of a demonstration file.
-pub fn examples_from(path: &Path) -> Result<Vec<Example>> {
+pub fn examples_from(path: &Path, progress: &dyn Progress) -> Result<Vec<Example>> {
     let file: InferFile = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap")) {
         let (percepts, _, metadata, warnings) = crate::infer::read_percepts(path)?;
         for w in &warnings {
-            eprintln!("warning: {w}");
+            progress.warn(w);
         }
         let (inference, _, _) = crate::infer::infer_percepts(&Library::builtin(), &percepts)?;
         InferFile {
@@ -97,8 +121,8 @@ pub fn examples_from(path: &Path) -> Result<Vec<Example>> {
             continue;
         }
         let (Some(seg), Some(place)) = (&inst.features, &inst.place) else {
-            eprintln!(
-                "warning: {}: instance {} has no {} — skipped",
+            progress.warn(&format!(
+                "{}: instance {} has no {} — skipped",
                 path.display(),
                 i + 1,
                 if inst.features.is_none() {
@@ -106,7 +130,7 @@ pub fn examples_from(path: &Path) -> Result<Vec<Example>> {
                 } else {
                     "place"
                 }
-            );
+            ));
             continue;
         };
         out.push(Example {
@@ -117,19 +141,18 @@ pub fn examples_from(path: &Path) -> Result<Vec<Example>> {
     Ok(out)
 }
 
-/// Runs `pbd learn`.
-pub fn main(args: LearnArgs, out: &mut dyn Write) -> Result<()> {
-    if let Some(model) = &args.explain {
-        return explain(model, &args, out);
-    }
+/// `pbd learn`: learns (or updates) the procedural model from demonstrations and saves it.
+pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport> {
     if args.demos.is_empty() {
         bail!("no demonstrations given (pass *.infer.json or *.mcap files)");
     }
-    let output = args.output.clone().context("pass -o model.json")?;
+    let output = args.output.clone();
+    let inputs: Vec<&Path> = args.demos.iter().map(PathBuf::as_path).chain(args.update.as_deref()).collect();
+    crate::files::refuse_inputs_as_outputs(&inputs, &[output.as_path()])?;
     let mut examples = Vec::new();
     let mut listing = Vec::new();
     for d in &args.demos {
-        let ex = examples_from(d)?;
+        let ex = examples_from(d, progress)?;
         for e in &ex {
             let mut colors = e.features.colors.clone();
             colors.sort_by(|x, y| y.1.total_cmp(&x.1));
@@ -170,70 +193,42 @@ pub fn main(args: LearnArgs, out: &mut dyn Write) -> Result<()> {
     };
     model.save(&output)?;
     let explanation = model.explain()?;
-    let report = LearnReport {
+    Ok(LearnReport {
         output: output.display().to_string(),
         examples: listing,
         demonstrations: model.num_demonstrations(),
-        explanation: explanation.text.clone(),
-    };
-    if args.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
-    } else {
-        writeln!(
-            out,
-            "learned from {} demonstrations → {}",
-            report.demonstrations, report.output
-        )?;
-        writeln!(out, "{}", explanation.text)?;
-    }
-    Ok(())
+        explanation: explanation.text,
+    })
 }
 
-fn explain(path: &Path, args: &LearnArgs, out: &mut dyn Write) -> Result<()> {
+/// Explains a saved model; with `samples > 0`, also draws that many task instances from its posterior
+/// predictive (seeded by `seed`) for pictures.
+pub fn explain(path: &Path, samples: usize, seed: u64) -> Result<ModelExplanation> {
     let model = ProceduralModel::load(path)?;
-    let e = model.explain()?;
-    let dir = args
-        .plots
-        .clone()
-        .unwrap_or_else(|| path.parent().map(Path::to_path_buf).unwrap_or_default());
-    let mut pictures = Vec::new();
-    if args.samples > 0 {
-        use rand::SeedableRng;
-        let mut rng = rand::rngs::StdRng::seed_from_u64(args.seed);
-        let inst = model.sample_instances(&mut rng, args.samples)?;
-        let stem = path
-            .file_stem()
-            .map_or("model".into(), |s| s.to_string_lossy().to_string());
-        let mut by_place: BTreeMap<String, Vec<Features>> = BTreeMap::new();
-        let mut sizes = Vec::new();
-        let names = model.place_names().iter().map(|s| s.to_string()).collect::<Vec<_>>();
-        for i in &inst {
-            by_place.entry(i.place.clone()).or_default().push(i.features.clone());
-            if let (Some(k), Some(s)) = (names.iter().position(|n| *n == i.place), i.features.deci_pixels()) {
-                sizes.push((k, s));
-            }
+    let explanation = model.explain()?;
+    let mut out = ModelExplanation {
+        explanation,
+        samples_by_place: Vec::new(),
+        size_densities: Vec::new(),
+        sampled_sizes: Vec::new(),
+    };
+    if samples == 0 {
+        return Ok(out);
+    }
+    let mut rng = crate::rng::seeded(seed);
+    let inst = model.sample_instances(&mut rng, samples)?;
+    let mut by_place: BTreeMap<String, Vec<Features>> = BTreeMap::new();
+    let names = model.place_names().iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    for i in &inst {
+        by_place.entry(i.place.clone()).or_default().push(i.features.clone());
+        if let (Some(k), Some(s)) = (names.iter().position(|n| *n == i.place), i.features.deci_pixels()) {
+            out.sampled_sizes.push((k, s));
         }
-        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let sw = dir.join(format!("{stem}.swatches.png"));
-        crate::plots::swatches(&sw, &by_place.into_iter().collect::<Vec<_>>())?;
-        let dens: Vec<(String, bayes::univariate::StudentT)> = names
-            .iter()
-            .map(|n| Ok((n.clone(), model.size_density(n)?)))
-            .collect::<Result<_>>()?;
-        let sd = dir.join(format!("{stem}.sizes.png"));
-        crate::plots::size_densities(&sd, &dens, &sizes)?;
-        pictures.push(sw.display().to_string());
-        pictures.push(sd.display().to_string());
     }
-    if args.json {
-        let v = serde_json::json!({"explanation": e.text, "color_matters": e.color_matters, "size_matters": e.size_matters,
-            "map_structure": e.map_structure, "consistency": e.consistency, "pictures": pictures});
-        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
-        return Ok(());
-    }
-    writeln!(out, "{}", e.text)?;
-    for p in pictures {
-        writeln!(out, "picture: {p}")?;
-    }
-    Ok(())
+    out.samples_by_place = by_place.into_iter().collect();
+    out.size_densities = names
+        .iter()
+        .map(|n| Ok((n.clone(), model.size_density(n)?)))
+        .collect::<Result<_>>()?;
+    Ok(out)
 }

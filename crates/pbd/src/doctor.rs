@@ -2,56 +2,54 @@
 //! inconsistencies — and repair one that was cut short by rewriting what it holds into a new,
 //! complete file.
 
-use std::io::Write;
-use std::path::PathBuf;
+use std::fmt;
+use std::path::Path;
 
 use anyhow::Result;
-use clap::Args;
 use serde::Serialize;
 
 use crate::mcap_log::{FileStatus, read_summary, repair};
 
-/// Arguments of `pbd doctor`.
-#[derive(Debug, Args)]
-pub struct DoctorArgs {
-    /// The MCAP file.
-    pub file: PathBuf,
-    /// Write a repaired, complete copy here (everything readable, with a fresh summary section).
-    #[arg(long)]
-    pub repair: Option<PathBuf>,
-    /// Print the report as JSON.
-    #[arg(long)]
-    pub json: bool,
+/// What `doctor` found in an MCAP file (and what it repaired).
+#[derive(Debug, Clone, Serialize)]
+pub struct DoctorReport {
+    /// The file.
+    pub file: String,
+    /// Its size (bytes).
+    pub bytes: u64,
+    /// The file ends with a valid footer and summary.
+    pub complete: bool,
+    /// Why it is not complete.
+    pub problem: Option<String>,
+    /// Messages readable.
+    pub messages: u64,
+    /// From the first to the last message (s).
+    pub duration_secs: f64,
+    /// (topic, schema, messages) per channel.
+    pub channels: Vec<(String, String, u64)>,
+    /// Attachment names.
+    pub attachments: Vec<String>,
+    /// Metadata record names.
+    pub metadata: Vec<String>,
+    /// Inconsistencies found.
+    pub issues: Vec<String>,
+    /// The repaired copy and its message count.
+    pub repaired: Option<(String, u64)>,
 }
 
-#[derive(Debug, Serialize)]
-struct Report {
-    file: String,
-    bytes: u64,
-    complete: bool,
-    problem: Option<String>,
-    messages: u64,
-    duration_secs: f64,
-    channels: Vec<(String, String, u64)>,
-    attachments: Vec<String>,
-    metadata: Vec<String>,
-    issues: Vec<String>,
-    repaired: Option<(String, u64)>,
-}
-
-/// Runs `pbd doctor`.
-pub fn main(args: DoctorArgs, out: &mut dyn Write) -> Result<()> {
-    let s = read_summary(&args.file)?;
+/// Checks `file`; with `repair`, writes a complete copy of everything readable there.
+pub fn doctor(file: &Path, repair_to: Option<&Path>) -> Result<DoctorReport> {
+    let s = read_summary(file)?;
     let (complete, problem) = match &s.status {
         FileStatus::Complete => (true, None),
         FileStatus::Recovered { reason, .. } => (false, Some(reason.clone())),
     };
-    let repaired = match &args.repair {
-        Some(path) => Some((path.display().to_string(), repair(&args.file, path)?)),
+    let repaired = match repair_to {
+        Some(path) => Some((path.display().to_string(), repair(file, path)?)),
         None => None,
     };
-    let report = Report {
-        file: args.file.display().to_string(),
+    Ok(DoctorReport {
+        file: file.display().to_string(),
         bytes: s.file_bytes,
         complete,
         problem,
@@ -66,12 +64,13 @@ pub fn main(args: DoctorArgs, out: &mut dyn Write) -> Result<()> {
         metadata: s.metadata.clone(),
         issues: s.issues.clone(),
         repaired,
-    };
-    if args.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
-        return Ok(());
-    }
-    writeln!(
+    })
+}
+
+impl fmt::Display for DoctorReport {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let report = self;
+        writeln!(
         out,
         "{}: {} ({:.1} MB, {} messages over {:.1} s)",
         report.file,
@@ -99,4 +98,5 @@ pub fn main(args: DoctorArgs, out: &mut dyn Write) -> Result<()> {
         writeln!(out, "  repaired    {path} ({n} messages, complete)")?;
     }
     Ok(())
+    }
 }

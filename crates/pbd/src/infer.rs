@@ -8,15 +8,15 @@
 //! to scrub through and watch the schema state change.
 
 use std::collections::BTreeMap;
-use std::io::Write;
+use std::fmt;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
 use schema::{Engine, Inference, InferenceConfig, Library, MonitorBank, MonitorConfig, Observation, Percept};
 use serde::{Deserialize, Serialize};
 
 use crate::mcap_log::{FileStatus, LogLevel, McapLog, read_recording};
+use crate::progress::Progress;
 use crate::record::{TOPIC_PERCEPT, TOPIC_TRUTH};
 
 /// Format name and version of the inference file.
@@ -24,20 +24,29 @@ pub const INFER_FORMAT: &str = "pbd-inference";
 /// Version of the inference file.
 pub const INFER_VERSION: u32 = 1;
 
-/// Arguments of `pbd infer`.
-#[derive(Debug, Args)]
-pub struct InferArgs {
+/// Options of [`infer`].
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InferOptions {
     /// The demonstration (MCAP from `pbd record`).
     pub demo: PathBuf,
     /// Output JSON (default: next to the demo, `NAME.infer.json`; the companion MCAP is `NAME.infer.mcap`).
-    #[arg(short, long)]
     pub output: Option<PathBuf>,
     /// Schema library (TOML; default: the built-in library).
-    #[arg(long)]
     pub library: Option<PathBuf>,
-    /// Print the result as JSON instead of a summary.
-    #[arg(long)]
-    pub json: bool,
+}
+
+/// What [`infer`] wrote, and the inference itself.
+#[derive(Debug, Clone, Serialize)]
+pub struct InferRun {
+    /// The inference file's content.
+    pub file: InferFile,
+    /// Where it was written.
+    pub json_path: PathBuf,
+    /// The companion MCAP (schema state over time).
+    pub mcap_path: PathBuf,
+    /// Schemas in the library used.
+    pub schemas: usize,
 }
 
 /// The true object near an instance's object when it was grasped (from `/pbd/truth`; evaluation only).
@@ -186,18 +195,18 @@ fn default_output(demo: &Path, ext: &str) -> PathBuf {
     demo.with_file_name(format!("{stem}.{ext}"))
 }
 
-/// Runs `pbd infer`.
-pub fn main(args: InferArgs, out: &mut dyn Write) -> Result<()> {
+/// `pbd infer`: reads the demonstration, infers, writes `NAME.infer.json` and its companion MCAP.
+pub fn infer(args: &InferOptions, progress: &dyn Progress) -> Result<InferRun> {
     let library = match &args.library {
         Some(p) => Library::open(p)?,
         None => Library::builtin(),
     };
     let (percepts, truth, metadata, warnings) = read_percepts(&args.demo)?;
     for w in &warnings {
-        eprintln!("warning: {w}");
+        progress.warn(w);
     }
-    let progress = crate::progress::spinner(args.json, "infer");
-    progress.set_message(format!("{} percepts", percepts.len()));
+    progress.phase("infer", None);
+    progress.message(&format!("{} percepts", percepts.len()));
     let (inference, obs, engine) = infer_percepts(&library, &percepts)?;
     let file = InferFile {
         format: INFER_FORMAT.into(),
@@ -214,18 +223,17 @@ pub fn main(args: InferArgs, out: &mut dyn Write) -> Result<()> {
         .clone()
         .unwrap_or_else(|| default_output(&args.demo, "infer.json"));
     let mcap_path = json_path.with_extension("mcap");
+    crate::files::refuse_inputs_as_outputs(&[args.demo.as_path()], &[json_path.as_path(), mcap_path.as_path()])?;
     write_companion(&mcap_path, &engine, &obs, &file)?;
     let text = serde_json::to_string_pretty(&file)?;
-    // Write to a temporary file and rename: never a half-written result.
-    let tmp = json_path.with_extension("json.tmp");
-    std::fs::write(&tmp, &text).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, &json_path).with_context(|| format!("cannot write {}", json_path.display()))?;
-    progress.finish_and_clear();
-    if args.json {
-        writeln!(out, "{text}")?;
-        return Ok(());
-    }
-    summary(&file, &library, &json_path, &mcap_path, out)
+    crate::files::write_atomic(&json_path, text.as_bytes())?;
+    progress.finish();
+    Ok(InferRun {
+        file,
+        json_path,
+        mcap_path,
+        schemas: library.schemas.len(),
+    })
 }
 
 /// The companion MCAP: the inferred state per observation step, and instance events.
@@ -305,7 +313,9 @@ fn write_companion(path: &Path, engine: &Engine, obs: &[Observation], file: &Inf
     Ok(())
 }
 
-fn summary(file: &InferFile, library: &Library, json: &Path, mcap: &Path, out: &mut dyn Write) -> Result<()> {
+impl fmt::Display for InferRun {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+    let (file, json, mcap) = (&self.file, &self.json_path, &self.mcap_path);
     let inf = &file.inference;
     writeln!(
         out,
@@ -313,7 +323,7 @@ fn summary(file: &InferFile, library: &Library, json: &Path, mcap: &Path, out: &
         file.demo,
         inf.duration,
         inf.steps,
-        library.schemas.len()
+        self.schemas
     )?;
     writeln!(
         out,
@@ -372,4 +382,5 @@ fn summary(file: &InferFile, library: &Library, json: &Path, mcap: &Path, out: &
         mcap.display()
     )?;
     Ok(())
+    }
 }

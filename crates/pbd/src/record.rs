@@ -9,13 +9,10 @@
 //! the URDF. Ctrl-C or SIGTERM ends the recording cleanly with everything captured so far.
 
 use std::collections::BTreeMap;
-use std::io::Write;
+use std::fmt;
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
-use clap::{Args, ValueEnum};
 use dexter::eyes::Eyes;
 use dexter_sim::Arm;
 use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
@@ -23,9 +20,10 @@ use dexter_sim::scene::Scene;
 use dexter_sim::teach::{DemoReport, DemoSettings, DemoSink, TeleopSource, run_demonstration};
 use dexter_sim::teleop::{HandCommand, Replay, TeachTask, Teacher, TeleopStream};
 use schema::Percept;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::mcap_log::{LogLevel, McapLog};
+use crate::progress::Progress;
 use crate::sim::ArmChoice;
 
 /// Topic of the robot's percepts.
@@ -36,7 +34,8 @@ pub const TOPIC_TELEOP: &str = "/teleop/command";
 pub const TOPIC_TRUTH: &str = "/pbd/truth";
 
 /// What the scripted teacher demonstrates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Script {
     /// Pick an object and place it in a bin.
     PickPlace,
@@ -52,72 +51,87 @@ pub enum Script {
     Wander,
 }
 
-/// Arguments of `pbd record`.
-#[derive(Debug, Args)]
-pub struct RecordArgs {
+/// Options of [`record`].
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RecordOptions {
     /// Scene: a built-in name (pick-place, sorting, sorting-new) or a TOML file.
-    #[arg(long, default_value = "pick-place")]
     pub scene: String,
-    /// The scripted teacher's task (ignored with --teleop).
-    #[arg(long, value_enum, default_value_t = Script::PickPlace)]
+    /// The scripted teacher's task (ignored with `teleop`).
     pub script: Script,
     /// Replay a glove/mocap stream instead (CSV or JSON lines; see the README).
-    #[arg(long, conflicts_with = "script")]
     pub teleop: Option<PathBuf>,
     /// Object (scene label; default: the scene's first object).
-    #[arg(long)]
     pub object: Option<String>,
     /// Place (default: a place the chosen arm reaches).
-    #[arg(long)]
     pub place: Option<String>,
-    /// For `--script sort`: OBJECT=PLACE pairs, comma-separated (default: by colour class, the classes
-    /// in alphabetical order to the places in scene order).
-    #[arg(long)]
+    /// For [`Script::Sort`]: OBJECT=PLACE pairs, comma-separated (default: by colour class, the
+    /// classes in alphabetical order to the places in scene order).
     pub assign: Option<String>,
     /// The teacher's arm.
-    #[arg(long, value_enum, default_value_t = ArmChoice::Auto)]
     pub arm: ArmChoice,
     /// The first grasp closes too early and is retried.
-    #[arg(long)]
     pub retry: bool,
     /// Seed of every random choice (teacher, sensor noise); default: the scene's seed.
-    #[arg(long)]
     pub seed: Option<u64>,
     /// Output MCAP file.
-    #[arg(short, long)]
     pub output: PathBuf,
     /// Also write the teacher's hand commands as a teleop file (CSV if it ends in .csv, else JSON lines).
-    #[arg(long)]
     pub save_teleop: Option<PathBuf>,
     /// Log the head cameras' images too (large files).
-    #[arg(long)]
     pub images: bool,
     /// Rate of /tf, joint states and fingertips (Hz of simulated time).
-    #[arg(long, default_value_t = 30.0)]
     pub log_hz: f64,
     /// Rate of the robot's percepts (Hz).
-    #[arg(long, default_value_t = 10.0)]
     pub percept_hz: f64,
     /// Longest recording (s of simulated time).
-    #[arg(long, default_value_t = 600.0)]
     pub max_seconds: f64,
-    /// Print the report as JSON.
-    #[arg(long)]
-    pub json: bool,
 }
 
-#[derive(Debug, Serialize)]
-struct RecordReport {
-    output: String,
-    scene: String,
-    source: String,
-    tasks: Vec<TeachTask>,
+impl Default for RecordOptions {
+    fn default() -> Self {
+        RecordOptions {
+            scene: "pick-place".into(),
+            script: Script::PickPlace,
+            teleop: None,
+            object: None,
+            place: None,
+            assign: None,
+            arm: ArmChoice::Auto,
+            retry: false,
+            seed: None,
+            output: PathBuf::from("demo.mcap"),
+            save_teleop: None,
+            images: false,
+            log_hz: 30.0,
+            percept_hz: 10.0,
+            max_seconds: 600.0,
+        }
+    }
+}
+
+/// What [`record`] recorded.
+#[derive(Debug, Clone, Serialize)]
+pub struct RecordReport {
+    /// The MCAP file.
+    pub output: String,
+    /// The scene.
+    pub scene: String,
+    /// Who taught: the scripted teacher or a teleop file.
+    pub source: String,
+    /// The scripted teacher's tasks.
+    pub tasks: Vec<TeachTask>,
+    /// The demonstration (simulated time, percepts, notes, interrupted?).
     #[serde(flatten)]
-    demo: DemoReport,
-    wall_time: f64,
-    real_time_factor: f64,
-    messages: u64,
-    bytes: u64,
+    pub demo: DemoReport,
+    /// Wall-clock time (s).
+    pub wall_time: f64,
+    /// Simulated over wall-clock time.
+    pub real_time_factor: f64,
+    /// Messages written.
+    pub messages: u64,
+    /// Bytes written.
+    pub bytes: u64,
 }
 
 /// Objects' true positions, for evaluation.
@@ -125,14 +139,6 @@ struct RecordReport {
 struct Truth<'a> {
     t: f64,
     objects: Vec<(&'a str, [f64; 3])>,
-}
-
-fn arm_of(choice: ArmChoice) -> Option<Arm> {
-    match choice {
-        ArmChoice::Left => Some(Arm::Left),
-        ArmChoice::Right => Some(Arm::Right),
-        ArmChoice::Auto => None,
-    }
 }
 
 /// Which arm can take `object` to `place` (the requested one if it can).
@@ -178,7 +184,7 @@ fn choose_arm(sim: &DexterSim, scene: &Scene, object: &str, place: Option<&str>,
     }
 }
 
-fn tasks(args: &RecordArgs, sim: &DexterSim, scene: &Scene) -> Result<Vec<TeachTask>> {
+fn tasks(args: &RecordOptions, sim: &DexterSim, scene: &Scene) -> Result<Vec<TeachTask>> {
     let first_object = || {
         scene
             .resolved
@@ -186,7 +192,7 @@ fn tasks(args: &RecordArgs, sim: &DexterSim, scene: &Scene) -> Result<Vec<TeachT
             .map(|o| o.label.clone())
             .context("the scene has no objects; pass --object")
     };
-    let want = arm_of(args.arm);
+    let want = args.arm.arm();
     let object = match &args.object {
         Some(o) => {
             sim.object(o)?;
@@ -297,9 +303,9 @@ struct Sink<'a> {
     log_period: f64,
     next_log: f64,
     images: bool,
-    stop: Arc<AtomicBool>,
+    stop: bool,
     error: Option<anyhow::Error>,
-    progress: &'a indicatif::ProgressBar,
+    progress: &'a dyn Progress,
     percepts: usize,
 }
 
@@ -308,7 +314,7 @@ impl Sink<'_> {
         if let Err(e) = r {
             self.error.get_or_insert(e);
             // A log that cannot be written ends the recording.
-            self.stop.store(true, Ordering::SeqCst);
+            self.stop = true;
         }
     }
 }
@@ -362,17 +368,19 @@ impl DemoSink for Sink<'_> {
     }
 
     fn should_stop(&mut self) -> bool {
-        self.stop.load(Ordering::SeqCst)
+        self.stop || self.progress.should_stop()
     }
 }
 
-/// Runs `pbd record`.
-pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
+/// `pbd record`: runs the teacher (scripted or a teleop file) in the simulator and records the
+/// demonstration to MCAP. When `progress` asks to stop (Ctrl-C), the file is finished with what was
+/// captured and the report says `interrupted`.
+pub fn record(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordReport> {
     // Config.
     for (name, v) in [
-        ("--log-hz", args.log_hz),
-        ("--percept-hz", args.percept_hz),
-        ("--max-seconds", args.max_seconds),
+        ("log_hz", args.log_hz),
+        ("percept_hz", args.percept_hz),
+        ("max_seconds", args.max_seconds),
     ] {
         if !(v.is_finite() && v > 0.0) {
             bail!("{name} must be a positive number (got {v})");
@@ -416,6 +424,14 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
             dir.display()
         );
     }
+    if let Some(t) = &args.save_teleop {
+        crate::files::refuse_inputs_as_outputs(&[args.output.as_path()], &[t.as_path()])?;
+        crate::files::check_writable(t)?;
+    }
+    let mut inputs: Vec<&std::path::Path> = args.teleop.iter().map(PathBuf::as_path).collect();
+    let scene_path = PathBuf::from(&args.scene);
+    inputs.push(scene_path.as_path());
+    crate::files::refuse_inputs_as_outputs(&inputs, &[args.output.as_path()])?;
     let mut log = McapLog::create(&args.output)?;
     log.attach("dexter.urdf", "application/xml", DEXTER_URDF.as_bytes())?;
     let mut meta: BTreeMap<String, String> = BTreeMap::new();
@@ -430,17 +446,12 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
     log.metadata("pbd", meta)?;
     log.log_scene(&scene, sim.header(), 0.0)?;
 
-    // Ctrl-C and SIGTERM end the recording; the file is finished with what was captured.
-    let stop = Arc::new(AtomicBool::new(false));
-    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(sig, Arc::clone(&stop)).context("cannot install the signal handler")?;
-    }
     let max = match &source {
         TeleopSource::Replay(r) => (r.duration() + 2.0).min(args.max_seconds),
         TeleopSource::Script(_) => args.max_seconds,
     };
-    let progress = crate::progress::bar(args.json, (max * 10.0) as u64, "record");
-    progress.set_message("simulated s ×10");
+    progress.phase("record", Some((max * 10.0) as u64));
+    progress.message("simulated s ×10");
     let wall = std::time::Instant::now();
     let mut sink = Sink {
         log,
@@ -449,9 +460,9 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
         log_period: 1.0 / args.log_hz,
         next_log: 0.0,
         images: args.images,
-        stop: Arc::clone(&stop),
+        stop: false,
         error: None,
-        progress: &progress,
+        progress,
         percepts: 0,
     };
     let settings = DemoSettings {
@@ -462,7 +473,7 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
     };
     let (source_for_run, teleop_log) = (source, args.save_teleop.clone());
     let run = run_demonstration(&mut sim, &scene, source_for_run, &settings, &mut sink);
-    progress.finish_and_clear();
+    progress.finish();
     let Sink { mut log, error, .. } = sink;
     let demo = match run {
         Ok(d) => d,
@@ -501,7 +512,7 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
         } else {
             stream.to_jsonl()
         };
-        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+        crate::files::write_atomic(&path, text.as_bytes())?;
     }
     let report = RecordReport {
         output: args.output.display().to_string(),
@@ -518,9 +529,13 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
         messages: stats.messages,
         bytes: stats.bytes,
     };
-    if args.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
-    } else {
+    Ok(report)
+}
+
+impl fmt::Display for RecordReport {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let report = self;
+
         writeln!(
             out,
             "recorded {:.1} s of demonstration ({}) in {:.1} s wall (real-time factor {:.2}){}",
@@ -549,16 +564,9 @@ pub fn main(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
             report.demo.percepts,
             report.output
         )?;
+    
+        Ok(())
     }
-    if report.demo.interrupted {
-        // Interrupted: the file is complete, but say so in the exit status.
-        bail!(
-            "interrupted after {:.1} s; {} holds what was captured",
-            report.demo.sim_time,
-            report.output
-        );
-    }
-    Ok(())
 }
 
 fn describe(t: &TeachTask) -> String {
