@@ -344,7 +344,6 @@ pub(crate) fn sample_categorical<R: Rng + ?Sized>(rng: &mut R, probs: &[f64]) ->
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::SeedableRng;
 
     #[test]
     fn bad_input_is_an_error() {

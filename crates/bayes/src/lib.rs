@@ -29,11 +29,13 @@
 
 pub mod bayes_factor;
 pub mod chi2;
+pub mod contingency;
 pub mod dirichlet;
 pub mod error;
 pub mod hmm;
 pub mod multivariate;
 pub mod rng;
+pub mod roc;
 pub mod special;
 pub mod univariate;
 

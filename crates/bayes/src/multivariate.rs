@@ -248,7 +248,6 @@ pub fn sample_inv_wishart<R: Rng + ?Sized>(rng: &mut R, df: f64, scale_chol: &Ch
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::SeedableRng;
 
     #[test]
     fn bad_matrices_are_errors() {

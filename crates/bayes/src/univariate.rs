@@ -389,7 +389,6 @@ impl NormalInverseGamma {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::SeedableRng;
 
     #[test]
     fn invalid_parameters_are_errors() {

@@ -2,13 +2,10 @@
 //!
 //! `pbd` is the user's door into the workspace: it records demonstrations in the Dexter simulator,
 //! infers which schema explains them, learns a procedural model and executes it in a new context
-//! (Sweeney 2011). Today it offers the first of those building blocks, `pbd robot`: inspect a URDF and
-//! evaluate the forward kinematics and Jacobian of any serial chain in it.
-//!
-//! Every subcommand runs in three phases, as ripgrep does: **parse** (clap, syntax only; usage errors
-//! exit with 2), **config** (files loaded, names resolved, values validated — every user mistake is
-//! reported here, once, as `error: …` with exit code 1) and **run** (computation and printing, which
-//! cannot fail on user input any more). One file per subcommand; `main` only dispatches.
+//! (Sweeney 2011). Everything it does lives in the `pbd` library crate (the facade); this binary only
+//! turns arguments into the library's options, draws progress bars and plots, and prints reports
+//! (as text, or as JSON with `--json`). Usage errors exit with 2, every other error prints `error: …`
+//! with its causes and exits with 1.
 
 use std::io::{self, Write};
 use std::process::ExitCode;
@@ -22,12 +19,8 @@ mod experiment;
 mod grasp;
 mod infer;
 mod learn;
-#[allow(dead_code)]
-mod mcap_log;
 mod output;
-#[allow(dead_code)]
 mod plots;
-#[allow(dead_code)]
 mod progress;
 mod record;
 mod robot;
@@ -37,6 +30,10 @@ mod sim;
 #[derive(Debug, Parser)]
 #[command(name = "pbd", version, propagate_version = true)]
 struct Cli {
+    /// Worker threads for parallel trials and scenes [default: one per core, or PBD_THREADS].
+    /// Results do not depend on it.
+    #[arg(long, global = true, value_name = "N")]
+    threads: Option<usize>,
     #[command(subcommand)]
     command: Command,
 }
@@ -78,6 +75,15 @@ fn main() -> ExitCode {
             return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
         }
     };
+    let threads = cli
+        .threads
+        .or_else(|| std::env::var("PBD_THREADS").ok().and_then(|s| s.parse().ok()));
+    if let Some(n) = threads
+        && let Err(e) = pbd::parallel::set_threads(n)
+    {
+        eprintln!("error: {e:#}");
+        return ExitCode::FAILURE;
+    }
     let stdout = io::stdout();
     let mut out = stdout.lock();
     let result = match cli.command {

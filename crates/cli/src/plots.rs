@@ -4,42 +4,11 @@
 
 use std::path::Path;
 
-use bayes::univariate::StudentT;
-use dexter_sim::vision::color::hsv_to_rgb;
+use pbd::bayes::univariate::StudentT;
+use pbd::dexter::vision::color::hsv_to_rgb;
 use plotters::prelude::*;
-use schema::procedural::{COLORS, Features, term_hsv};
-
-/// One line of a [`LineChart`]: points (x, y) with an optional (low, high) error bar each.
-#[derive(Debug, Clone)]
-pub struct Series {
-    /// Legend label.
-    pub label: String,
-    /// Points.
-    pub points: Vec<(f64, f64)>,
-    /// Error bars (low, high) per point, or empty.
-    pub errors: Vec<(f64, f64)>,
-}
-
-/// A line chart.
-#[derive(Debug, Clone)]
-pub struct LineChart {
-    /// Title.
-    pub title: String,
-    /// X axis label.
-    pub x_label: String,
-    /// Y axis label.
-    pub y_label: String,
-    /// X range.
-    pub x_range: (f64, f64),
-    /// Y range (positive when `log_y`).
-    pub y_range: (f64, f64),
-    /// Logarithmic y axis.
-    pub log_y: bool,
-    /// The lines.
-    pub series: Vec<Series>,
-    /// Dashed horizontal reference lines (y, label).
-    pub hlines: Vec<(f64, String)>,
-}
+use pbd::figure::{Figure, LineChart, Series};
+use pbd::schema::procedural::{COLORS, Features, term_hsv};
 
 const PALETTE: [RGBColor; 6] = [
     RGBColor(31, 119, 180),
@@ -55,6 +24,79 @@ fn term_rgb(term: usize) -> RGBColor {
     let [r, g, b] = hsv_to_rgb(term_hsv(term));
     let c = |x: f64| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
     RGBColor(c(r), c(g), c(b))
+}
+
+/// Draws a figure of the library to an SVG file.
+pub fn draw(path: &Path, figure: &Figure) -> anyhow::Result<()> {
+    match figure {
+        Figure::Lines(chart) => line_chart(path, chart),
+        Figure::PmfGrid { title, rows } => pmf_grid(path, title, rows),
+        Figure::Swatches(places) => swatches(path, places),
+        Figure::SizeDensities { places, samples } => size_densities(path, places, samples),
+        Figure::GroupedBars {
+            title,
+            y_label,
+            y_max,
+            categories,
+            groups,
+        } => grouped_bars(path, title, y_label, *y_max, categories, groups),
+    }
+}
+
+/// Grouped bars: per category one bar per group, category names rotated under the bars (Fig. 6.7).
+fn grouped_bars(
+    path: &Path,
+    title: &str,
+    y_label: &str,
+    y_max: f64,
+    categories: &[String],
+    groups: &[(String, Vec<f64>)],
+) -> anyhow::Result<()> {
+    let n = categories.len();
+    let width = (140 + 60 * n as u32).max(480);
+    let root = SVGBackend::new(path, (width, 420)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 16))
+        .margin(12)
+        .x_label_area_size(110)
+        .y_label_area_size(40)
+        .build_cartesian_2d(0.0..n.max(1) as f64, 0.0..y_max.max(1e-9))?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(0)
+        .y_desc(y_label)
+        .draw()?;
+    let k = groups.len().max(1) as f64;
+    let w = 0.8 / k;
+    for (g, (label, values)) in groups.iter().enumerate() {
+        let color = PALETTE[g % PALETTE.len()];
+        let x0 = 0.1 + g as f64 * w;
+        chart
+            .draw_series(values.iter().enumerate().map(|(i, &v)| {
+                let x = i as f64 + x0;
+                Rectangle::new([(x, 0.0), (x + w * 0.95, v)], color.filled())
+            }))?
+            .label(label.as_str())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()?;
+    let style = ("sans-serif", 11)
+        .into_font()
+        .transform(FontTransform::Rotate90)
+        .color(&BLACK);
+    for (i, c) in categories.iter().enumerate() {
+        let (px, py) = chart.backend_coord(&(i as f64 + 0.5, 0.0));
+        root.draw(&Text::new(c.clone(), (px - 6, py + 6), style.clone()))?;
+    }
+    root.present()?;
+    Ok(())
 }
 
 /// Draws a line chart to an SVG file.

@@ -71,6 +71,16 @@ pub struct McapRunLog<'a> {
     progress: &'a dyn Progress,
 }
 
+impl std::fmt::Debug for McapRunLog<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("McapRunLog")
+            .field("logging", &self.log.is_some())
+            .field("next_log", &self.next_log)
+            .field("error", &self.error)
+            .finish_non_exhaustive()
+    }
+}
+
 impl<'a> McapRunLog<'a> {
     /// A log to `log` (or none: progress only) of a run on a simulator with `header`.
     pub fn new(log: Option<McapLog>, header: dexter_sim::snapshot::SnapshotHeader, progress: &'a dyn Progress) -> Self {

@@ -11,165 +11,171 @@
 //! - `pbd grasp eval`: the §6.5 experiment — train/test split, model vs naive baseline in the sim,
 //!   Fig. 6.7, totals, significance, Table 6.1.
 
-use std::io::Write;
+use std::fmt;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use clap::{Args, Subcommand, ValueEnum};
 use dexter_sim::Arm;
 use dexter_sim::grasp_trial::{self, GraspTeacher, Percept, PreGraspCommand, TrialOutcome};
 use dexter_sim::physics::SimSettings;
 use dexter_sim::scene::Scene;
 use grasp_topics::{Config, Corpus, DemoGrasp, DpConfig, GraspModel};
 use nalgebra::{Matrix2, Vector3};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-pub(crate) mod common;
-mod eval;
-mod report;
+use crate::progress::Progress;
+
+pub mod common;
+pub mod eval;
+pub mod report;
 
 use common::{Presenter, select_candidates};
 
-/// `pbd grasp …` subcommands.
-#[derive(Debug, Subcommand)]
-pub enum GraspCommand {
-    /// Demonstrate grasps on training presentations in the sim (scripted teacher or a teleop file)
-    /// and write the grasps that held into a corpus file.
-    Record(RecordArgs),
-    /// Learn grasp prototypes from a corpus (collapsed Gibbs sampler, or a Dirichlet process).
-    Learn(LearnArgs),
-    /// Generate pre-grasps for a presented object from its appearance (collision-filtered, ranked).
-    Generate(GenerateArgs),
-    /// Evaluate the prototype model against the naive baseline in the sim (§6.5, Fig. 6.7).
-    Eval(eval::EvalArgs),
-}
-
 /// Which arm grasps.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ArmArg {
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GraspArm {
     /// The left arm.
     Left,
     /// The right arm (the seed's).
+    #[default]
     Right,
 }
 
-impl ArmArg {
-    fn arm(self) -> Arm {
+impl GraspArm {
+    /// The arm.
+    pub fn arm(self) -> Arm {
         match self {
-            ArmArg::Left => Arm::Left,
-            ArmArg::Right => Arm::Right,
+            GraspArm::Left => Arm::Left,
+            GraspArm::Right => Arm::Right,
         }
     }
 }
 
 /// Where and how objects are presented (shared by record, generate and eval).
-#[derive(Debug, Clone, Args)]
-pub struct PresentArgs {
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PresentOptions {
     /// Scene whose table, cameras and catalog are used (built-in name or TOML file); its objects are
     /// replaced by the one presented.
-    #[arg(long, default_value = "pick-place")]
     pub scene: String,
     /// Where the object is presented on the table (x, y in m, world).
-    #[arg(long, num_args = 2, value_names = ["X", "Y"], default_values_t = [0.55, 0.0], allow_negative_numbers = true)]
-    pub xy: Vec<f64>,
+    pub xy: [f64; 2],
     /// The arm that grasps.
-    #[arg(long, value_enum, default_value_t = ArmArg::Right)]
-    pub arm: ArmArg,
+    pub arm: GraspArm,
 }
 
-/// Arguments of `pbd grasp record`.
-#[derive(Debug, Args)]
-pub struct RecordArgs {
-    #[command(flatten)]
-    pub present: PresentArgs,
-    /// Training presentations (catalog names such as `jif`, `jif-1`), comma-separated; default: all.
-    #[arg(long, value_delimiter = ',')]
+impl Default for PresentOptions {
+    fn default() -> Self {
+        PresentOptions {
+            scene: "pick-place".into(),
+            xy: [0.55, 0.0],
+            arm: GraspArm::Right,
+        }
+    }
+}
+
+/// Options of [`record`] (`pbd grasp record`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GraspRecordOptions {
+    /// Where and how objects are presented.
+    pub present: PresentOptions,
+    /// Training presentations (catalog names such as `jif`, `jif-1`); empty: all.
     pub objects: Vec<String>,
     /// Demonstrations attempted per presentation by the scripted teacher.
-    #[arg(long, default_value_t = 4)]
     pub demos: usize,
     /// Replay teleoperation files instead (CSV or JSON lines, `pbd record` format; one grasp each:
     /// the pre-grasp is the palm pose when the commanded flexion first exceeds 1 rad). Needs exactly
-    /// one `--objects` presentation.
-    #[arg(long)]
+    /// one presentation in `objects`.
     pub teleop: Vec<PathBuf>,
     /// Seed of every random choice (placement jitter, teacher noise, encoder and pixel noise).
-    #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Corpus file to write.
-    #[arg(short, long)]
     pub output: PathBuf,
     /// Add to an existing corpus file (grasps of a presentation already there are appended).
-    #[arg(long)]
     pub append: bool,
-    /// Print the summary as JSON.
-    #[arg(long)]
-    pub json: bool,
 }
 
-/// Arguments of `pbd grasp learn`.
-#[derive(Debug, Args)]
-pub struct LearnArgs {
+impl Default for GraspRecordOptions {
+    fn default() -> Self {
+        GraspRecordOptions {
+            present: PresentOptions::default(),
+            objects: Vec::new(),
+            demos: 4,
+            teleop: Vec::new(),
+            seed: 0,
+            output: PathBuf::from("corpus.json"),
+            append: false,
+        }
+    }
+}
+
+/// Options of [`learn`] (`pbd grasp learn`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GraspLearnOptions {
     /// The corpus file (`pbd-grasp-corpus` JSON).
     pub corpus: PathBuf,
     /// Model file to write (`pbd-grasp-model` JSON).
-    #[arg(short, long)]
     pub output: PathBuf,
     /// Number of prototypes A of the finite model (the seed used 10).
-    #[arg(long, default_value_t = 10, conflicts_with = "nonparametric")]
     pub prototypes: usize,
     /// Infer the number of prototypes (Dirichlet-process mixture, Neal's algorithm 8).
-    #[arg(long)]
     pub nonparametric: bool,
-    /// DP concentration (with --nonparametric).
-    #[arg(long, default_value_t = 1.0)]
+    /// DP concentration (with `nonparametric`).
     pub concentration: f64,
     /// Number of canonical orientations Q (the seed used 6).
-    #[arg(long, default_value_t = 6)]
     pub orientations: usize,
     /// Burn-in sweeps.
-    #[arg(long, default_value_t = 200)]
     pub burn_in: usize,
     /// Chains (run in parallel).
-    #[arg(long, default_value_t = 4)]
     pub chains: usize,
     /// Seed.
-    #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Print the summary as JSON.
-    #[arg(long)]
-    pub json: bool,
 }
 
-/// Arguments of `pbd grasp generate`.
-#[derive(Debug, Args)]
-pub struct GenerateArgs {
+impl Default for GraspLearnOptions {
+    fn default() -> Self {
+        GraspLearnOptions {
+            corpus: PathBuf::from("corpus.json"),
+            output: PathBuf::from("prototypes.json"),
+            prototypes: 10,
+            nonparametric: false,
+            concentration: 1.0,
+            orientations: 6,
+            burn_in: 200,
+            chains: 4,
+            seed: 0,
+        }
+    }
+}
+
+/// Options of [`generate`] (`pbd grasp generate`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GenerateOptions {
     /// The model file (`pbd grasp learn` output).
-    #[arg(long)]
     pub model: PathBuf,
     /// The presentation to present (catalog name such as `jif-1`).
-    #[arg(long)]
     pub object: String,
-    #[command(flatten)]
-    pub present: PresentArgs,
+    /// Where and how it is presented.
+    pub present: PresentOptions,
     /// Number of pre-grasps to return.
-    #[arg(long, default_value_t = 6)]
     pub n: usize,
     /// Seed.
-    #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Print the pre-grasps as JSON.
-    #[arg(long)]
-    pub json: bool,
 }
 
-/// Runs a `pbd grasp` subcommand.
-pub fn main(cmd: GraspCommand, out: &mut dyn Write) -> Result<()> {
-    match cmd {
-        GraspCommand::Record(a) => record(a, out),
-        GraspCommand::Learn(a) => learn(a, out),
-        GraspCommand::Generate(a) => generate(a, out),
-        GraspCommand::Eval(a) => eval::run(a, out),
+impl Default for GenerateOptions {
+    fn default() -> Self {
+        GenerateOptions {
+            model: PathBuf::from("prototypes.json"),
+            object: String::new(),
+            present: PresentOptions::default(),
+            n: 6,
+            seed: 0,
+        }
     }
 }
 
@@ -205,25 +211,26 @@ pub struct RecordSummary {
 
 /// What a record run produced: the corpus (presentations with at least one kept grasp), every
 /// attempt, and the presentations skipped with why.
-pub(crate) type Recorded = (Corpus, Vec<DemoRecord>, Vec<(String, String)>);
+pub type Recorded = (Corpus, Vec<DemoRecord>, Vec<(String, String)>);
 
 /// Demonstrates `demos` grasps on each presentation with the scripted teacher; returns the corpus
 /// (objects with at least one kept grasp) and the attempt records. `progress` is told after each
 /// presentation.
-pub(crate) fn record_scripted(
+pub fn record_scripted(
     presenter: &Presenter,
     objects: &[String],
     demos: usize,
     seed: u64,
-    progress: &(dyn Fn(&str) + Sync),
+    progress: &dyn Progress,
 ) -> Result<Recorded> {
-    let results = common::parallel_map(objects, |i, name| -> Result<_> {
-        let obj_seed = common::mix(seed, i as u64);
+    let indexed: Vec<(usize, &String)> = objects.iter().enumerate().collect();
+    let results = crate::parallel::map(&indexed, progress, |&(i, name)| -> Result<_> {
+        let obj_seed = crate::rng::split(seed, i as u64);
         let (scene, settings) = presenter.scene(name, obj_seed)?;
         let percept = match grasp_trial::perceive(&scene, &settings)? {
             Ok(p) => p,
             Err(why) => {
-                progress(name);
+                progress.message(name);
                 return Ok((None, Vec::new(), Some(why)));
             }
         };
@@ -244,7 +251,7 @@ pub(crate) fn record_scripted(
                 outcome: o.outcome,
             });
         }
-        progress(name);
+        progress.message(name);
         Ok((Some((percept, grasps)), records, None))
     })?;
     let mut corpus = Corpus::new();
@@ -262,7 +269,7 @@ pub(crate) fn record_scripted(
 }
 
 /// A row-major 2×2 array as a matrix.
-pub(crate) fn mat2(a: [[f64; 2]; 2]) -> Matrix2<f64> {
+pub fn mat2(a: [[f64; 2]; 2]) -> Matrix2<f64> {
     Matrix2::new(a[0][0], a[0][1], a[1][0], a[1][1])
 }
 
@@ -274,7 +281,8 @@ fn demo_grasp(o: &TrialOutcome, p: &Percept) -> DemoGrasp {
     DemoGrasp::new(&x, &q)
 }
 
-fn record(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
+/// `pbd grasp record`: demonstrated grasps in the simulator, the ones that held saved as a corpus.
+pub fn record(args: &GraspRecordOptions, progress: &dyn Progress) -> Result<RecordSummary> {
     let presenter = Presenter::new(&args.present)?;
     let objects: Vec<String> = if args.objects.is_empty() {
         presenter.presentations()
@@ -285,10 +293,10 @@ fn record(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
         presenter.check(o)?;
     }
     if !args.teleop.is_empty() && objects.len() != 1 {
-        bail!("--teleop replays grasps of one presentation: give exactly one --objects NAME");
+        bail!("teleop replays grasps of one presentation: give exactly one object");
     }
     if args.teleop.is_empty() && args.demos == 0 {
-        bail!("--demos must be at least 1");
+        bail!("demos must be at least 1");
     }
     let mut corpus = if args.append && args.output.exists() {
         Corpus::load(&args.output)?
@@ -301,17 +309,14 @@ fn record(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
         .map(|p| dexter_sim::teleop::TeleopStream::load(p).map_err(anyhow::Error::from))
         .collect::<Result<Vec<_>>>()?;
     // Run.
-    let bar = crate::progress::bar(args.json, objects.len() as u64, "record");
+    crate::files::check_writable(&args.output)?;
+    progress.phase("record", Some(objects.len() as u64));
     let (new, demos, skipped) = if teleops.is_empty() {
-        let tick = |name: &str| {
-            bar.set_message(name.to_string());
-            bar.inc(1);
-        };
-        record_scripted(&presenter, &objects, args.demos, args.seed, &tick)?
+        record_scripted(&presenter, &objects, args.demos, args.seed, progress)?
     } else {
         common::record_teleop(&presenter, &objects[0], &teleops, args.seed)?
     };
-    bar.finish_and_clear();
+    progress.finish();
     let attempts = demos.len();
     for o in new.objects {
         match corpus.objects.iter_mut().find(|c| c.name == o.name) {
@@ -334,23 +339,27 @@ fn record(args: RecordArgs, out: &mut dyn Write) -> Result<()> {
         skipped,
         demos,
     };
-    if args.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&summary)?)?;
-    } else {
+    Ok(summary)
+}
+
+impl fmt::Display for RecordSummary {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let summary = self;
         let kept = summary.demos.iter().filter(|d| d.kept).count();
         writeln!(
             out,
-            "recorded {kept} of {attempts} demonstrated grasps; corpus {} has {} presentations, {} grasps",
-            summary.corpus, summary.objects, summary.grasps
+            "recorded {kept} of {} demonstrated grasps; corpus {} has {} presentations, {} grasps",
+            summary.attempts, summary.corpus, summary.objects, summary.grasps
         )?;
         for (name, why) in &summary.skipped {
             writeln!(out, "  skipped {name}: {why}")?;
         }
+        Ok(())
     }
-    Ok(())
 }
 
-pub(crate) fn learn_config(
+/// The sampler configuration of a learn run.
+pub fn learn_config(
     prototypes: usize,
     nonparametric: bool,
     concentration: f64,
@@ -392,9 +401,13 @@ pub struct ModelSummary {
     pub log_joint: f64,
     /// Gelman–Rubin R̂ of the log joint.
     pub r_hat: Option<f64>,
+    /// Table 6.1: which objects share which prototypes.
+    #[serde(skip)]
+    pub sharing_table: String,
 }
 
-pub(crate) fn model_summary(model: &GraspModel, path: &Path) -> ModelSummary {
+/// The summary of a learned model saved at `path`.
+pub fn model_summary(model: &GraspModel, path: &Path) -> ModelSummary {
     let table = model.sharing_table();
     ModelSummary {
         model: path.display().to_string(),
@@ -405,10 +418,12 @@ pub(crate) fn model_summary(model: &GraspModel, path: &Path) -> ModelSummary {
         shared_fraction: table.shared_fraction(),
         log_joint: model.log_joint,
         r_hat: model.diagnostics.r_hat,
+        sharing_table: table.to_string(),
     }
 }
 
-fn learn(args: LearnArgs, out: &mut dyn Write) -> Result<()> {
+/// `pbd grasp learn`: grasp prototypes from a corpus (collapsed Gibbs, or a DP mixture), saved.
+pub fn learn(args: &GraspLearnOptions, progress: &dyn Progress) -> Result<ModelSummary> {
     let corpus = Corpus::load(&args.corpus)?;
     let config = learn_config(
         args.prototypes,
@@ -420,21 +435,25 @@ fn learn(args: LearnArgs, out: &mut dyn Write) -> Result<()> {
         args.seed,
     );
     config.validate()?;
-    let spinner = crate::progress::spinner(args.json, "learn");
-    spinner.set_message(format!(
+    crate::files::refuse_inputs_as_outputs(&[args.corpus.as_path()], &[args.output.as_path()])?;
+    crate::files::check_writable(&args.output)?;
+    progress.phase("learn", None);
+    progress.message(&format!(
         "{} grasps on {} presentations",
         corpus.num_grasps(),
         corpus.objects.len()
     ));
     let model = GraspModel::learn(&corpus, &config)?;
-    spinner.finish_and_clear();
+    progress.finish();
     model
         .save(&args.output)
         .with_context(|| format!("cannot write {}", args.output.display()))?;
-    let summary = model_summary(&model, &args.output);
-    if args.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&summary)?)?;
-    } else {
+    Ok(model_summary(&model, &args.output))
+}
+
+impl fmt::Display for ModelSummary {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let summary = self;
         writeln!(
             out,
             "learned {} prototypes from {} grasps on {} presentations -> {}",
@@ -448,9 +467,8 @@ fn learn(args: LearnArgs, out: &mut dyn Write) -> Result<()> {
             summary.r_hat.map_or("-".into(), |r| format!("{r:.3}"))
         )?;
         writeln!(out)?;
-        write!(out, "{}", model.sharing_table())?;
+        write!(out, "{}", summary.sharing_table)
     }
-    Ok(())
 }
 
 /// One generated pre-grasp for `--json`.
@@ -487,14 +505,18 @@ pub struct GenerateReport {
     pub rejected: common::Rejections,
     /// The ranked pre-grasps.
     pub pre_grasps: Vec<GeneratedPreGrasp>,
+    /// How many were asked for.
+    pub asked: usize,
 }
 
-fn generate(args: GenerateArgs, out: &mut dyn Write) -> Result<()> {
+/// `pbd grasp generate`: perceive a presented object and propose ranked, collision-free pre-grasps
+/// from its appearance (6.28).
+pub fn generate(args: &GenerateOptions) -> Result<GenerateReport> {
     let model = GraspModel::load(&args.model)?;
     let presenter = Presenter::new(&args.present)?;
     presenter.check(&args.object)?;
     if args.n == 0 {
-        bail!("--n must be at least 1");
+        bail!("n must be at least 1");
     }
     let (scene, settings) = presenter.scene(&args.object, args.seed)?;
     let percept = match grasp_trial::perceive(&scene, &settings)? {
@@ -504,7 +526,7 @@ fn generate(args: GenerateArgs, out: &mut dyn Write) -> Result<()> {
     let b = mat2(percept.appearance);
     let pz = model.prototype_probabilities(&b)?;
     let reach_sim = grasp_trial::parked_sim(&scene, &settings)?;
-    let mut rng = common::rng(args.seed, 0x6E4E);
+    let mut rng = crate::rng::stream(args.seed, 0x6E4E);
     let sel = select_candidates(
         &presenter,
         &scene,
@@ -538,11 +560,14 @@ fn generate(args: GenerateArgs, out: &mut dyn Write) -> Result<()> {
             })
             .collect(),
         percept,
+        asked: args.n,
     };
-    if args.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
-        return Ok(());
-    }
+    Ok(report)
+}
+
+impl fmt::Display for GenerateReport {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+    let report = self;
     let b = report.percept.appearance;
     writeln!(
         out,
@@ -561,7 +586,7 @@ fn generate(args: GenerateArgs, out: &mut dyn Write) -> Result<()> {
         "drew {} candidates: {} hit the object, {} the table, {} out of reach",
         report.drawn, report.rejected.hits_object, report.rejected.hits_table, report.rejected.unreachable
     )?;
-    let mut t = crate::output::Table::new([
+    let mut t = crate::table::Table::new([
         "rank",
         "prototype",
         "orient",
@@ -575,7 +600,7 @@ fn generate(args: GenerateArgs, out: &mut dyn Write) -> Result<()> {
         "reach",
     ]);
     for g in &report.pre_grasps {
-        let f = |v: f64| crate::output::num(v, 3);
+        let f = |v: f64| crate::table::num(v, 3);
         t.row([
             g.rank.to_string(),
             g.prototype.map_or("-".into(), |j| (j + 1).to_string()),
@@ -590,20 +615,21 @@ fn generate(args: GenerateArgs, out: &mut dyn Write) -> Result<()> {
             f(g.reach_distance),
         ]);
     }
-    t.write(out, 2)?;
-    if report.pre_grasps.len() < args.n {
+    write!(out, "{}", t.render(2))?;
+    if report.pre_grasps.len() < report.asked {
         writeln!(
             out,
             "only {} of {} collision-free, reachable pre-grasps found",
             report.pre_grasps.len(),
-            args.n
+            report.asked
         )?;
     }
     Ok(())
+    }
 }
 
 /// The command a candidate is executed with.
-pub(crate) fn command_for(c: &grasp_topics::RankedPreGrasp, method: common::Method) -> PreGraspCommand {
+pub fn command_for(c: &grasp_topics::RankedPreGrasp, method: common::Method) -> PreGraspCommand {
     PreGraspCommand {
         world_from_palm: c.world_from_palm,
         preshape: grasp_trial::PRESHAPE,
@@ -612,12 +638,12 @@ pub(crate) fn command_for(c: &grasp_topics::RankedPreGrasp, method: common::Meth
 }
 
 /// Checks that a scene opens (for error messages naming the option).
-pub(crate) fn open_scene(name: &str) -> Result<Scene> {
-    Scene::open(name).with_context(|| format!("--scene {name}"))
+pub fn open_scene(name: &str) -> Result<Scene> {
+    Scene::open(name).with_context(|| format!("scene {name}"))
 }
 
 /// Settings of every simulation of a run.
-pub(crate) fn sim_settings(seed: u64) -> SimSettings {
+pub fn sim_settings(seed: u64) -> SimSettings {
     SimSettings {
         seed,
         ..SimSettings::default()

@@ -61,6 +61,7 @@ pub mod demo;
 pub mod doctor;
 pub mod execute;
 pub mod experiment;
+pub mod figure;
 pub mod files;
 pub mod grasp;
 pub mod infer;

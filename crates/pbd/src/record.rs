@@ -38,6 +38,7 @@ pub const TOPIC_TRUTH: &str = "/pbd/truth";
 #[serde(rename_all = "kebab-case")]
 pub enum Script {
     /// Pick an object and place it in a bin.
+    #[default]
     PickPlace,
     /// Sort every object of the scene into the bins (one pick-and-place each).
     Sort,

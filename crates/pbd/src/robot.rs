@@ -2,44 +2,22 @@
 //!
 //! The model is any URDF given as a positional argument, or Dexter (two WAM arms with BarrettHands and
 //! a stereo head, `assets/dexter.urdf`) built into the binary, so that `pbd robot info` works with no
-//! files at all. `info` and `fk` live in their own files; this one holds what they share: the argument
-//! naming the model and the loading of it.
+//! files at all. `info` and `fk` live in their own modules; this one holds what they share: loading
+//! the model.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use clap::Subcommand;
 use control_basis::RobotModel;
 
-mod fk;
-mod info;
+pub mod fk;
+pub mod info;
+
+pub use fk::{FkOptions, FkReport, fk};
+pub use info::{RobotSummary, info};
 
 /// The built-in default model: Dexter, the UMass bimanual humanoid of the dissertation.
-pub const DEXTER_URDF: &str = include_str!("../../../assets/dexter.urdf");
-
-/// `pbd robot …` subcommands.
-#[derive(Debug, Subcommand)]
-pub enum RobotCommand {
-    /// Summarise a robot: links, joints, degrees of freedom with limits, mimic couplings and chains.
-    Info(info::InfoArgs),
-    /// Forward kinematics and Jacobian of the chain BASE -> TIP at joint values Q.
-    Fk(fk::FkArgs),
-}
-
-/// Runs a `pbd robot` subcommand: config (load and validate), then run (compute and print to `out`).
-pub fn main(cmd: RobotCommand, out: &mut dyn Write) -> anyhow::Result<()> {
-    match cmd {
-        RobotCommand::Info(args) => {
-            let config = info::InfoConfig::new(args)?;
-            info::run(&config, out)
-        }
-        RobotCommand::Fk(args) => {
-            let config = fk::FkConfig::new(args)?;
-            fk::run(&config, out)
-        }
-    }
-}
+pub const DEXTER_URDF: &str = dexter_sim::physics::DEXTER_URDF;
 
 /// Where a model came from, for the reader of the output.
 #[derive(Debug, Clone)]

@@ -110,7 +110,7 @@ pub fn pick_place(args: &PickPlaceOptions, progress: &dyn Progress) -> anyhow::R
     };
     scene.place(&place)?;
     if !(args.log_hz.is_finite() && args.log_hz > 0.0) {
-        anyhow::bail!("--log-hz must be a positive number (got {})", args.log_hz);
+        anyhow::bail!("log_hz must be a positive number (got {})", args.log_hz);
     }
     let seed = args.seed.unwrap_or(scene.spec.seed);
     let settings = SimSettings {

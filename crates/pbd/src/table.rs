@@ -49,6 +49,12 @@ impl Table {
 
     /// Writes the table, each line indented by `indent` spaces.
     pub fn write(&self, out: &mut dyn Write, indent: usize) -> io::Result<()> {
+        out.write_all(self.render(indent).as_bytes())
+    }
+
+    /// The table as text, each line indented by `indent` spaces.
+    pub fn render(&self, indent: usize) -> String {
+        let mut out = String::new();
         let ncols = self
             .rows
             .iter()
@@ -73,7 +79,7 @@ impl Table {
             })
             .collect();
         let pad = " ".repeat(indent);
-        let line = |row: &[String], out: &mut dyn Write| -> io::Result<()> {
+        let line = |row: &[String], out: &mut String| {
             let mut s = pad.clone();
             for (i, w) in widths.iter().enumerate() {
                 let cell = row.get(i).map(String::as_str).unwrap_or("");
@@ -86,15 +92,16 @@ impl Table {
                     s.push_str(&format!("{cell:<w$}"));
                 }
             }
-            writeln!(out, "{}", s.trim_end())
+            out.push_str(s.trim_end());
+            out.push('\n');
         };
         if !self.header.is_empty() {
-            line(&self.header, out)?;
+            line(&self.header, &mut out);
         }
         for row in &self.rows {
-            line(row, out)?;
+            line(row, &mut out);
         }
-        Ok(())
+        out
     }
 }
 

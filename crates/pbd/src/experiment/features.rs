@@ -7,7 +7,8 @@
 //! noise), so trials see the object as it would be presented again: not the same pixels twice.
 
 use anyhow::{Context, bail};
-use dexter_sim::rng::SplitMix64;
+use bayes::rng::Draw;
+use rand::Rng as _;
 use dexter_sim::scene::{CameraSpec, Catalog, LightSpec};
 use dexter_sim::vision::fixtures::{TABLE_FIXATION, TABLE_TOP, head_cameras, table_and_bins};
 use dexter_sim::vision::{ItemLabel, RenderItem, StereoVision};
@@ -71,10 +72,10 @@ pub fn render_bank(
         let mut views = Vec::with_capacity(variants);
         for v in 0..variants {
             let k = (presentations.len() as u64) << 16 | v as u64;
-            let mut rng = SplitMix64::stream(seed, k);
-            let x = 0.6 + 0.08 * (rng.next_f64() - 0.5);
-            let y = 0.16 * (rng.next_f64() - 0.5);
-            let yaw = 360.0 * rng.next_f64();
+            let mut rng = crate::rng::stream(seed, k);
+            let x = 0.6 + 0.08 * (rng.uniform() - 0.5);
+            let y = 0.16 * (rng.uniform() - 0.5);
+            let yaw = 360.0 * rng.uniform();
             let pose = catalog.rest_pose(name, [x, y], yaw, TABLE_TOP)?;
             let mut scene = base.clone();
             scene.push(RenderItem::from_catalog(

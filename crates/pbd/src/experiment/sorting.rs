@@ -5,24 +5,23 @@
 //! class's remaining presentations (again in a random view). Everything is seeded.
 
 use std::collections::BTreeMap;
-use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
 use bayes::chi2::chi2_contingency;
+use bayes::roc::{auc, roc};
 use dexter_sim::scene::Catalog;
 use rand::RngExt;
-use rand::SeedableRng;
-use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
 use schema::procedural::{Connectivity, Example, Features, Hyper, ProceduralModel, StructureChoice};
 use serde::Serialize;
 
 use super::features::{FeatureBank, render_bank};
-use super::{Feature, SortingArgs};
-use crate::plots::{self, LineChart, Series};
-use crate::progress;
+use super::{Feature, SortingOptions};
+use crate::figure::{Figure, FigureFile, LineChart, Series};
+use crate::progress::Progress;
+use crate::rng::Generator;
 
 /// Which catalog label a class name refers to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -85,11 +84,11 @@ fn class_pools(bank: &FeatureBank, label: Label, classes: &[String], min: usize)
     Ok(pools)
 }
 
-fn trial_rng(seed: u64, salt: u64, n: usize, trial: usize) -> StdRng {
-    StdRng::seed_from_u64(seed ^ salt.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ ((n as u64) << 32) ^ trial as u64)
+fn trial_rng(seed: u64, salt: u64, n: usize, trial: usize) -> Generator {
+    crate::rng::stream(crate::rng::split(seed, salt), ((n as u64) << 32) | trial as u64)
 }
 
-fn view<'a>(bank: &'a FeatureBank, rng: &mut StdRng, p: usize) -> &'a Features {
+fn view<'a>(bank: &'a FeatureBank, rng: &mut Generator, p: usize) -> &'a Features {
     let v = rng.random_range(0..bank.variants());
     &bank.features[p][v]
 }
@@ -110,7 +109,7 @@ fn sorting_trial(
     names: &[String],
     hyper: &Hyper,
     n: usize,
-    rng: &mut StdRng,
+    rng: &mut Generator,
     negatives: &[usize],
 ) -> anyhow::Result<TrialResult> {
     let mut train = Vec::new();
@@ -157,49 +156,6 @@ fn sorting_trial(
         model,
         scores,
     })
-}
-
-/// Area under the ROC curve of scores (higher = positive), ties counted half.
-pub fn auc(scores: &[(f64, bool)]) -> f64 {
-    let pos: Vec<f64> = scores.iter().filter(|s| s.1).map(|s| s.0).collect();
-    let neg: Vec<f64> = scores.iter().filter(|s| !s.1).map(|s| s.0).collect();
-    if pos.is_empty() || neg.is_empty() {
-        return f64::NAN;
-    }
-    let mut sum = 0.0;
-    for &p in &pos {
-        for &q in &neg {
-            sum += if p > q {
-                1.0
-            } else if p == q {
-                0.5
-            } else {
-                0.0
-            };
-        }
-    }
-    sum / (pos.len() * neg.len()) as f64
-}
-
-/// ROC points (fpr, tpr), from the highest threshold down.
-pub fn roc(scores: &[(f64, bool)]) -> Vec<(f64, f64)> {
-    let mut s = scores.to_vec();
-    s.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let np = s.iter().filter(|x| x.1).count().max(1) as f64;
-    let nn = s.iter().filter(|x| !x.1).count().max(1) as f64;
-    let (mut tp, mut fp) = (0.0, 0.0);
-    let mut out = vec![(0.0, 0.0)];
-    for (i, &(score, pos)) in s.iter().enumerate() {
-        if pos {
-            tp += 1.0;
-        } else {
-            fp += 1.0;
-        }
-        if i + 1 == s.len() || s[i + 1].0 != score {
-            out.push((fp / nn, tp / np));
-        }
-    }
-    out
 }
 
 fn mean_sd(xs: &[f64]) -> (f64, f64) {
@@ -265,14 +221,22 @@ pub struct Summary {
     pub rows: BTreeMap<String, Vec<Row>>,
     /// Extra findings (e.g. incremental = batch).
     pub notes: Vec<String>,
-    /// Files written.
+    /// Files written (and figures to draw, listed in `figures`).
     pub files: Vec<String>,
+    /// Figures for the front end to draw, with their files.
+    #[serde(skip)]
+    pub figures: Vec<FigureFile>,
     /// Seconds for rendering and for the experiment.
     pub seconds: [f64; 2],
+    /// `summary.md`.
+    #[serde(skip)]
+    pub markdown: String,
 }
 
 /// Runs `pbd experiment sorting`.
-pub fn run(args: &SortingArgs, out: &mut dyn Write) -> anyhow::Result<()> {
+/// `pbd experiment sorting`: renders the catalog's features, runs the trials, writes the CSVs and
+/// `summary.md`; the figures are returned in [`Summary::figures`] for the caller to draw.
+pub fn run(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Summary> {
     // Config phase.
     let catalog = match &args.catalog {
         Some(p) => Catalog::load(p)?,
@@ -325,12 +289,12 @@ pub fn run(args: &SortingArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     // Run phase.
     let t0 = Instant::now();
     let n_views = catalog.presentation_names().len() * args.views;
-    let pb = progress::bar(args.json, n_views as u64, "rendering");
-    let bank = render_bank(&catalog, args.views, args.seed, || pb.inc(1))?;
-    pb.finish_and_clear();
+    progress.phase("rendering", Some(n_views as u64));
+    let bank = render_bank(&catalog, args.views, args.seed, || progress.advance(1))?;
+    progress.finish();
     let render_secs = t0.elapsed().as_secs_f64();
     if let Some(p) = &args.dump_features {
-        std::fs::write(p, serde_json::to_string(&bank)?).with_context(|| format!("writing {}", p.display()))?;
+        crate::files::write_atomic(p, serde_json::to_string(&bank)?.as_bytes())?;
     }
     let t1 = Instant::now();
     let mut summary = Summary {
@@ -344,30 +308,23 @@ pub fn run(args: &SortingArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         rows: BTreeMap::new(),
         notes: vec![],
         files: vec![],
+        figures: vec![],
         seconds: [render_secs, 0.0],
+        markdown: String::new(),
     };
     match args.feature {
-        Feature::Color | Feature::Size => sorting(args, &bank, &hyper, label, &classes, &mut summary)?,
-        Feature::Relevance => relevance(args, &bank, &hyper, label, &classes, &mut summary)?,
-        Feature::Incremental => incremental(args, &bank, &hyper, label, &classes, &mut summary)?,
-        Feature::Selection => selection(args, &bank, &hyper, &mut summary)?,
+        Feature::Color | Feature::Size => sorting(args, progress, &bank, &hyper, label, &classes, &mut summary)?,
+        Feature::Relevance => relevance(args, progress, &bank, &hyper, label, &classes, &mut summary)?,
+        Feature::Incremental => incremental(args, progress, &bank, &hyper, label, &classes, &mut summary)?,
+        Feature::Selection => selection(args, progress, &bank, &hyper, &mut summary)?,
     }
     summary.seconds[1] = t1.elapsed().as_secs_f64();
     let md = markdown(&summary);
     let md_path = args.output.join("summary.md");
-    std::fs::write(&md_path, &md).with_context(|| format!("writing {}", md_path.display()))?;
+    crate::files::write_atomic(&md_path, md.as_bytes())?;
     summary.files.push(md_path.display().to_string());
-    if args.json {
-        serde_json::to_writer_pretty(&mut *out, &summary)?;
-        writeln!(out)?;
-    } else {
-        write!(out, "{md}")?;
-        writeln!(out, "\nfiles:")?;
-        for f in &summary.files {
-            writeln!(out, "  {f}")?;
-        }
-    }
-    Ok(())
+    summary.markdown = md;
+    Ok(summary)
 }
 
 fn check_labels(catalog: &Catalog, feature: Feature, label: Label) -> anyhow::Result<()> {
@@ -399,11 +356,12 @@ fn write_csv(path: &Path, header: &str, rows: &[String]) -> anyhow::Result<()> {
         s.push_str(r);
         s.push('\n');
     }
-    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+    crate::files::write_atomic(path, s.as_bytes())
 }
 
 fn sorting(
-    args: &SortingArgs,
+    args: &SortingOptions,
+    progress: &dyn Progress,
     bank: &FeatureBank,
     hyper: &Hyper,
     label: Label,
@@ -413,7 +371,7 @@ fn sorting(
     let pools = class_pools(bank, label, classes, 2)?;
     let max_n = pools.iter().map(Vec::len).min().unwrap_or(1) - 1;
     let max_n = args.max_examples.min(max_n).max(1);
-    let pb = progress::bar(args.json, (max_n * args.trials) as u64, "trials");
+    progress.phase("trials", Some((max_n * args.trials) as u64));
     let mut csv = Vec::new();
     let mut rows = Vec::new();
     for n in 1..=max_n {
@@ -434,7 +392,7 @@ fn sorting(
             ));
             rates.push(rate);
             ps.push(r.p_value);
-            pb.inc(1);
+            progress.advance(1);
         }
         let (mean, sd) = mean_sd(&rates);
         rows.push(Row {
@@ -445,7 +403,7 @@ fn sorting(
             max_p: Some(ps.iter().copied().fold(0.0, f64::max)),
         });
     }
-    pb.finish_and_clear();
+    progress.finish();
     let dir = &args.output;
     let csv_path = dir.join("success.csv");
     write_csv(
@@ -455,9 +413,9 @@ fn sorting(
     )?;
     let what = classes.join(" vs ");
     let svg = dir.join("success.svg");
-    plots::line_chart(
-        &svg,
-        &LineChart {
+    summary.figures.push((
+        svg.clone(),
+        Figure::Lines(LineChart {
             title: format!("sorting {what}: success rate (mean ± sd, {} trials)", args.trials),
             x_label: "examples per class".into(),
             y_label: "success rate".into(),
@@ -470,14 +428,14 @@ fn sorting(
                 errors: rows.iter().map(|r| (r.mean - r.sd, (r.mean + r.sd).min(1.0))).collect(),
             }],
             hlines: vec![(1.0 / classes.len() as f64, "random sorter".into())],
-        },
-    )?;
+        }),
+    ));
     let psvg = dir.join("p_values.svg");
     let floor = 1e-300;
     let lo = rows.iter().filter_map(|r| r.median_p).fold(1.0, f64::min).max(floor) * 0.1;
-    plots::line_chart(
-        &psvg,
-        &LineChart {
+    summary.figures.push((
+        psvg.clone(),
+        Figure::Lines(LineChart {
             title: format!("sorting {what}: χ² p-value against a random sorter"),
             x_label: "examples per class".into(),
             y_label: "p-value".into(),
@@ -503,8 +461,8 @@ fn sorting(
                 },
             ],
             hlines: vec![(0.05, "5 %".into()), (0.01, "1 %".into())],
-        },
-    )?;
+        }),
+    ));
     summary.measure = "success rate (correctly sorted / tested)".into();
     summary.rows.insert(what, rows);
     summary
@@ -514,7 +472,8 @@ fn sorting(
 }
 
 fn relevance(
-    args: &SortingArgs,
+    args: &SortingOptions,
+    progress: &dyn Progress,
     bank: &FeatureBank,
     hyper: &Hyper,
     label: Label,
@@ -531,7 +490,7 @@ fn relevance(
     }
     let max_n = pools.iter().map(Vec::len).min().unwrap_or(1) - 1;
     let max_n = args.max_examples.min(max_n).max(1);
-    let pb = progress::bar(args.json, (max_n * args.trials) as u64, "trials");
+    progress.phase("trials", Some((max_n * args.trials) as u64));
     let mut csv = Vec::new();
     let mut rows = Vec::new();
     let mut curves = Vec::new();
@@ -550,7 +509,7 @@ fn relevance(
             csv.push(format!("{n},{t},{a:.6},{:.6}", acc[acc.len() - 1]));
             aucs.push(a);
             pooled.extend(r.scores);
-            pb.inc(1);
+            progress.advance(1);
         }
         let (mean, sd) = mean_sd(&aucs);
         rows.push(Row {
@@ -571,7 +530,7 @@ fn relevance(
             errors: vec![],
         });
     }
-    pb.finish_and_clear();
+    progress.finish();
     let dir = &args.output;
     let csv_path = dir.join("relevance.csv");
     write_csv(&csv_path, "examples_per_class,trial,auc,accuracy_at_threshold", &csv)?;
@@ -587,9 +546,9 @@ fn relevance(
         &roc_rows,
     )?;
     let svg = dir.join("roc.svg");
-    plots::line_chart(
-        &svg,
-        &LineChart {
+    summary.figures.push((
+        svg.clone(),
+        Figure::Lines(LineChart {
             title: format!("task relevance of {} (ROC, trials pooled)", classes.join(" + ")),
             x_label: "false positive rate".into(),
             y_label: "true positive rate".into(),
@@ -598,8 +557,8 @@ fn relevance(
             log_y: false,
             series: curves,
             hlines: vec![],
-        },
-    )?;
+        }),
+    ));
     summary.measure = "ROC AUC of ln B10 (task objects vs all others)".into();
     summary.notes = accuracy_notes;
     summary.rows.insert(classes.join(" + "), rows);
@@ -610,7 +569,8 @@ fn relevance(
 }
 
 fn incremental(
-    args: &SortingArgs,
+    args: &SortingOptions,
+    _progress: &dyn Progress,
     bank: &FeatureBank,
     hyper: &Hyper,
     label: Label,
@@ -677,7 +637,13 @@ fn incremental(
     let csv_path = dir.join("incremental_pmfs.csv");
     write_csv(&csv_path, "examples_per_class,place,bin,probability", &csv)?;
     let svg = dir.join("incremental_pmfs.svg");
-    plots::pmf_grid(&svg, "colour pmf per place after each example (Fig. 5.11)", &rows)?;
+    summary.figures.push((
+        svg.clone(),
+        Figure::PmfGrid {
+            title: "colour pmf per place after each example (Fig. 5.11)".into(),
+            rows,
+        },
+    ));
     // Swatches and size densities of the final model (Figs. 5.12, 5.5).
     let sw = dir.join("samples.svg");
     let mut srng = trial_rng(args.seed, 4, 0, 0);
@@ -694,13 +660,19 @@ fn incremental(
             )
         })
         .collect();
-    plots::swatches(&sw, &by_place)?;
+    summary.figures.push((sw.clone(), Figure::Swatches(by_place)));
     let dens = dir.join("size_density.svg");
     let dists = classes
         .iter()
         .map(|c| Ok((c.clone(), model.size_density(c)?)))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    plots::size_densities(&dens, &dists, &[])?;
+    summary.figures.push((
+        dens.clone(),
+        Figure::SizeDensities {
+            places: dists,
+            samples: vec![],
+        },
+    ));
     let ex = model.explain()?;
     summary.measure = "colour pmf per place after each example".into();
     summary.notes.push(format!(
@@ -742,10 +714,10 @@ fn selection_tasks() -> Vec<(&'static str, Connectivity, Vec<TaskPlace>)> {
     ]
 }
 
-fn selection(args: &SortingArgs, bank: &FeatureBank, hyper: &Hyper, summary: &mut Summary) -> anyhow::Result<()> {
+fn selection(args: &SortingOptions, progress: &dyn Progress, bank: &FeatureBank, hyper: &Hyper, summary: &mut Summary) -> anyhow::Result<()> {
     let max_n = args.max_examples.min(3);
     let tasks = selection_tasks();
-    let pb = progress::bar(args.json, (tasks.len() * max_n * args.trials) as u64, "trials");
+    progress.phase("trials", Some((tasks.len() * max_n * args.trials) as u64));
     let mut csv = Vec::new();
     let mut series = Vec::new();
     let hyper = Hyper {
@@ -795,7 +767,7 @@ fn selection(args: &SortingArgs, bank: &FeatureBank, hyper: &Hyper, summary: &mu
                 hits.push(f64::from(u8::from(ok)));
                 let probs: Vec<String> = sp.structures.iter().map(|s| format!("{:.6}", s.probability)).collect();
                 csv.push(format!("{name},{n},{t},{},{ok},{}", sp.map().name(), probs.join(",")));
-                pb.inc(1);
+                progress.advance(1);
             }
             let (mean, sd) = mean_sd(&hits);
             rows.push(Row {
@@ -813,7 +785,7 @@ fn selection(args: &SortingArgs, bank: &FeatureBank, hyper: &Hyper, summary: &mu
         });
         summary.rows.insert(name.to_string(), rows);
     }
-    pb.finish_and_clear();
+    progress.finish();
     let dir = &args.output;
     let csv_path = dir.join("selection.csv");
     write_csv(
@@ -822,9 +794,9 @@ fn selection(args: &SortingArgs, bank: &FeatureBank, hyper: &Hyper, summary: &mu
         &csv,
     )?;
     let svg = dir.join("selection.svg");
-    plots::line_chart(
-        &svg,
-        &LineChart {
+    summary.figures.push((
+        svg.clone(),
+        Figure::Lines(LineChart {
             title: "feature selection: right structure named (fraction of trials)".into(),
             x_label: "examples per class".into(),
             y_label: "fraction of trials".into(),
@@ -833,8 +805,8 @@ fn selection(args: &SortingArgs, bank: &FeatureBank, hyper: &Hyper, summary: &mu
             log_y: false,
             series,
             hlines: vec![(0.9, "0.9".into())],
-        },
-    )?;
+        }),
+    ));
     summary.measure = "fraction of trials whose MAP structure is the task's".into();
     summary.classes = tasks.iter().map(|t| t.0.to_string()).collect();
     summary.files.extend([csv_path, svg].map(|p| p.display().to_string()));

@@ -1,8 +1,6 @@
 //! Shared by the `pbd grasp` subcommands: presenting one object, choosing collision-free reachable
 //! candidates, seeds and a small work pool.
 
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use anyhow::{Result, anyhow, bail};
 use dexter_sim::Arm;
@@ -12,10 +10,9 @@ use dexter_sim::scene::Scene;
 use dexter_sim::teleop::{TeleopDriver, TeleopStream};
 use grasp_topics::{Corpus, GraspScene, HandModel, ObjectShape, PreGrasp, RankedPreGrasp, Rejection, filter_and_rank};
 use nalgebra::{Matrix2, Vector3};
-use rand::SeedableRng;
 use serde::Serialize;
 
-use super::{DemoRecord, PresentArgs};
+use super::{DemoRecord, PresentOptions};
 
 /// Presents one catalog presentation at a time on a scene's table.
 #[derive(Debug, Clone)]
@@ -30,12 +27,12 @@ pub struct Presenter {
 
 impl Presenter {
     /// From the command-line options (validated).
-    pub fn new(args: &PresentArgs) -> Result<Self> {
+    pub fn new(args: &PresentOptions) -> Result<Self> {
         let base = super::open_scene(&args.scene)?;
         let [x, y] = [args.xy[0], args.xy[1]];
         let [x0, x1, y0, y1] = base.spec.table.bounds();
         if !(x.is_finite() && y.is_finite() && x > x0 && x < x1 && y > y0 && y < y1) {
-            bail!("--xy {x} {y}: not on the table (x in ({x0}, {x1}), y in ({y0}, {y1}))");
+            bail!("xy = ({x}, {y}): not on the table (x in ({x0}, {x1}), y in ({y0}, {y1}))");
         }
         Ok(Presenter {
             base,
@@ -230,64 +227,6 @@ pub fn select_candidates(
         }
     }
     Ok(sel)
-}
-
-/// A seed for stream `k` of `seed` (SplitMix64 finaliser).
-pub fn mix(seed: u64, k: u64) -> u64 {
-    let mut z = seed ^ k.wrapping_add(1).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
-/// The random generator of stream `k` of `seed`.
-pub fn rng(seed: u64, k: u64) -> bayes::rng::Generator {
-    bayes::rng::seeded(mix(seed, k))
-}
-
-/// Worker threads for simulations: `PBD_THREADS` or 2 (capped by the machine).
-pub fn threads() -> usize {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    std::env::var("PBD_THREADS")
-        .ok()
-        .and_then(|s| s.parse::<usize>().ok())
-        .unwrap_or(2)
-        .clamp(1, cores.max(1))
-}
-
-/// `f(i, item)` for every item on [`threads`] workers; results in input order (so a run does not
-/// depend on thread timing). The first error wins.
-pub fn parallel_map<T: Sync, U: Send>(items: &[T], f: impl Fn(usize, &T) -> Result<U> + Sync) -> Result<Vec<U>> {
-    let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<Result<U>>>> = Mutex::new((0..items.len()).map(|_| None).collect());
-    std::thread::scope(|s| {
-        for _ in 0..threads().min(items.len().max(1)) {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(item) = items.get(i) else { break };
-                    let r = f(i, item);
-                    let failed = r.is_err();
-                    if let Ok(mut v) = results.lock() {
-                        v[i] = Some(r);
-                    }
-                    if failed {
-                        next.store(items.len(), Ordering::Relaxed);
-                        break;
-                    }
-                }
-            });
-        }
-    });
-    let v = results.into_inner().map_err(|_| anyhow!("a worker panicked"))?;
-    let mut out = Vec::with_capacity(v.len());
-    for r in v {
-        match r {
-            Some(r) => out.push(r?),
-            None => bail!("a simulation worker stopped early"),
-        }
-    }
-    Ok(out)
 }
 
 /// Replays teleoperation streams (one grasp each) on presentation `name`: the pre-grasp is the

@@ -6,71 +6,77 @@
 //! still held. Reported: success per object (Fig. 6.7), totals, a significance test and the object ×
 //! prototype sharing table (Table 6.1).
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
 use dexter_sim::grasp_trial::{self, Percept, TrialOutcome};
 use grasp_topics::{Corpus, GraspModel, naive_baseline};
 use rand::seq::SliceRandom;
+use serde::{Deserialize, Serialize};
 
 use super::common::{self, Method, Presenter, Rejections, select_candidates};
 use super::report::{EvalSummary, ObjectResult, Trial};
-use super::{PresentArgs, command_for, learn_config, mat2, model_summary, record_scripted};
+use crate::progress::Progress;
+use super::{PresentOptions, command_for, learn_config, mat2, model_summary, record_scripted};
 
-/// Arguments of `pbd grasp eval`.
-#[derive(Debug, Args)]
-pub struct EvalArgs {
-    #[command(flatten)]
-    pub present: PresentArgs,
+/// Options of [`run`] (`pbd grasp eval`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EvalOptions {
+    /// Where and how objects are presented.
+    pub present: PresentOptions,
     /// Number of test presentations (the seed used 12).
-    #[arg(long, default_value_t = 12)]
     pub test: usize,
     /// Number of training presentations (the seed used 19); 0 = all the others.
-    #[arg(long, default_value_t = 24)]
     pub train: usize,
-    /// Test presentations, comma-separated (default: drawn at random).
-    #[arg(long, value_delimiter = ',')]
+    /// Test presentations (default: drawn at random).
     pub objects: Vec<String>,
     /// Demonstrations attempted per training presentation.
-    #[arg(long, default_value_t = 4)]
     pub demos: usize,
     /// Candidates executed per test presentation and method (the seed used 6).
-    #[arg(long, default_value_t = 6)]
     pub candidates: usize,
     /// Use this model instead of recording and learning (test presentations exclude its objects).
-    #[arg(long, conflicts_with = "corpus")]
     pub model: Option<PathBuf>,
     /// Learn from this corpus instead of recording one (test presentations exclude its objects).
-    #[arg(long)]
     pub corpus: Option<PathBuf>,
     /// Number of prototypes A (the seed used 10).
-    #[arg(long, default_value_t = 10, conflicts_with = "nonparametric")]
     pub prototypes: usize,
     /// Infer the number of prototypes (Dirichlet process).
-    #[arg(long)]
     pub nonparametric: bool,
     /// Number of canonical orientations Q (the seed used 6).
-    #[arg(long, default_value_t = 6)]
     pub orientations: usize,
     /// Burn-in sweeps of the sampler.
-    #[arg(long, default_value_t = 200)]
     pub burn_in: usize,
     /// Sampler chains.
-    #[arg(long, default_value_t = 4)]
     pub chains: usize,
     /// Seed of every random choice (split, demonstrations, sampler, candidates, sim noise).
-    #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Directory for the report (trials.csv, objects.csv, sharing.csv, fig6_7.svg, summary.md,
-    /// summary.json; corpus.json and prototypes.json when learned here).
-    #[arg(short, long, default_value = "grasp-eval")]
+    /// Directory for the report (trials.csv, objects.csv, sharing.csv, summary.md, summary.json;
+    /// corpus.json and prototypes.json when learned here; the figure fig6_7.svg is the caller's).
     pub output: PathBuf,
-    /// Print the summary as JSON.
-    #[arg(long)]
-    pub json: bool,
+}
+
+impl Default for EvalOptions {
+    fn default() -> Self {
+        EvalOptions {
+            present: PresentOptions::default(),
+            test: 12,
+            train: 24,
+            objects: Vec::new(),
+            demos: 4,
+            candidates: 6,
+            model: None,
+            corpus: None,
+            prototypes: 10,
+            nonparametric: false,
+            orientations: 6,
+            burn_in: 200,
+            chains: 4,
+            seed: 0,
+            output: PathBuf::from("grasp-eval"),
+        }
+    }
 }
 
 struct Prepared {
@@ -80,13 +86,15 @@ struct Prepared {
     rejected: [Rejections; 2],
 }
 
-/// Runs `pbd grasp eval`.
-pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
+/// `pbd grasp eval`: the §6.5 experiment. Writes the report files into `output` and returns the
+/// summary; [`super::report::figure`] gives Fig. 6.7 to draw. The same seed gives the same files on
+/// any number of threads.
+pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
     let wall = Instant::now();
     // Config.
     let presenter = Presenter::new(&args.present)?;
     if args.candidates == 0 {
-        bail!("--candidates must be at least 1");
+        bail!("candidates must be at least 1");
     }
     for o in &args.objects {
         presenter.check(o)?;
@@ -109,7 +117,7 @@ pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
     std::fs::create_dir_all(&args.output).with_context(|| format!("cannot create {}", args.output.display()))?;
     // Split.
     let mut all = presenter.presentations();
-    all.shuffle(&mut common::rng(args.seed, 1));
+    all.shuffle(&mut crate::rng::stream(args.seed, 1));
     let known: Vec<String> = match (&given_model, &given_corpus) {
         (Some(m), _) => m.objects.clone(),
         (_, Some(c)) => c.objects.iter().map(|o| o.name.clone()).collect(),
@@ -147,13 +155,9 @@ pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
                 if train.is_empty() {
                     bail!("no training presentations left after the test split");
                 }
-                let bar = crate::progress::bar(args.json, train.len() as u64, "demonstrate");
-                let tick = |name: &str| {
-                    bar.set_message(name.to_string());
-                    bar.inc(1);
-                };
-                let (corpus, demos, _skipped) = record_scripted(&presenter, train, args.demos, args.seed, &tick)?;
-                bar.finish_and_clear();
+                progress.phase("demonstrate", Some(train.len() as u64));
+                let (corpus, demos, _skipped) = record_scripted(&presenter, train, args.demos, args.seed, progress)?;
+                progress.finish();
                 demos_kept = Some((demos.iter().filter(|d| d.kept).count(), demos.len()));
                 if corpus.num_grasps() == 0 {
                     bail!("no demonstrated grasp held on the training presentations");
@@ -164,9 +168,9 @@ pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
                 corpus
             }
         };
-        let spinner = crate::progress::spinner(args.json, "learn");
+        progress.phase("learn", None);
         let m = GraspModel::learn(&corpus, &config)?;
-        spinner.finish_and_clear();
+        progress.finish();
         let p = args.output.join("prototypes.json");
         m.save(&p)?;
         files.push(path_str(&p));
@@ -178,13 +182,13 @@ pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
         .unwrap_or_else(|| args.output.join("prototypes.json"));
     // Perceive each test object and choose its candidates.
     let n = args.candidates;
-    let bar = crate::progress::bar(args.json, test.len() as u64, "perceive");
-    let prepared = common::parallel_map(&test, |i, name| -> Result<Prepared> {
-        let (scene, settings) = presenter.scene(name, common::mix(args.seed, 1000 + i as u64))?;
+    progress.phase("perceive", Some(test.len() as u64));
+    let indexed: Vec<(usize, &String)> = test.iter().enumerate().collect();
+    let prepared = crate::parallel::map(&indexed, progress, |&(i, name)| -> Result<Prepared> {
+        let (scene, settings) = presenter.scene(name, crate::rng::split(args.seed, 1000 + i as u64))?;
         let percept = match grasp_trial::perceive(&scene, &settings)? {
             Ok(p) => p,
             Err(_) => {
-                bar.inc(1);
                 let mut jobs = Vec::new();
                 for m in [Method::Model, Method::Naive] {
                     for k in 0..n {
@@ -207,7 +211,7 @@ pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
         let mut jobs = Vec::new();
         let mut rejected = [Rejections::default(); 2];
         for (mi, m) in [Method::Model, Method::Naive].into_iter().enumerate() {
-            let mut rng = common::rng(args.seed, 2000 + 2 * i as u64 + mi as u64);
+            let mut rng = crate::rng::stream(args.seed, 2000 + 2 * i as u64 + mi as u64);
             let sel = select_candidates(
                 &presenter,
                 &scene,
@@ -226,7 +230,6 @@ pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
                 jobs.push((m, k, sel.chosen.get(k).cloned()));
             }
         }
-        bar.inc(1);
         Ok(Prepared {
             percept: Some(percept),
             top_prototype: top,
@@ -234,7 +237,7 @@ pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
             rejected,
         })
     })?;
-    bar.finish_and_clear();
+    progress.finish();
     // Execute every candidate.
     let mut jobs = Vec::new();
     for (i, p) in prepared.iter().enumerate() {
@@ -242,12 +245,12 @@ pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
             jobs.push((i, *m, *k, c.clone()));
         }
     }
-    let bar = crate::progress::bar(args.json, jobs.len() as u64, "grasp");
-    let outcomes = common::parallel_map(&jobs, |_, (i, m, _k, c)| -> Result<Option<TrialOutcome>> {
+    progress.phase("grasp", Some(jobs.len() as u64));
+    let outcomes = crate::parallel::map(&jobs, progress, |(i, m, _k, c)| -> Result<Option<TrialOutcome>> {
         let r = match c {
             None => None,
             Some(c) => {
-                let (scene, settings) = presenter.scene(&test[*i], common::mix(args.seed, 1000 + *i as u64))?;
+                let (scene, settings) = presenter.scene(&test[*i], crate::rng::split(args.seed, 1000 + *i as u64))?;
                 let seen = prepared[*i].percept.as_ref().context("a candidate without a percept")?;
                 Some(grasp_trial::execute(
                     &scene,
@@ -258,11 +261,9 @@ pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
                 )?)
             }
         };
-        bar.set_message(test[*i].clone());
-        bar.inc(1);
         Ok(r)
     })?;
-    bar.finish_and_clear();
+    progress.finish();
     let trials: Vec<Trial> = jobs
         .iter()
         .zip(outcomes)
@@ -329,13 +330,7 @@ pub fn run(args: EvalArgs, out: &mut dyn Write) -> Result<()> {
     summary.wall_time = wall.elapsed().as_secs_f64();
     super::report::write_files(&args.output, &mut summary, &trials, &model)?;
     let p = args.output.join("summary.json");
-    std::fs::write(&p, serde_json::to_string_pretty(&summary)?)
-        .with_context(|| format!("cannot write {}", p.display()))?;
+    crate::files::write_atomic(&p, serde_json::to_string_pretty(&summary)?.as_bytes())?;
     summary.files.push(path_str(&p));
-    if args.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&summary)?)?;
-    } else {
-        super::report::print(out, &summary, &model)?;
-    }
-    Ok(())
+    Ok(summary)
 }

@@ -1,21 +1,18 @@
 //! The `pbd grasp eval` report: significance tests, CSV files, Fig. 6.7 (SVG) and a Markdown
 //! summary.
 //!
-//! The figure is drawn with `plotters` (SVG backend only, no default features): it writes a
-//! self-contained SVG with text as SVG text, so no font files or system libraries are needed, and the
-//! same crate can later draw the other figures of the notes (ROC, learning curves).
+//! The figure is returned as data ([`figure`]) for the front end to draw.
 
 use std::fmt::Write as _;
-use std::io::Write;
+use std::fmt;
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use grasp_topics::GraspModel;
-use plotters::prelude::*;
-
 use serde::Serialize;
 
 use super::common::{Method, Rejections};
+use crate::figure::Figure;
 
 /// One executed candidate.
 #[derive(Debug, Clone, Serialize)]
@@ -101,29 +98,6 @@ pub struct EvalSummary {
     pub files: Vec<String>,
 }
 
-/// One-sided Fisher exact test (H1: the first group succeeds more often) on successes `a` of `n`
-/// against `c` of `n`: P(X ≥ a) under the hypergeometric law with the table's margins.
-pub fn fisher_one_sided(a: usize, c: usize, n: usize) -> f64 {
-    let (n1, n2) = (n, n);
-    let k = a + c; // successes in all
-    let total = n1 + n2;
-    let ln_choose = |n: usize, k: usize| -> f64 {
-        bayes::special::ln_gamma(n as f64 + 1.0)
-            - bayes::special::ln_gamma(k as f64 + 1.0)
-            - bayes::special::ln_gamma((n - k) as f64 + 1.0)
-    };
-    let denom = ln_choose(total, k);
-    let hi = k.min(n1);
-    let mut p = 0.0;
-    for x in a..=hi {
-        if k - x > n2 {
-            continue;
-        }
-        p += (ln_choose(n1, x) + ln_choose(n2, k - x) - denom).exp();
-    }
-    p.min(1.0)
-}
-
 /// Fisher (one-sided) and χ² with Yates' correction on model vs naive successes of `n` each.
 pub fn significance(model: usize, naive: usize, n: usize) -> Result<Significance> {
     let table = [[model as f64, (n - model) as f64], [naive as f64, (n - naive) as f64]];
@@ -133,7 +107,7 @@ pub fn significance(model: usize, naive: usize, n: usize) -> Result<Significance
         Err(_) => (0.0, 1.0),
     };
     Ok(Significance {
-        fisher_one_sided_p: fisher_one_sided(model, naive, n),
+        fisher_one_sided_p: bayes::contingency::fisher_one_sided(model, naive, n),
         chi2,
         chi2_p,
     })
@@ -149,13 +123,13 @@ fn csv_field(s: &str) -> String {
 
 fn write(dir: &Path, name: &str, text: &str, files: &mut Vec<String>) -> Result<()> {
     let p = dir.join(name);
-    std::fs::write(&p, text).with_context(|| format!("cannot write {}", p.display()))?;
+    crate::files::write_atomic(&p, text.as_bytes())?;
     files.push(p.display().to_string());
     Ok(())
 }
 
-/// Writes trials.csv, objects.csv, sharing.csv, fig6_7.svg and summary.md into `dir` (adding
-/// their paths to `summary.files`).
+/// Writes trials.csv, objects.csv, sharing.csv and summary.md into `dir` (adding their paths, and
+/// that of the figure `fig6_7.svg` the caller draws from [`figure`], to `summary.files`).
 pub fn write_files(dir: &Path, summary: &mut EvalSummary, trials: &[Trial], model: &GraspModel) -> Result<()> {
     let mut files = std::mem::take(&mut summary.files);
     let mut t = String::from("object,method,candidate,prototype,x,y,z,qw,qx,qy,qz,success,rose,sim_time,outcome\n");
@@ -208,81 +182,34 @@ pub fn write_files(dir: &Path, summary: &mut EvalSummary, trials: &[Trial], mode
         s.push('\n');
     }
     write(dir, "sharing.csv", &s, &mut files)?;
-    let svg = plot_svg(summary)?;
-    write(dir, "fig6_7.svg", &svg, &mut files)?;
+    files.push(dir.join("fig6_7.svg").display().to_string());
     write(dir, "summary.md", &markdown(summary, model), &mut files)?;
     summary.files = files;
     Ok(())
 }
 
-/// Fig. 6.7: successes per test object, naive (blue) and model (red).
-fn plot_svg(summary: &EvalSummary) -> Result<String> {
-    let mut buf = String::new();
-    let n = summary.objects.len();
-    let width = (140 + 60 * n as u32).max(480);
-    {
-        let root = SVGBackend::with_string(&mut buf, (width, 420)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-        let title = format!(
+/// Fig. 6.7: successes per test object, naive and model.
+pub fn figure(summary: &EvalSummary) -> Figure {
+    Figure::GroupedBars {
+        title: format!(
             "Grasp success per test object: model {}/{}, naive {}/{} (Fisher p = {:.2e})",
             summary.model_total.0,
             summary.model_total.1,
             summary.naive_total.0,
             summary.naive_total.1,
             summary.significance.fisher_one_sided_p
-        );
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 16))
-            .margin(12)
-            .x_label_area_size(110)
-            .y_label_area_size(40)
-            .build_cartesian_2d(0.0..n as f64, 0.0..summary.candidates as f64 + 0.5)
-            .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-        chart
-            .configure_mesh()
-            .disable_x_mesh()
-            .x_labels(0)
-            .y_desc("successful grasps")
-            .draw()
-            .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-        let blue = RGBColor(60, 90, 200);
-        let red = RGBColor(210, 50, 40);
-        chart
-            .draw_series(summary.objects.iter().enumerate().map(|(i, o)| {
-                let x = i as f64;
-                Rectangle::new([(x + 0.1, 0.0), (x + 0.48, o.naive as f64)], blue.filled())
-            }))
-            .map_err(|e| anyhow::anyhow!("plot: {e}"))?
-            .label("naive")
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], blue.filled()));
-        chart
-            .draw_series(summary.objects.iter().enumerate().map(|(i, o)| {
-                let x = i as f64;
-                Rectangle::new([(x + 0.52, 0.0), (x + 0.9, o.model as f64)], red.filled())
-            }))
-            .map_err(|e| anyhow::anyhow!("plot: {e}"))?
-            .label("visual grasp prototypes")
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], red.filled()));
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-        // Object names under their bars, rotated (drawn on the root area, outside the plot).
-        let style = ("sans-serif", 11)
-            .into_font()
-            .transform(FontTransform::Rotate90)
-            .color(&BLACK);
-        for (i, o) in summary.objects.iter().enumerate() {
-            let (px, py) = chart.backend_coord(&(i as f64 + 0.5, 0.0));
-            root.draw(&Text::new(o.object.clone(), (px - 6, py + 6), style.clone()))
-                .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-        }
-        root.present().map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        ),
+        y_label: "successful grasps".into(),
+        y_max: summary.candidates as f64 + 0.5,
+        categories: summary.objects.iter().map(|o| o.object.clone()).collect(),
+        groups: vec![
+            ("naive".into(), summary.objects.iter().map(|o| o.naive as f64).collect()),
+            (
+                "visual grasp prototypes".into(),
+                summary.objects.iter().map(|o| o.model as f64).collect(),
+            ),
+        ],
     }
-    Ok(buf)
 }
 
 fn pct(a: usize, n: usize) -> f64 {
@@ -339,12 +266,14 @@ fn markdown(s: &EvalSummary, model: &GraspModel) -> String {
 }
 
 /// The terminal report.
-pub fn print(out: &mut dyn Write, s: &EvalSummary, model: &GraspModel) -> Result<()> {
-    let mut t = crate::output::Table::new(["object", "model", "naive"]);
+impl fmt::Display for EvalSummary {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+    let s = self;
+    let mut t = crate::table::Table::new(["object", "model", "naive"]);
     for o in &s.objects {
         t.row([o.object.clone(), o.model.to_string(), o.naive.to_string()]);
     }
-    t.write(out, 2)?;
+    write!(out, "{}", t.render(2))?;
     writeln!(
         out,
         "model {}/{} ({:.1} %), naive {}/{} ({:.1} %); Fisher one-sided p = {:.3e}, chi2 (Yates) {:.2}, p = {:.3e}",
@@ -365,24 +294,11 @@ pub fn print(out: &mut dyn Write, s: &EvalSummary, model: &GraspModel) -> Result
         100.0 * s.model.shared_fraction
     )?;
     writeln!(out)?;
-    write!(out, "{}", model.sharing_table())?;
+    write!(out, "{}", s.model.sharing_table)?;
     writeln!(out)?;
     writeln!(out, "wrote {}", s.files.join(", "))?;
     writeln!(out, "wall time {:.0} s", s.wall_time)?;
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn fisher_matches_scipy() {
-        // The seed's counts: scipy.stats.fisher_exact([[53, 19], [43, 29]], alternative="greater")
-        // gives p = 0.055573 (exact hypergeometric sum).
-        let p = fisher_one_sided(53, 43, 72);
-        assert!((p - 0.055_573_479).abs() < 1e-7, "{p}");
-        assert!((fisher_one_sided(6, 0, 6) - 0.0011).abs() < 1e-3);
-        assert_eq!(fisher_one_sided(0, 0, 6), 1.0);
     }
 }
+

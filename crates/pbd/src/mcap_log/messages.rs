@@ -94,13 +94,6 @@ impl Pose {
         }
     }
 
-    pub fn from_iso(iso: &Iso3) -> Self {
-        let (translation, rotation) = split(iso);
-        Self {
-            position: translation,
-            orientation: rotation,
-        }
-    }
 }
 
 fn split(iso: &Iso3) -> (Vector3, Quaternion) {

@@ -10,176 +10,120 @@
 //! order.
 
 use std::f64::consts::PI;
-use std::io::Write;
+use std::fmt;
 use std::path::PathBuf;
 
-use anyhow::{bail, ensure};
-use clap::Args;
+use anyhow::bail;
 use control_basis::{Chain, ChainState, JointKind, forward_kinematics, jacobian};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::{ModelSource, load_model};
-use crate::output::{DECIMALS, Table, num};
+use crate::table::{DECIMALS, Table, num};
 
-/// Arguments of `pbd robot fk`.
-#[derive(Debug, Args)]
-pub struct FkArgs {
-    /// URDF file [default: the built-in Dexter model]
-    urdf: Option<PathBuf>,
+/// Options of [`fk`].
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FkOptions {
+    /// URDF file (default: the built-in Dexter model).
+    pub urdf: Option<PathBuf>,
     /// Base link of the chain: the frame the pose and the Jacobian are expressed in.
-    #[arg(long, value_name = "LINK")]
-    base: String,
+    pub base: String,
     /// Tip link of the chain.
-    #[arg(long, value_name = "LINK")]
-    tip: String,
-    /// Joint values, comma-separated, one per chain variable in base-to-tip order (radians, metres for
-    /// prismatic joints). `pbd robot info` lists them. Omitted: all zero.
-    #[arg(long, value_name = "V1,...,VN", allow_hyphen_values = true)]
-    q: Option<String>,
-    /// Read the revolute and continuous entries of --q in degrees (prismatic ones stay in metres).
-    #[arg(long)]
-    degrees: bool,
-    /// Print one JSON object with full-precision numbers instead of tables.
-    #[arg(long)]
-    json: bool,
+    pub tip: String,
+    /// Joint values, one per chain variable in base-to-tip order (radians, metres for prismatic
+    /// joints). `None`: all zero.
+    pub q: Option<Vec<f64>>,
+    /// Read the revolute and continuous entries of `q` in degrees (prismatic ones stay in metres).
+    pub degrees: bool,
 }
 
-/// A validated request: the chain cut from the model and a joint vector that fits it.
-#[derive(Debug)]
-pub struct FkConfig {
-    source: ModelSource,
-    chain: Chain,
-    /// Radians / metres, one per chain variable.
-    q: Vec<f64>,
-    json: bool,
-}
-
-impl FkConfig {
-    /// Loads the model, cuts the chain and checks `--q` against it.
-    pub fn new(args: FkArgs) -> anyhow::Result<Self> {
-        let loaded = load_model(args.urdf.as_deref())?;
-        let chain = Chain::new(&loaded.model, &args.base, &args.tip)?;
-        let n = chain.dof();
-        let mut q = match &args.q {
-            Some(text) => parse_q(text)?,
-            None => vec![0.0; n],
-        };
-        if q.len() != n {
-            let names: Vec<&str> = chain.dofs().iter().map(|d| d.name.as_str()).collect();
-            bail!(
-                "--q has {} value{}, but the chain {} -> {} has {n} joint variable{}; expected {n} values, in this \
-                 order: {}",
-                q.len(),
-                if q.len() == 1 { "" } else { "s" },
-                chain.base(),
-                chain.tip(),
-                if n == 1 { "" } else { "s" },
-                names.join(", ")
-            );
-        }
-        if args.degrees {
-            for (v, d) in q.iter_mut().zip(chain.dofs()) {
-                if d.kind != JointKind::Prismatic {
-                    *v *= PI / 180.0;
-                }
+/// Forward kinematics and the Jacobian of `base → tip` at `q` (checked against the chain: the error
+/// lists the chain's variables in order).
+pub fn fk(args: &FkOptions) -> anyhow::Result<FkReport> {
+    let loaded = load_model(args.urdf.as_deref())?;
+    let chain = Chain::new(&loaded.model, &args.base, &args.tip)?;
+    let n = chain.dof();
+    let mut q = args.q.clone().unwrap_or_else(|| vec![0.0; n]);
+    if q.len() != n {
+        let names: Vec<&str> = chain.dofs().iter().map(|d| d.name.as_str()).collect();
+        bail!(
+            "q has {} value{}, but the chain {} -> {} has {n} joint variable{}; expected {n} values, in this \
+             order: {}",
+            q.len(),
+            if q.len() == 1 { "" } else { "s" },
+            chain.base(),
+            chain.tip(),
+            if n == 1 { "" } else { "s" },
+            names.join(", ")
+        );
+    }
+    if let Some((i, v)) = q.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        bail!("q entry {} ({v}) is not a finite number", i + 1);
+    }
+    if args.degrees {
+        for (v, d) in q.iter_mut().zip(chain.dofs()) {
+            if d.kind != JointKind::Prismatic {
+                *v *= PI / 180.0;
             }
         }
-        // Already checked above with better messages; kept so the library's own rule is the final word.
-        chain.check_q(&q)?;
-        Ok(FkConfig {
-            source: loaded.source,
-            chain,
-            q,
-            json: args.json,
-        })
     }
-}
-
-/// Parses `--q`: comma-separated finite numbers; the error names the offending entry.
-fn parse_q(text: &str) -> anyhow::Result<Vec<f64>> {
-    ensure!(
-        !text.trim().is_empty(),
-        "--q is empty; give comma-separated joint values such as --q 0.1,-0.2,0.3 (or omit --q for all zeros)"
-    );
-    let entries: Vec<&str> = text.split(',').collect();
-    let count = entries.len();
-    entries
-        .iter()
-        .enumerate()
-        .map(|(i, raw)| {
-            let entry = raw.trim();
-            let pos = i + 1;
-            ensure!(!entry.is_empty(), "--q entry {pos} of {count} is empty (in '{text}')");
-            let v: f64 = entry
-                .parse()
-                .map_err(|_| anyhow::anyhow!("--q entry {pos} of {count} ('{entry}') is not a number"))?;
-            ensure!(
-                v.is_finite(),
-                "--q entry {pos} of {count} ('{entry}') is not a finite number"
-            );
-            Ok(v)
-        })
-        .collect()
-}
-
-/// Computes FK and the Jacobian and prints them.
-pub fn run(config: &FkConfig, out: &mut dyn Write) -> anyhow::Result<()> {
-    let chain = &config.chain;
-    for (i, (v, d)) in config.q.iter().zip(chain.dofs()).enumerate() {
+    chain.check_q(&q)?;
+    let mut warnings = Vec::new();
+    for (i, (v, d)) in q.iter().zip(chain.dofs()).enumerate() {
         if *v < d.limits.lower || *v > d.limits.upper {
-            eprintln!(
-                "warning: q[{}] = {v} for {} is outside its limits [{}, {}]; computing anyway",
+            warnings.push(format!(
+                "q[{}] = {v} for {} is outside its limits [{}, {}]; computing anyway",
                 i + 1,
                 d.name,
                 d.limits.lower,
                 d.limits.upper
-            );
+            ));
         }
     }
     let mut state = chain.new_state();
-    state.set_q(chain, &config.q)?;
-    forward_kinematics(chain, &mut state);
-    jacobian(chain, &mut state);
-    let report = FkReport::new(config, &state);
-    if config.json {
-        // Serialise first: an I/O error (a closed pipe) then stays an io::Error main recognises.
-        writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
-    } else {
-        write_tables(&report, out)?;
-    }
-    Ok(())
+    state.set_q(&chain, &q)?;
+    forward_kinematics(&chain, &mut state);
+    jacobian(&chain, &mut state);
+    let mut report = FkReport::new(&loaded.source, &chain, &q, &state);
+    report.warnings = warnings;
+    Ok(report)
 }
 
 /// Row labels of the Jacobian.
 const ROWS: [&str; 6] = ["vx", "vy", "vz", "wx", "wy", "wz"];
 
 /// The JSON object of `pbd robot fk --json`. Field names are a public interface (README).
-#[derive(Debug, Serialize)]
-struct FkReport {
+#[derive(Debug, Clone, Serialize)]
+pub struct FkReport {
     /// `built-in:dexter` or the URDF path as given.
-    model: String,
-    base: String,
-    tip: String,
+    pub model: String,
+    /// Base link.
+    pub base: String,
+    /// Tip link.
+    pub tip: String,
     /// The chain variables: the Jacobian's columns and the entries of `q`.
-    joint_names: Vec<String>,
-    /// Radians / metres (after `--degrees` conversion).
-    q: Vec<f64>,
+    pub joint_names: Vec<String>,
+    /// Radians / metres (after the degrees conversion).
+    pub q: Vec<f64>,
     /// Tip origin in the base frame (m).
-    position: [f64; 3],
+    pub position: [f64; 3],
     /// `base_from_tip` rotation, row-major.
-    rotation_rowmajor: [f64; 9],
+    pub rotation_rowmajor: [f64; 9],
     /// The same rotation as a unit quaternion with w ≥ 0.
-    quaternion_xyzw: [f64; 4],
+    pub quaternion_xyzw: [f64; 4],
     /// Fixed-axis roll, pitch, yaw (URDF convention, R = Rz(yaw)·Ry(pitch)·Rx(roll)), radians.
-    rpy: [f64; 3],
+    pub rpy: [f64; 3],
     /// 6×n, row-major: `jacobian_rowmajor[r * n + c]`.
-    jacobian_rowmajor: Vec<f64>,
-    rows: [&'static str; 6],
+    pub jacobian_rowmajor: Vec<f64>,
+    /// Row labels of the Jacobian.
+    pub rows: [&'static str; 6],
+    /// Joint values outside their limits (computed anyway).
+    #[serde(skip)]
+    pub warnings: Vec<String>,
 }
 
 impl FkReport {
-    fn new(config: &FkConfig, state: &ChainState) -> Self {
-        let chain = &config.chain;
+    fn new(source: &ModelSource, chain: &Chain, q: &[f64], state: &ChainState) -> Self {
         let pose = state.tip_pose();
         let p = pose.translation.vector;
         let r = pose.rotation.to_rotation_matrix();
@@ -202,22 +146,25 @@ impl FkReport {
             }
         }
         FkReport {
-            model: config.source.label(),
+            model: source.label(),
             base: chain.base().to_string(),
             tip: chain.tip().to_string(),
             joint_names: chain.dofs().iter().map(|d| d.name.clone()).collect(),
-            q: config.q.clone(),
+            q: q.to_vec(),
             position: [p.x, p.y, p.z],
             rotation_rowmajor,
             quaternion_xyzw: [s * c.x, s * c.y, s * c.z, s * c.w],
             rpy: [roll, pitch, yaw],
             jacobian_rowmajor,
             rows: ROWS,
+            warnings: Vec::new(),
         }
     }
 }
 
-fn write_tables(r: &FkReport, out: &mut dyn Write) -> anyhow::Result<()> {
+impl fmt::Display for FkReport {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+    let r = self;
     let n = r.joint_names.len();
     let d = DECIMALS;
     writeln!(
@@ -231,7 +178,7 @@ fn write_tables(r: &FkReport, out: &mut dyn Write) -> anyhow::Result<()> {
     for (i, (name, q)) in r.joint_names.iter().zip(&r.q).enumerate() {
         t.row([format!("j{}", i + 1), name.clone(), num(*q, d)]);
     }
-    t.write(out, 2)?;
+    write!(out, "{}", t.render(2))?;
     writeln!(out)?;
     writeln!(out, "tip pose in the base frame (base_from_tip)")?;
     let mut t = Table::new(Vec::<String>::new());
@@ -260,7 +207,7 @@ fn write_tables(r: &FkReport, out: &mut dyn Write) -> anyhow::Result<()> {
         num(r.rpy[1], d),
         num(r.rpy[2], d),
     ]);
-    t.write(out, 2)?;
+    write!(out, "{}", t.render(2))?;
     writeln!(out)?;
     writeln!(
         out,
@@ -270,8 +217,9 @@ fn write_tables(r: &FkReport, out: &mut dyn Write) -> anyhow::Result<()> {
     for (row, label) in ROWS.iter().enumerate() {
         t.row(std::iter::once(label.to_string()).chain((0..n).map(|c| num(r.jacobian_rowmajor[row * n + c], d))));
     }
-    t.write(out, 2)?;
+    write!(out, "{}", t.render(2))?;
     Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -279,42 +227,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn parse_q_accepts_spaces_signs_and_exponents() {
-        assert_eq!(parse_q("0.5, -1,+2e-1 ,3").unwrap(), vec![0.5, -1.0, 0.2, 3.0]);
-    }
-
-    #[test]
-    fn parse_q_names_the_bad_entry() {
-        let e = parse_q("0.1,NaN,0.3").unwrap_err().to_string();
-        assert!(
-            e.contains("entry 2") && e.contains("NaN") && e.contains("finite"),
-            "{e}"
-        );
-        let e = parse_q("0.1,,0.3").unwrap_err().to_string();
-        assert!(e.contains("entry 2") && e.contains("empty"), "{e}");
-        let e = parse_q("0.1,inf").unwrap_err().to_string();
-        assert!(e.contains("entry 2") && e.contains("inf"), "{e}");
-        let e = parse_q("0.1,abc").unwrap_err().to_string();
-        assert!(e.contains("'abc'") && e.contains("not a number"), "{e}");
-        assert!(parse_q("  ").unwrap_err().to_string().contains("empty"));
-    }
-
-    #[test]
     fn quaternion_is_unique_and_matches_rotation() {
-        let args = FkArgs {
+        let r = fk(&FkOptions {
             urdf: None,
             base: "left/base_link".into(),
             tip: "left/wrist_palm_link".into(),
-            q: Some("0.3,-0.4,1.2,2.0,-1.0,0.7,2.9".into()),
+            q: Some(vec![0.3, -0.4, 1.2, 2.0, -1.0, 0.7, 2.9]),
             degrees: false,
-            json: true,
-        };
-        let config = FkConfig::new(args).unwrap();
-        let mut state = config.chain.new_state();
-        state.set_q(&config.chain, &config.q).unwrap();
-        forward_kinematics(&config.chain, &mut state);
-        jacobian(&config.chain, &mut state);
-        let r = FkReport::new(&config, &state);
+        })
+        .unwrap();
         assert!(r.quaternion_xyzw[3] >= 0.0);
         let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
             r.quaternion_xyzw[3],
@@ -331,5 +252,18 @@ mod tests {
         let rpy = nalgebra::UnitQuaternion::from_euler_angles(r.rpy[0], r.rpy[1], r.rpy[2]);
         assert!(rpy.angle_to(&q) < 1e-12);
         assert_eq!(r.jacobian_rowmajor.len(), 42);
+    }
+
+    #[test]
+    fn wrong_length_lists_the_chain_variables() {
+        let e = fk(&FkOptions {
+            base: "left/base_link".into(),
+            tip: "left/wrist_palm_link".into(),
+            q: Some(vec![0.0]),
+            ..FkOptions::default()
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("expected 7 values") && e.contains("left/"), "{e}");
     }
 }

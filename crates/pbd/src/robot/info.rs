@@ -12,126 +12,123 @@
 //! number of columns `pbd robot fk` would print for it (a mimicking joint whose master lies off the
 //! chain still counts its master).
 
-use std::io::Write;
-use std::path::PathBuf;
+use std::fmt;
+use std::path::Path;
 
-use clap::Args;
 use control_basis::{CbError, Chain, JointKind, RobotModel};
 use serde::Serialize;
 
 use super::{LoadedModel, load_model};
-use crate::output::{Table, num};
+use crate::table::{Table, num};
 
-/// Arguments of `pbd robot info`.
-#[derive(Debug, Args)]
-pub struct InfoArgs {
-    /// URDF file to describe [default: the built-in Dexter model]
-    urdf: Option<PathBuf>,
-    /// Print one JSON object (field names documented in the README) instead of tables.
-    #[arg(long)]
-    json: bool,
-}
-
-/// A loaded model with its summary computed: everything `run` prints.
-#[derive(Debug)]
-pub struct InfoConfig {
-    summary: RobotSummary,
-    json: bool,
-}
-
-impl InfoConfig {
-    /// Loads the model and summarises it.
-    pub fn new(args: InfoArgs) -> anyhow::Result<Self> {
-        let loaded = load_model(args.urdf.as_deref())?;
-        Ok(InfoConfig {
-            summary: RobotSummary::new(&loaded)?,
-            json: args.json,
-        })
-    }
-}
-
-/// Prints the summary as tables or JSON.
-pub fn run(config: &InfoConfig, out: &mut dyn Write) -> anyhow::Result<()> {
-    if config.json {
-        // Serialise first: an I/O error (a closed pipe) then stays an io::Error main recognises.
-        writeln!(out, "{}", serde_json::to_string_pretty(&config.summary)?)?;
-    } else {
-        write_tables(&config.summary, out)?;
-    }
-    Ok(())
+/// Loads the URDF at `urdf` (or the built-in Dexter) and summarises it.
+pub fn info(urdf: Option<&Path>) -> anyhow::Result<RobotSummary> {
+    RobotSummary::new(&load_model(urdf)?)
 }
 
 /// The JSON object of `pbd robot info --json`. Field names are a public interface (README).
-#[derive(Debug, Serialize)]
-struct RobotSummary {
+#[derive(Debug, Clone, Serialize)]
+pub struct RobotSummary {
     /// `built-in:dexter` or the URDF path as given.
-    source: String,
+    pub source: String,
     /// `<robot name=…>`.
-    name: String,
+    pub name: String,
     /// The root link.
-    root: String,
-    link_count: usize,
-    joint_count: usize,
+    pub root: String,
+    /// Links.
+    pub link_count: usize,
+    /// Joints (fixed ones included).
+    pub joint_count: usize,
     /// Number of joints of each kind.
-    joint_kinds: JointKindCounts,
+    pub joint_kinds: JointKindCounts,
     /// Independent moving joints (not fixed, not mimicking another).
-    dof_count: usize,
-    dofs: Vec<DofInfo>,
-    mimic: Vec<MimicInfo>,
-    named_chains: Vec<NamedChain>,
-    leaf_chains: Vec<LeafChain>,
+    pub dof_count: usize,
+    /// Those degrees of freedom.
+    pub dofs: Vec<DofInfo>,
+    /// `<mimic>` couplings.
+    pub mimic: Vec<MimicInfo>,
+    /// Chains recognised from the Barrett/Dexter link naming (arms, fingers, cameras).
+    pub named_chains: Vec<NamedChain>,
+    /// From the root to every link without a child.
+    pub leaf_chains: Vec<LeafChain>,
 }
 
-#[derive(Debug, Default, Serialize)]
-struct JointKindCounts {
-    revolute: usize,
-    continuous: usize,
-    prismatic: usize,
-    fixed: usize,
+/// Joints per kind.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct JointKindCounts {
+    /// Revolute joints.
+    pub revolute: usize,
+    /// Continuous joints.
+    pub continuous: usize,
+    /// Prismatic joints.
+    pub prismatic: usize,
+    /// Fixed joints.
+    pub fixed: usize,
 }
 
 /// One degree of freedom. Absent limits are `null` in JSON (serde_json writes non-finite numbers so).
-#[derive(Debug, Serialize)]
-struct DofInfo {
-    name: String,
-    kind: JointKind,
-    parent: String,
-    child: String,
-    lower: f64,
-    upper: f64,
-    velocity: f64,
-    effort: f64,
+#[derive(Debug, Clone, Serialize)]
+pub struct DofInfo {
+    /// Joint name.
+    pub name: String,
+    /// Kind.
+    pub kind: JointKind,
+    /// Parent link.
+    pub parent: String,
+    /// Child link.
+    pub child: String,
+    /// Lower position limit (rad or m).
+    pub lower: f64,
+    /// Upper position limit.
+    pub upper: f64,
+    /// Velocity limit.
+    pub velocity: f64,
+    /// Effort limit.
+    pub effort: f64,
 }
 
 /// `q_joint = multiplier · q_follows + offset`.
-#[derive(Debug, Serialize)]
-struct MimicInfo {
-    joint: String,
-    follows: String,
-    multiplier: f64,
-    offset: f64,
+#[derive(Debug, Clone, Serialize)]
+pub struct MimicInfo {
+    /// The mimicking joint.
+    pub joint: String,
+    /// The joint it follows.
+    pub follows: String,
+    /// Multiplier.
+    pub multiplier: f64,
+    /// Offset.
+    pub offset: f64,
 }
 
-#[derive(Debug, Serialize)]
-struct NamedChain {
-    name: String,
-    base: String,
-    tip: String,
-    dof: usize,
+/// A chain recognised by name.
+#[derive(Debug, Clone, Serialize)]
+pub struct NamedChain {
+    /// `left arm`, `right hand finger 2`, `head left camera`.
+    pub name: String,
+    /// Base link.
+    pub base: String,
+    /// Tip link.
+    pub tip: String,
+    /// Its variables.
+    pub dof: usize,
     /// The chain's variables in `fk` column order.
-    dof_names: Vec<String>,
+    pub dof_names: Vec<String>,
 }
 
 /// The chain from the root to a link with no child.
-#[derive(Debug, Serialize)]
-struct LeafChain {
-    link: String,
-    dof: usize,
-    dof_names: Vec<String>,
+#[derive(Debug, Clone, Serialize)]
+pub struct LeafChain {
+    /// The leaf link.
+    pub link: String,
+    /// Its variables.
+    pub dof: usize,
+    /// The chain's variables in `fk` column order.
+    pub dof_names: Vec<String>,
 }
 
 impl RobotSummary {
-    fn new(loaded: &LoadedModel) -> anyhow::Result<Self> {
+    /// Summarises a loaded model.
+    pub fn new(loaded: &LoadedModel) -> anyhow::Result<Self> {
         let model = &loaded.model;
         let mut kinds = JointKindCounts::default();
         for j in &model.joints {
@@ -265,7 +262,9 @@ fn named_chain_candidates(model: &RobotModel) -> Vec<(String, String, String)> {
     arms.into_iter().chain(fingers).chain(cameras).collect()
 }
 
-fn write_tables(s: &RobotSummary, out: &mut dyn Write) -> anyhow::Result<()> {
+impl fmt::Display for RobotSummary {
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+    let s = self;
     let k = &s.joint_kinds;
     writeln!(out, "robot   {}   (from {})", s.name, s.source)?;
     writeln!(out, "root    {}", s.root)?;
@@ -293,7 +292,7 @@ fn write_tables(s: &RobotSummary, out: &mut dyn Write) -> anyhow::Result<()> {
             num(d.effort, 2),
         ]);
     }
-    t.write(out, 2)?;
+    write!(out, "{}", t.render(2))?;
     writeln!(out, "  (rad or m; rad/s or m/s; N·m or N; inf = no limit given)")?;
     if !s.mimic.is_empty() {
         writeln!(out)?;
@@ -307,7 +306,7 @@ fn write_tables(s: &RobotSummary, out: &mut dyn Write) -> anyhow::Result<()> {
                 num(m.offset, 6),
             ]);
         }
-        t.write(out, 2)?;
+        write!(out, "{}", t.render(2))?;
     }
     if !s.named_chains.is_empty() {
         writeln!(out)?;
@@ -316,7 +315,7 @@ fn write_tables(s: &RobotSummary, out: &mut dyn Write) -> anyhow::Result<()> {
         for c in &s.named_chains {
             t.row([c.name.clone(), c.base.clone(), c.tip.clone(), c.dof.to_string()]);
         }
-        t.write(out, 2)?;
+        write!(out, "{}", t.render(2))?;
     }
     writeln!(out)?;
     writeln!(out, "chains from the root '{}' to each leaf link", s.root)?;
@@ -324,8 +323,9 @@ fn write_tables(s: &RobotSummary, out: &mut dyn Write) -> anyhow::Result<()> {
     for c in &s.leaf_chains {
         t.row([c.link.clone(), c.dof.to_string()]);
     }
-    t.write(out, 2)?;
+    write!(out, "{}", t.render(2))?;
     Ok(())
+    }
 }
 
 #[cfg(test)]

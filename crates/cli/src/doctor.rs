@@ -1,0 +1,26 @@
+//! `pbd doctor`: check an MCAP file, and repair one that was cut short.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::output::emit;
+
+/// Arguments of `pbd doctor`.
+#[derive(Debug, Args)]
+pub struct DoctorArgs {
+    /// The MCAP file.
+    file: PathBuf,
+    /// Write a repaired, complete copy here (everything readable, with a fresh summary section).
+    #[arg(long)]
+    repair: Option<PathBuf>,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `pbd doctor`.
+pub fn main(a: DoctorArgs, out: &mut dyn Write) -> anyhow::Result<()> {
+    emit(a.json, &pbd::doctor::doctor(&a.file, a.repair.as_deref())?, out)
+}

@@ -1,0 +1,95 @@
+//! `pbd learn`: the procedural model of a task from one to a few demonstrations (ch. 5), or
+//! `--explain`: what a model learned, in words and pictures.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use pbd::learn::{LearnOptions, explain, learn};
+
+use crate::output::emit;
+use crate::progress::Bars;
+
+/// Arguments of `pbd learn`.
+#[derive(Debug, Args)]
+pub struct LearnArgs {
+    /// Demonstrations: inference files (`*.infer.json`) or recordings (`*.mcap`, inferred on the fly).
+    demos: Vec<PathBuf>,
+    /// Add the demonstrations to this model instead of starting afresh.
+    #[arg(long)]
+    update: Option<PathBuf>,
+    /// Output model (JSON).
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Explain the model MODEL.json in plain words (no learning).
+    #[arg(long, value_name = "MODEL")]
+    explain: Option<PathBuf>,
+    /// With --explain: draw N synthetic task instances from the posterior predictive and render them.
+    #[arg(long, default_value_t = 0)]
+    samples: usize,
+    /// With --explain: directory for the pictures (default: next to the model).
+    #[arg(long)]
+    plots: Option<PathBuf>,
+    /// Relevance decision threshold on ln B10 (5.19–5.21) for a new model: an object belongs to the
+    /// task when ln B10 exceeds it. 0 is the seed's rule (B10 > 1, even prior odds).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    relevance_threshold: f64,
+    /// Seed of the posterior-predictive samples.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Print the result as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `pbd learn`.
+pub fn main(a: LearnArgs, out: &mut dyn Write) -> Result<()> {
+    if let Some(model) = &a.explain {
+        return explain_model(model, &a, out);
+    }
+    if !a.relevance_threshold.is_finite() {
+        bail!("--relevance-threshold must be a number");
+    }
+    let options = LearnOptions {
+        demos: a.demos,
+        update: a.update,
+        output: a.output.context("pass -o model.json")?,
+        relevance_threshold: a.relevance_threshold,
+    };
+    let report = learn(&options, &Bars::new(a.json, false)?)?;
+    emit(a.json, &report, out)
+}
+
+fn explain_model(path: &Path, a: &LearnArgs, out: &mut dyn Write) -> Result<()> {
+    let e = explain(path, a.samples, a.seed)?;
+    let mut pictures = Vec::new();
+    if a.samples > 0 {
+        let dir = a
+            .plots
+            .clone()
+            .unwrap_or_else(|| path.parent().map(Path::to_path_buf).unwrap_or_default());
+        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let stem = path
+            .file_stem()
+            .map_or("model".into(), |s| s.to_string_lossy().to_string());
+        let sw = dir.join(format!("{stem}.swatches.png"));
+        crate::plots::swatches(&sw, &e.samples_by_place)?;
+        let sd = dir.join(format!("{stem}.sizes.png"));
+        crate::plots::size_densities(&sd, &e.size_densities, &e.sampled_sizes)?;
+        pictures.push(sw.display().to_string());
+        pictures.push(sd.display().to_string());
+    }
+    let x = &e.explanation;
+    if a.json {
+        let v = serde_json::json!({"explanation": x.text, "color_matters": x.color_matters, "size_matters": x.size_matters,
+            "map_structure": x.map_structure, "consistency": x.consistency, "pictures": pictures});
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+        return Ok(());
+    }
+    writeln!(out, "{}", x.text)?;
+    for p in pictures {
+        writeln!(out, "picture: {p}")?;
+    }
+    Ok(())
+}
