@@ -25,6 +25,30 @@
 //! too); invalid input is an [`BayesError`], never a panic; outcomes such as "impossible
 //! observation" are values (`-inf`, `None`). Samplers take the caller's RNG, so a seeded RNG
 //! gives the same draws every time.
+//! Every random choice of pbd comes from [`rng`]: one named generator (xoshiro256++) and one way to
+//! split a seed into independent streams, so results are reproducible across machines, versions
+//! and thread counts. [`contingency`] (Fisher's exact test) and [`roc`] (ROC curves, AUC) serve the
+//! experiment reports.
+//!
+//! Learning a size model from three demonstrations and asking how likely a new size is — and that
+//! learning one at a time gives exactly the batch posterior:
+//!
+//! ```
+//! use bayes::univariate::{GaussianStats, NormalInverseGamma};
+//!
+//! let prior = NormalInverseGamma::new(10.0, 0.1, 2.0, 4.0)?; // vague prior on a size (deci-pixels)
+//! let batch = GaussianStats::from_slice(&[12.0, 13.5, 11.8])?;
+//! let mut incremental = GaussianStats::new();
+//! for x in [12.0, 13.5, 11.8] {
+//!     incremental.update(x)?;
+//! }
+//! let (a, b) = (prior.posterior_predictive(&batch), prior.posterior_predictive(&incremental));
+//! assert!((a.log_pdf(12.5) - b.log_pdf(12.5)).abs() < 1e-12);
+//! assert!(a.log_pdf(12.5) > a.log_pdf(30.0)); // a size like the demonstrations is more likely
+//! // Log marginal likelihood of the data, parameters integrated out (A.6): the evidence for Bayes factors.
+//! assert!(prior.log_marginal_likelihood(&batch).is_finite());
+//! # Ok::<(), bayes::BayesError>(())
+//! ```
 #![warn(missing_docs)]
 
 pub mod bayes_factor;

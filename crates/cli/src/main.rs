@@ -104,26 +104,10 @@ fn main() -> ExitCode {
         // `pbd robot info | head` closes the pipe early: not an error worth reporting.
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", error_message(&e));
+            eprintln!("error: {e:#}");
             ExitCode::FAILURE
         }
     }
-}
-
-/// The error and its causes joined by ": ", like anyhow's `{:#}`, but without repeating a cause whose
-/// text its parent already ends with (some library errors print their source themselves).
-fn error_message(e: &anyhow::Error) -> String {
-    let mut msg = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if msg.is_empty() {
-            msg = text;
-        } else if !msg.ends_with(&text) {
-            msg.push_str(": ");
-            msg.push_str(&text);
-        }
-    }
-    msg
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {
@@ -131,33 +115,4 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
         c.downcast_ref::<io::Error>()
             .is_some_and(|io| io.kind() == io::ErrorKind::BrokenPipe)
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn error_message_joins_causes_like_anyhow_alternate() {
-        let e = anyhow::anyhow!("inner").context("outer");
-        assert_eq!(error_message(&e), format!("{e:#}"));
-    }
-
-    #[test]
-    fn error_message_does_not_repeat_a_source_already_printed() {
-        #[derive(Debug)]
-        struct Wrap(io::Error);
-        impl std::fmt::Display for Wrap {
-            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-                write!(f, "cannot read x: {}", self.0)
-            }
-        }
-        impl std::error::Error for Wrap {
-            fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-                Some(&self.0)
-            }
-        }
-        let e = anyhow::Error::new(Wrap(io::Error::other("gone")));
-        assert_eq!(error_message(&e), "cannot read x: gone");
-    }
 }

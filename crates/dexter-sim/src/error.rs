@@ -6,7 +6,7 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
     /// A file could not be read.
-    #[error("cannot read {path}: {source}")]
+    #[error("cannot read {path}")]
     Io {
         /// The file.
         path: PathBuf,
@@ -50,9 +50,32 @@ pub enum SimError {
     /// The robot side failed (invalid binding, hardware error).
     #[error(transparent)]
     Robot(Box<dexter::RobotError>),
-    /// A task could not be carried out (no arm reaches, IK failed, …).
-    #[error("{0}")]
-    Task(String),
+    /// The robot cannot reach what a task needs (no arm reaches the object and the place, an arm
+    /// cannot be parked).
+    #[error("{what}: {reason}")]
+    Unreachable {
+        /// What was asked.
+        what: String,
+        /// Why not, and what to try.
+        reason: String,
+    },
+    /// A vector of the wrong length (a configuration, a command).
+    #[error("{what}: expected {expected} values, got {got}")]
+    Size {
+        /// What it is.
+        what: &'static str,
+        /// Its right length.
+        expected: usize,
+        /// The length given.
+        got: usize,
+    },
+    /// The robot model uses a feature the physics engine cannot build (e.g. a mimic joint coupled
+    /// across two multibodies).
+    #[error("physics model: {0}")]
+    Unsupported(&'static str),
+    /// The simulated hardware failed (the robot's side of the world hook).
+    #[error(transparent)]
+    Hardware(#[from] control_basis::hardware::HardwareError),
 }
 
 /// A robot-side error met while the world ran the robot (its skills, its vision).

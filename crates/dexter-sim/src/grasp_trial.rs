@@ -99,7 +99,11 @@ pub fn perceive(scene: &Scene, settings: &SimSettings) -> Result<Result<Percept,
         .resolved
         .first()
         .map(|r| r.presentation.clone())
-        .ok_or_else(|| SimError::Task("the scene has no object to perceive".into()))?;
+        .ok_or_else(|| SimError::Invalid {
+            path: "<scene>".into(),
+            field: "objects".into(),
+            message: "the scene has no object to perceive".into(),
+        })?;
     let nominal = scene.resolved[0].pose.translation.vector;
     let mut hw = SimRobot::new(&mut sim, scene, settings.seed ^ 0xE7E5)?;
     let mut eyes = Eyes::new(&hw, table_z).map_err(from_robot)?;
@@ -425,7 +429,11 @@ impl GraspTeacher {
         let r = scene
             .resolved
             .first()
-            .ok_or_else(|| SimError::Task("the scene has no object to grasp".into()))?;
+            .ok_or_else(|| SimError::Invalid {
+                path: "<scene>".into(),
+                field: "objects".into(),
+                message: "the scene has no object to grasp".into(),
+            })?;
         let shape = scene.catalog.objects[r.object].shape.clone();
         let pose = r.pose;
         let table_z = scene.spec.table.height;

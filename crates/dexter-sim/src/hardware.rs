@@ -378,10 +378,10 @@ pub fn park_robot(sim: &mut DexterSim, table_z: f64) -> Result<(), SimError> {
             left_solution = Some(sol.q.clone());
         }
         if !sol.converged {
-            return Err(SimError::Task(format!(
-                "cannot park the {arm} arm (IK error {:.3} m)",
-                sol.position_error
-            )));
+            return Err(SimError::Unreachable {
+                what: format!("parking the {arm} arm"),
+                reason: format!("IK did not converge (error {:.3} m)", sol.position_error),
+            });
         }
         let binding = control_basis::ChainBinding::by_name(&chain, sim.joint_names())?;
         binding.scatter(sol.q.as_slice(), &mut q);

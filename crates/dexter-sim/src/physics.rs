@@ -574,8 +574,8 @@ impl DexterSim {
                 continue;
             };
             if l1.multibody != l2.multibody {
-                return Err(SimError::Task(
-                    "mimic joint and master are on different multibodies".into(),
+                return Err(SimError::Unsupported(
+                    "a mimic joint and its master are on different multibodies",
                 ));
             }
             if let Some(mb) = mb_joints.get_multibody_mut(l1.multibody) {
@@ -902,11 +902,11 @@ impl DexterSim {
     /// references there. Mimic joints follow. Use before the run starts.
     pub fn set_configuration(&mut self, q: &[f64]) -> Result<(), SimError> {
         if q.len() != self.dofs.len() {
-            return Err(SimError::Task(format!(
-                "configuration has {} values, the robot {} DOFs",
-                q.len(),
-                self.dofs.len()
-            )));
+            return Err(SimError::Size {
+                what: "configuration",
+                expected: self.dofs.len(),
+                got: q.len(),
+            });
         }
         let mut targets: Vec<(RigidBodyHandle, f64)> = Vec::new();
         for (i, d) in self.dofs.iter().enumerate() {

@@ -266,7 +266,10 @@ pub fn pick_and_place_in(
             } else {
                 "a hand-to-hand transfer is needed"
             };
-            return Err(SimError::Task(format!("{what}: {reasons} ({hint})")));
+            return Err(SimError::Unreachable {
+                what,
+                reason: format!("{reasons} ({hint})"),
+            });
         }
     };
     let arc = finger_arc(hw.model(), arm).map_err(r)?;
@@ -338,7 +341,7 @@ pub fn pick_and_place_in(
         if hw.sim().object_state(obj).linvel.norm() < 0.005 {
             break;
         }
-        hw.advance(0.005).map_err(|e| SimError::Task(e.to_string()))?;
+        hw.advance(0.005)?;
     }
     let state = hw.sim().object_state(obj);
     let p = state.pose.translation.vector;

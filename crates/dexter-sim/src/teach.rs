@@ -142,7 +142,7 @@ pub fn run_demonstration(
             }
         }
         driver.tick(&mut hw, &cmds, dt_c);
-        hw.advance(dt_c).map_err(|e| SimError::Task(e.to_string()))?;
+        hw.advance(dt_c)?;
         sink.tick(hw.sim(), t);
         if tick.is_multiple_of(percept_every) {
             // The head follows the working hand (the robot watches the teacher's hand at work).

@@ -590,7 +590,11 @@ impl Teacher {
                 steps.push(Step::Pause(0.8));
             }
         }
-        let arm = first_arm.ok_or_else(|| SimError::Task("no task for the teacher".into()))?;
+        let arm = first_arm.ok_or_else(|| SimError::Invalid {
+            path: "<teacher>".into(),
+            field: "tasks".into(),
+            message: "no task for the teacher".into(),
+        })?;
         let tremor = std::array::from_fn(|_| {
             (
                 8.0 + 4.0 * rng.uniform(),

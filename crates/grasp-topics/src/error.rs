@@ -62,7 +62,7 @@ pub enum GraspError {
         name: String,
     },
     /// The file could not be read or written.
-    #[error("{path}: {source}")]
+    #[error("cannot read or write {path}")]
     Io {
         /// The file.
         path: String,
@@ -71,7 +71,7 @@ pub enum GraspError {
         source: std::io::Error,
     },
     /// The file is not well-formed JSON of the expected shape.
-    #[error("{what}: {source}")]
+    #[error("{what} is not valid JSON of the expected shape")]
     Json {
         /// The kind of file.
         what: &'static str,

@@ -36,6 +36,28 @@
 //! Frames: positions and orientations are of the palm-surface frame (hand +z = palm normal =
 //! approach direction, finger 3 on +y; `bhand/palm_surface_link` in `assets/dexter.urdf`) in the
 //! object frame O, whose origin is the triangulated centroid and whose axes are the world's (z up).
+//! Learning two prototypes from demonstrated grasps on two objects, then proposing pre-grasps for
+//! a new object from its appearance alone:
+//!
+//! ```
+//! use grasp_topics::{Config, Corpus, DemoGrasp, GraspModel};
+//! use nalgebra::{Matrix2, UnitQuaternion, Vector3};
+//!
+//! let mut corpus = Corpus::new();
+//! let top = UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0);
+//! let side = UnitQuaternion::from_euler_angles(std::f64::consts::FRAC_PI_2, 0.0, 0.0);
+//! let grasps = |q: &UnitQuaternion<f64>, z: f64| -> Vec<DemoGrasp> {
+//!     (0..6).map(|i| DemoGrasp::new(&Vector3::new(0.002 * i as f64, 0.0, z), q)).collect()
+//! };
+//! corpus.push_object("box", &Matrix2::new(400.0, 0.0, 0.0, 100.0), grasps(&top, 0.1));
+//! corpus.push_object("can", &Matrix2::new(120.0, 0.0, 0.0, 300.0), grasps(&side, 0.0));
+//! let config = Config { prototypes: 2, orientations: 2, burn_in: 30, chains: 2, seed: 7, ..Config::default() };
+//! let model = GraspModel::learn(&corpus, &config)?;
+//! let mut rng = bayes::rng::seeded(1);
+//! let pre_grasps = model.generate(&Matrix2::new(380.0, 0.0, 0.0, 110.0), 4, &mut rng)?;
+//! assert_eq!(pre_grasps.len(), 4);
+//! # Ok::<(), grasp_topics::GraspError>(())
+//! ```
 #![warn(missing_docs)]
 
 mod collision;

@@ -4,7 +4,7 @@
 #[derive(Debug, thiserror::Error)]
 pub enum SchemaError {
     /// A file could not be read.
-    #[error("{path}: {source}")]
+    #[error("cannot read {path}")]
     Io {
         /// The file.
         path: String,
@@ -43,8 +43,8 @@ pub enum SchemaError {
     #[error("empty demonstration: {0}")]
     Empty(String),
     /// The plant failed (not an action's failure: a broken simulator or robot link).
-    #[error("plant: {0}")]
-    Plant(Box<dyn std::error::Error + Send + Sync>),
+    #[error("the plant failed")]
+    Plant(#[source] Box<dyn std::error::Error + Send + Sync>),
     /// An error from the statistics crate.
     #[error(transparent)]
     Bayes(#[from] bayes::BayesError),

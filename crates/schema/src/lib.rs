@@ -7,6 +7,31 @@
 //!   library and "none" (4.10–4.21), Viterbi state paths, and segmentation into instances (§4.3.3).
 //! - [`executive`]: runs a schema on any plant with a procedural policy ψ, taking contingencies.
 //! - [`monitor`]: monitors (§4.2), their set predicates (4.17) and the observation vector x_t (4.19).
+//! - [`procedural`]: the procedural model (ch. 5): which object features decide a task's reference
+//!   (which bin), learned from one to a few examples, updated incrementally, explained in words.
+//!
+//! Learning where objects go from one red and one blue example, then asking about a new red one:
+//!
+//! ```
+//! use schema::percept::COLOR_TERMS;
+//! use schema::procedural::{Example, Features, Hyper, ProceduralModel};
+//!
+//! let term = |name: &str| COLOR_TERMS.iter().position(|t| *t == name).unwrap() as u8;
+//! let object = |colour: &str, pixels: u32| Features {
+//!     histogram: Vec::new(),
+//!     pixels: [pixels, pixels],
+//!     colors: vec![(term(colour), 0.9), (term("white"), 0.1)],
+//! };
+//! let examples = [
+//!     Example { features: object("red", 900), reference: "bin-right".into() },
+//!     Example { features: object("blue", 1100), reference: "bin-left".into() },
+//! ];
+//! let model = ProceduralModel::learn(Hyper::default(), &examples)?;
+//! let p = model.predict(&object("red", 1000))?;
+//! assert_eq!(p.map_place, "bin-right");
+//! println!("{}", model.explain()?.text);
+//! # Ok::<(), schema::SchemaError>(())
+//! ```
 #![warn(missing_docs)]
 
 pub mod error;

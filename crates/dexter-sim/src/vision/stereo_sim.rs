@@ -8,7 +8,7 @@ use crate::vision::render::{Image, RenderScene, Renderer};
 use dexter::vision::{Frame, SegmentConfig, Segmenter, Side, StereoBlob, StereoCameras, StereoConfig, StereoPipeline};
 
 fn robot_error(e: dexter::RobotError) -> SimError {
-    SimError::Task(e.to_string())
+    crate::error::from_robot(e)
 }
 
 /// The robot's self-mask of a rendered frame: pixels labelled [`crate::vision::ItemLabel::Robot`].

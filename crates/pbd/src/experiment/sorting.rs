@@ -233,17 +233,42 @@ pub struct Summary {
     pub markdown: String,
 }
 
-/// Runs `pbd experiment sorting`.
 /// `pbd experiment sorting`: renders the catalog's features, runs the trials, writes the CSVs and
 /// `summary.md`; the figures are returned in [`Summary::figures`] for the caller to draw.
 pub fn run(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Summary> {
-    // Config phase.
     let catalog = match &args.catalog {
         Some(p) => Catalog::load(p)?,
         None => Catalog::builtin_household()?,
     };
+    let (_, label, _) = plan(args)?;
+    // Labels are checked before the (slow) rendering.
+    check_labels(&catalog, args.feature, label)?;
+    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
+    let t0 = Instant::now();
+    let n_views = catalog.presentation_names().len() * args.views;
+    progress.phase("rendering", Some(n_views as u64));
+    let bank = render_bank(&catalog, args.views, args.seed, || progress.advance(1))?;
+    progress.finish();
+    let render_secs = t0.elapsed().as_secs_f64();
+    if let Some(p) = &args.dump_features {
+        crate::files::write_atomic(p, serde_json::to_string(&bank)?.as_bytes())?;
+    }
+    run_with(args, &bank, render_secs, progress)
+}
+
+/// The experiment on features already rendered (a bank from [`super::features::render_bank`], or a
+/// `dump_features` file read with [`super::features::load_bank`]): the same trials, files and
+/// summary as [`run`], without the rendering.
+pub fn run_on_bank(args: &SortingOptions, bank: &FeatureBank, progress: &dyn Progress) -> anyhow::Result<Summary> {
+    plan(args)?;
+    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
+    run_with(args, bank, 0.0, progress)
+}
+
+/// The classes, the kind of label and the hyperparameters of a run, validated.
+fn plan(args: &SortingOptions) -> anyhow::Result<(Vec<String>, Label, Hyper)> {
     if args.trials == 0 || args.max_examples == 0 || args.views == 0 {
-        bail!("--trials, --max-examples and --views must be at least 1");
+        bail!("trials, max_examples and views must be at least 1");
     }
     let classes: Vec<String> = if args.classes.is_empty() {
         match args.feature {
@@ -282,26 +307,17 @@ pub fn run(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Sum
         structure,
         ..Hyper::default()
     };
-    // Labels are checked before the (slow) rendering.
-    check_labels(&catalog, args.feature, label)?;
-    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
+    Ok((classes, label, hyper))
+}
 
-    // Run phase.
-    let t0 = Instant::now();
-    let n_views = catalog.presentation_names().len() * args.views;
-    progress.phase("rendering", Some(n_views as u64));
-    let bank = render_bank(&catalog, args.views, args.seed, || progress.advance(1))?;
-    progress.finish();
-    let render_secs = t0.elapsed().as_secs_f64();
-    if let Some(p) = &args.dump_features {
-        crate::files::write_atomic(p, serde_json::to_string(&bank)?.as_bytes())?;
-    }
+fn run_with(args: &SortingOptions, bank: &FeatureBank, render_secs: f64, progress: &dyn Progress) -> anyhow::Result<Summary> {
+    let (classes, label, hyper) = plan(args)?;
     let t1 = Instant::now();
     let mut summary = Summary {
         experiment: format!("{:?}", args.feature).to_lowercase(),
         catalog: bank.catalog.clone(),
         classes: classes.clone(),
-        structure: structure.name().into(),
+        structure: hyper.structure.name().into(),
         trials: args.trials,
         seed: args.seed,
         measure: String::new(),
@@ -313,10 +329,10 @@ pub fn run(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Sum
         markdown: String::new(),
     };
     match args.feature {
-        Feature::Color | Feature::Size => sorting(args, progress, &bank, &hyper, label, &classes, &mut summary)?,
-        Feature::Relevance => relevance(args, progress, &bank, &hyper, label, &classes, &mut summary)?,
-        Feature::Incremental => incremental(args, progress, &bank, &hyper, label, &classes, &mut summary)?,
-        Feature::Selection => selection(args, progress, &bank, &hyper, &mut summary)?,
+        Feature::Color | Feature::Size => sorting(args, progress, bank, &hyper, label, &classes, &mut summary)?,
+        Feature::Relevance => relevance(args, progress, bank, &hyper, label, &classes, &mut summary)?,
+        Feature::Incremental => incremental(args, progress, bank, &hyper, label, &classes, &mut summary)?,
+        Feature::Selection => selection(args, progress, bank, &hyper, &mut summary)?,
     }
     summary.seconds[1] = t1.elapsed().as_secs_f64();
     let md = markdown(&summary);
