@@ -10,9 +10,7 @@ pub fn fisher_one_sided(a: usize, c: usize, n: usize) -> f64 {
     let k = a + c; // successes in all
     let total = n1 + n2;
     let ln_choose = |n: usize, k: usize| -> f64 {
-        ln_gamma(n as f64 + 1.0)
-            - ln_gamma(k as f64 + 1.0)
-            - ln_gamma((n - k) as f64 + 1.0)
+        ln_gamma(n as f64 + 1.0) - ln_gamma(k as f64 + 1.0) - ln_gamma((n - k) as f64 + 1.0)
     };
     let denom = ln_choose(total, k);
     let hi = k.min(n1);

@@ -59,7 +59,13 @@ mod tests {
         let (mut sum, mut n) = (0.0, 0.0);
         for p in scores.iter().filter(|s| s.1) {
             for q in scores.iter().filter(|s| !s.1) {
-                sum += if p.0 > q.0 { 1.0 } else if p.0 == q.0 { 0.5 } else { 0.0 };
+                sum += if p.0 > q.0 {
+                    1.0
+                } else if p.0 == q.0 {
+                    0.5
+                } else {
+                    0.0
+                };
                 n += 1.0;
             }
         }
@@ -68,7 +74,15 @@ mod tests {
 
     #[test]
     fn auc_from_ranks_equals_the_pairwise_definition() {
-        let s = [(0.1, false), (0.4, true), (0.35, false), (0.8, true), (0.4, false), (0.4, true), (-1.0, true)];
+        let s = [
+            (0.1, false),
+            (0.4, true),
+            (0.35, false),
+            (0.8, true),
+            (0.4, false),
+            (0.4, true),
+            (-1.0, true),
+        ];
         assert!((auc(&s) - auc_pairs(&s)).abs() < 1e-12);
         // sklearn.metrics.roc_auc_score([0,0,1,1], [0.1,0.4,0.35,0.8]) = 0.75
         assert!((auc(&[(0.1, false), (0.4, false), (0.35, true), (0.8, true)]) - 0.75).abs() < 1e-12);

@@ -189,7 +189,11 @@ fn execute(a: ExecuteExperimentArgs, out: &mut dyn Write) -> anyhow::Result<()> 
         writeln!(out, "{text}")?;
     } else {
         write!(out, "{}", run.markdown)?;
-        writeln!(out, "files: objects.csv, summary.md, outcomes.svg in {}", run.output.display())?;
+        writeln!(
+            out,
+            "files: objects.csv, summary.md, outcomes.svg in {}",
+            run.output.display()
+        )?;
     }
     Ok(())
 }

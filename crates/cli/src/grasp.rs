@@ -261,7 +261,10 @@ pub fn main(cmd: GraspCommand, out: &mut dyn Write) -> anyhow::Result<()> {
                 output: a.output,
             };
             let summary = pbd::grasp::eval::run(&options, &Bars::new(a.json, true)?)?;
-            crate::plots::draw(&options.output.join("fig6_7.svg"), &pbd::grasp::report::figure(&summary))?;
+            crate::plots::draw(
+                &options.output.join("fig6_7.svg"),
+                &pbd::grasp::report::figure(&summary),
+            )?;
             emit(a.json, &summary, out)
         }
     }

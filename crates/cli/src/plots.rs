@@ -6,9 +6,9 @@ use std::path::Path;
 
 use pbd::bayes::univariate::StudentT;
 use pbd::dexter::vision::color::hsv_to_rgb;
-use plotters::prelude::*;
 use pbd::figure::{Figure, LineChart, Series};
 use pbd::schema::procedural::{COLORS, Features, term_hsv};
+use plotters::prelude::*;
 
 const PALETTE: [RGBColor; 6] = [
     RGBColor(31, 119, 180),

@@ -90,7 +90,10 @@ fn parse_q(text: &str) -> anyhow::Result<Vec<f64>> {
             let v: f64 = entry
                 .parse()
                 .map_err(|_| anyhow::anyhow!("--q entry {pos} of {count} ('{entry}') is not a number"))?;
-            ensure!(v.is_finite(), "--q entry {pos} of {count} ('{entry}') is not a finite number");
+            ensure!(
+                v.is_finite(),
+                "--q entry {pos} of {count} ('{entry}') is not a finite number"
+            );
             Ok(v)
         })
         .collect()
@@ -108,7 +111,10 @@ mod tests {
     #[test]
     fn parse_q_names_the_bad_entry() {
         let e = parse_q("0.1,NaN,0.3").unwrap_err().to_string();
-        assert!(e.contains("entry 2") && e.contains("NaN") && e.contains("finite"), "{e}");
+        assert!(
+            e.contains("entry 2") && e.contains("NaN") && e.contains("finite"),
+            "{e}"
+        );
         let e = parse_q("0.1,,0.3").unwrap_err().to_string();
         assert!(e.contains("entry 2") && e.contains("empty"), "{e}");
         let e = parse_q("0.1,inf").unwrap_err().to_string();

@@ -169,4 +169,3 @@ impl Plant for KinematicPlant {
         self.time
     }
 }
-

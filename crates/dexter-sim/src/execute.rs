@@ -135,52 +135,52 @@ pub struct ExecuteReport {
 /// The report as a table: per object the decision, place, arms, transfer, contingencies, outcome.
 impl std::fmt::Display for ExecuteReport {
     fn fmt(&self, out: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-    let r = self;
-    writeln!(out, "{} on scene {}:", r.schema, r.scene)?;
-    for o in &r.objects {
-        let arms = if o.arms.is_empty() {
-            "-".to_string()
-        } else {
-            o.arms.join("→")
-        };
+        let r = self;
+        writeln!(out, "{} on scene {}:", r.schema, r.scene)?;
+        for o in &r.objects {
+            let arms = if o.arms.is_empty() {
+                "-".to_string()
+            } else {
+                o.arms.join("→")
+            };
+            writeln!(
+                out,
+                "  {:<16} {:<8} {:<10} arms {:<12} {:<9} {:<24} {}",
+                match o.segment {
+                    Some(s) => format!("{} [{s}]", o.object),
+                    None => o.object.clone(),
+                },
+                o.decision,
+                o.place.as_deref().unwrap_or("-"),
+                arms,
+                if o.transfer { "transfer" } else { "" },
+                if o.contingencies.is_empty() {
+                    String::new()
+                } else {
+                    format!("contingencies: {}", o.contingencies.join(", "))
+                },
+                match o.decision.as_str() {
+                    "execute" =>
+                        if o.success {
+                            "PLACED".to_string()
+                        } else {
+                            format!("FAILED ({})", o.failure.as_deref().unwrap_or("?"))
+                        },
+                    _ => o.reason.clone(),
+                }
+            )?;
+        }
         writeln!(
             out,
-            "  {:<16} {:<8} {:<10} arms {:<12} {:<9} {:<24} {}",
-            match o.segment {
-                Some(s) => format!("{} [{s}]", o.object),
-                None => o.object.clone(),
-            },
-            o.decision,
-            o.place.as_deref().unwrap_or("-"),
-            arms,
-            if o.transfer { "transfer" } else { "" },
-            if o.contingencies.is_empty() {
-                String::new()
-            } else {
-                format!("contingencies: {}", o.contingencies.join(", "))
-            },
-            match o.decision.as_str() {
-                "execute" =>
-                    if o.success {
-                        "PLACED".to_string()
-                    } else {
-                        format!("FAILED ({})", o.failure.as_deref().unwrap_or("?"))
-                    },
-                _ => o.reason.clone(),
-            }
+            "placed {}/{} relevant objects in {:.1} s simulated ({:.1} s wall){}",
+            r.placed,
+            r.relevant,
+            r.sim_time,
+            r.wall_time,
+            r.mcap.as_ref().map(|m| format!("; log {m}")).unwrap_or_default()
         )?;
+        Ok(())
     }
-    writeln!(
-        out,
-        "placed {}/{} relevant objects in {:.1} s simulated ({:.1} s wall){}",
-        r.placed,
-        r.relevant,
-        r.sim_time,
-        r.wall_time,
-        r.mcap.as_ref().map(|m| format!("; log {m}")).unwrap_or_default()
-    )?;
-    Ok(())
-}
 }
 
 /// What the hook and the robot's sink share during a run.

@@ -17,9 +17,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::SimError;
 use crate::execute::{Decider, ExecuteReport, NoLog, execute_scene};
+use crate::scene::{ObjectPlacement, Scene};
 use bayes::rng::{Draw, Generator};
 use rand::Rng as _;
-use crate::scene::{ObjectPlacement, Scene};
 
 /// What to run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

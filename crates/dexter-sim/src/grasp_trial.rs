@@ -426,14 +426,11 @@ impl GraspTeacher {
 
     /// One demonstrated pre-grasp on the single object of `scene` (without noise if `exact`).
     pub fn demonstrate(&mut self, scene: &Scene, exact: bool) -> Result<(DemoKind, PreGraspCommand), SimError> {
-        let r = scene
-            .resolved
-            .first()
-            .ok_or_else(|| SimError::Invalid {
-                path: "<scene>".into(),
-                field: "objects".into(),
-                message: "the scene has no object to grasp".into(),
-            })?;
+        let r = scene.resolved.first().ok_or_else(|| SimError::Invalid {
+            path: "<scene>".into(),
+            field: "objects".into(),
+            message: "the scene has no object to grasp".into(),
+        })?;
         let shape = scene.catalog.objects[r.object].shape.clone();
         let pose = r.pose;
         let table_z = scene.spec.table.height;

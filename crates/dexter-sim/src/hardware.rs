@@ -17,11 +17,11 @@ use control_basis::{CbError, Plant, RobotModel};
 use crate::convert::iso_from_glam;
 use crate::error::SimError;
 use crate::physics::DexterSim;
-use rand::Rng as _;
 use crate::scene::Scene;
 use crate::snapshot::{Arm, FingertipWrench};
 use crate::vision::camera::SpecCamera;
 use crate::vision::{Camera, ItemLabel, Material, RenderItem, RenderScene, Renderer};
+use rand::Rng as _;
 
 /// The cameras: (name, optical frame link).
 pub const CAMERAS: [(&str, &str); 4] = [

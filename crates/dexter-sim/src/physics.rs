@@ -32,9 +32,9 @@ use rapier3d_f64::prelude::*;
 use crate::convert::{iso_from_glam, iso_to_glam, vec_from_glam, vec_to_glam};
 use crate::error::SimError;
 use crate::geometry;
-use bayes::rng::{Draw, Generator};
 use crate::scene::{ObjectSpec, Scene};
 use crate::snapshot::{Arm, FingertipWrench, ObjectState, Snapshot, SnapshotHeader};
+use bayes::rng::{Draw, Generator};
 
 /// Dexter's URDF, embedded.
 pub const DEXTER_URDF: &str = include_str!("../../../assets/dexter.urdf");

@@ -2,9 +2,9 @@
 //! triangulation on Dexter's head cameras looking at the table. Run in release mode
 //! (`cargo test --release -p dexter-sim --test vision`); everything is deterministic.
 
+use bayes::rng::Draw;
 use control_basis::math::{Iso3, Vec3};
 use dexter_sim::geometry::bounding_radius;
-use bayes::rng::Draw;
 use dexter_sim::scene::{CameraSpec, LightSpec, Shape};
 use dexter_sim::vision::fixtures::*;
 use dexter_sim::vision::*;

@@ -157,7 +157,6 @@ pub struct Fit {
     pub diagnostics: Diagnostics,
 }
 
-
 /// Relabels by decreasing size (ties: first appearance), so labels are deterministic.
 fn canonical_labels(z: &[usize]) -> Vec<usize> {
     let k = z.iter().copied().max().map_or(0, |m| m + 1);

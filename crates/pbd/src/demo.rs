@@ -83,7 +83,11 @@ pub fn demo(args: &DemoOptions, progress: &dyn Progress) -> Result<DemoReport> {
         },
         progress,
     )?;
-    anyhow::ensure!(!record.demo.interrupted, "interrupted while recording; {} holds what was captured", demo.display());
+    anyhow::ensure!(
+        !record.demo.interrupted,
+        "interrupted while recording; {} holds what was captured",
+        demo.display()
+    );
     progress.phase("2/4 infer", None);
     let infer = crate::infer::infer(
         &InferOptions {
@@ -145,7 +149,13 @@ impl fmt::Display for DemoReport {
             inf.inference.instances.len()
         )?;
         for (i, inst) in inf.inference.instances.iter().enumerate() {
-            let truth = inf.truth.get(i).cloned().flatten().map(|t| t.object).unwrap_or_default();
+            let truth = inf
+                .truth
+                .get(i)
+                .cloned()
+                .flatten()
+                .map(|t| t.object)
+                .unwrap_or_default();
             writeln!(
                 f,
                 "      {}. {} of {} into {} with the {} arm (p = {:.3})",
@@ -161,7 +171,10 @@ impl fmt::Display for DemoReport {
         for line in self.learn.explanation.lines() {
             writeln!(f, "    {line}")?;
         }
-        writeln!(f, "4/4 execute: a new arrangement of objects never shown (scene `sorting-demo`)")?;
+        writeln!(
+            f,
+            "4/4 execute: a new arrangement of objects never shown (scene `sorting-demo`)"
+        )?;
         for line in self.execute.to_string().lines() {
             writeln!(f, "    {line}")?;
         }

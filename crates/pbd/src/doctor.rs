@@ -71,32 +71,32 @@ impl fmt::Display for DoctorReport {
     fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
         let report = self;
         writeln!(
-        out,
-        "{}: {} ({:.1} MB, {} messages over {:.1} s)",
-        report.file,
-        if report.complete { "complete" } else { "CUT SHORT" },
-        report.bytes as f64 / 1e6,
-        report.messages,
-        report.duration_secs
-    )?;
-    if let Some(p) = &report.problem {
-        writeln!(out, "  problem     {p}; everything before it is readable")?;
-    }
-    for (topic, schema, n) in &report.channels {
-        writeln!(out, "  {topic:<28} {schema:<28} {n:>8}")?;
-    }
-    if !report.attachments.is_empty() {
-        writeln!(out, "  attachments {}", report.attachments.join(", "))?;
-    }
-    if !report.metadata.is_empty() {
-        writeln!(out, "  metadata    {}", report.metadata.join(", "))?;
-    }
-    for i in &report.issues {
-        writeln!(out, "  issue       {i}")?;
-    }
-    if let Some((path, n)) = &report.repaired {
-        writeln!(out, "  repaired    {path} ({n} messages, complete)")?;
-    }
-    Ok(())
+            out,
+            "{}: {} ({:.1} MB, {} messages over {:.1} s)",
+            report.file,
+            if report.complete { "complete" } else { "CUT SHORT" },
+            report.bytes as f64 / 1e6,
+            report.messages,
+            report.duration_secs
+        )?;
+        if let Some(p) = &report.problem {
+            writeln!(out, "  problem     {p}; everything before it is readable")?;
+        }
+        for (topic, schema, n) in &report.channels {
+            writeln!(out, "  {topic:<28} {schema:<28} {n:>8}")?;
+        }
+        if !report.attachments.is_empty() {
+            writeln!(out, "  attachments {}", report.attachments.join(", "))?;
+        }
+        if !report.metadata.is_empty() {
+            writeln!(out, "  metadata    {}", report.metadata.join(", "))?;
+        }
+        for i in &report.issues {
+            writeln!(out, "  issue       {i}")?;
+        }
+        if let Some((path, n)) = &report.repaired {
+            writeln!(out, "  repaired    {path} ({n} messages, complete)")?;
+        }
+        Ok(())
     }
 }

@@ -12,10 +12,10 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use serde::{Deserialize, Serialize};
 use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
 use dexter_sim::scene::Scene;
 use schema::{Library, Percept};
+use serde::{Deserialize, Serialize};
 
 pub use dexter_sim::execute::{Decider, ExecuteReport, RunLog, execute_scene};
 

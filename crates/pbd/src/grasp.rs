@@ -567,64 +567,64 @@ pub fn generate(args: &GenerateOptions) -> Result<GenerateReport> {
 
 impl fmt::Display for GenerateReport {
     fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
-    let report = self;
-    let b = report.percept.appearance;
-    writeln!(
-        out,
-        "{}: centroid ({:.3}, {:.3}, {:.3}) m, appearance b = [[{:.1}, {:.1}], [{:.1}, {:.1}]] px^2",
-        report.object,
-        report.percept.centroid[0],
-        report.percept.centroid[1],
-        report.percept.centroid[2],
-        b[0][0],
-        b[0][1],
-        b[1][0],
-        b[1][1]
-    )?;
-    writeln!(
-        out,
-        "drew {} candidates: {} hit the object, {} the table, {} out of reach",
-        report.drawn, report.rejected.hits_object, report.rejected.hits_table, report.rejected.unreachable
-    )?;
-    let mut t = crate::table::Table::new([
-        "rank",
-        "prototype",
-        "orient",
-        "x",
-        "y",
-        "z",
-        "qw",
-        "qx",
-        "qy",
-        "qz",
-        "reach",
-    ]);
-    for g in &report.pre_grasps {
-        let f = |v: f64| crate::table::num(v, 3);
-        t.row([
-            g.rank.to_string(),
-            g.prototype.map_or("-".into(), |j| (j + 1).to_string()),
-            g.orientation_index.map_or("-".into(), |w| (w + 1).to_string()),
-            f(g.position[0]),
-            f(g.position[1]),
-            f(g.position[2]),
-            f(g.orientation[0]),
-            f(g.orientation[1]),
-            f(g.orientation[2]),
-            f(g.orientation[3]),
-            f(g.reach_distance),
-        ]);
-    }
-    write!(out, "{}", t.render(2))?;
-    if report.pre_grasps.len() < report.asked {
+        let report = self;
+        let b = report.percept.appearance;
         writeln!(
             out,
-            "only {} of {} collision-free, reachable pre-grasps found",
-            report.pre_grasps.len(),
-            report.asked
+            "{}: centroid ({:.3}, {:.3}, {:.3}) m, appearance b = [[{:.1}, {:.1}], [{:.1}, {:.1}]] px^2",
+            report.object,
+            report.percept.centroid[0],
+            report.percept.centroid[1],
+            report.percept.centroid[2],
+            b[0][0],
+            b[0][1],
+            b[1][0],
+            b[1][1]
         )?;
-    }
-    Ok(())
+        writeln!(
+            out,
+            "drew {} candidates: {} hit the object, {} the table, {} out of reach",
+            report.drawn, report.rejected.hits_object, report.rejected.hits_table, report.rejected.unreachable
+        )?;
+        let mut t = crate::table::Table::new([
+            "rank",
+            "prototype",
+            "orient",
+            "x",
+            "y",
+            "z",
+            "qw",
+            "qx",
+            "qy",
+            "qz",
+            "reach",
+        ]);
+        for g in &report.pre_grasps {
+            let f = |v: f64| crate::table::num(v, 3);
+            t.row([
+                g.rank.to_string(),
+                g.prototype.map_or("-".into(), |j| (j + 1).to_string()),
+                g.orientation_index.map_or("-".into(), |w| (w + 1).to_string()),
+                f(g.position[0]),
+                f(g.position[1]),
+                f(g.position[2]),
+                f(g.orientation[0]),
+                f(g.orientation[1]),
+                f(g.orientation[2]),
+                f(g.orientation[3]),
+                f(g.reach_distance),
+            ]);
+        }
+        write!(out, "{}", t.render(2))?;
+        if report.pre_grasps.len() < report.asked {
+            writeln!(
+                out,
+                "only {} of {} collision-free, reachable pre-grasps found",
+                report.pre_grasps.len(),
+                report.asked
+            )?;
+        }
+        Ok(())
     }
 }
 

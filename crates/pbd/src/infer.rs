@@ -315,72 +315,69 @@ fn write_companion(path: &Path, engine: &Engine, obs: &[Observation], file: &Inf
 
 impl fmt::Display for InferRun {
     fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
-    let (file, json, mcap) = (&self.file, &self.json_path, &self.mcap_path);
-    let inf = &file.inference;
-    writeln!(
-        out,
-        "{}: {:.1} s, {} observation steps, {} schemas in the library",
-        file.demo,
-        inf.duration,
-        inf.steps,
-        self.schemas
-    )?;
-    writeln!(
-        out,
-        "posterior over the library (each schema as one or more instances; uniform prior):"
-    )?;
-    let mut hyps = inf.posterior.hypotheses.clone();
-    hyps.sort_by(|a, b| b.posterior.total_cmp(&a.posterior));
-    for h in &hyps {
-        let bar = "#".repeat((h.posterior * 30.0).round() as usize);
-        let ev = h
-            .log_evidence
-            .map_or("impossible".to_string(), |l| format!("log p(x|S) = {l:9.2}"));
-        writeln!(out, "  {:<16} {:>7.4}  {:<30} {ev}", h.schema, h.posterior, bar)?;
-    }
-    writeln!(
-        out,
-        "MAP: {} (p = {:.4}){}",
-        inf.posterior.map,
-        inf.posterior.map_posterior,
-        if inf.posterior.map == "none" {
-            " — no schema of the library explains this demonstration"
-        } else {
-            ""
-        }
-    )?;
-    if !inf.state_path.is_empty() {
-        let path: Vec<String> = inf
-            .state_path
-            .iter()
-            .filter(|v| v.schema != "gap")
-            .map(|v| format!("{}@{:.1}s", v.state, v.t_start))
-            .collect();
-        writeln!(out, "state path: {}", path.join(" → "))?;
-    }
-    writeln!(out, "instances: {}", inf.instances.len())?;
-    for (i, inst) in inf.instances.iter().enumerate() {
-        let truth = file.truth.get(i).cloned().flatten();
+        let (file, json, mcap) = (&self.file, &self.json_path, &self.mcap_path);
+        let inf = &file.inference;
         writeln!(
             out,
-            "  {}. {:<15} {:>6.1}–{:<6.1} s  p = {:.3}  object {}{}  place {}  arm {}",
-            i + 1,
-            inst.schema,
-            inst.t_start,
-            inst.t_end,
-            inst.posterior.map_posterior,
-            inst.object.map_or("-".into(), |o| format!("segment {o}")),
-            truth.map_or(String::new(), |t| format!(" (= {})", t.object)),
-            inst.place.as_deref().unwrap_or("-"),
-            inst.arm.as_deref().unwrap_or("-"),
+            "{}: {:.1} s, {} observation steps, {} schemas in the library",
+            file.demo, inf.duration, inf.steps, self.schemas
         )?;
-    }
-    writeln!(
-        out,
-        "wrote {} and {} (open with the demo in Foxglove)",
-        json.display(),
-        mcap.display()
-    )?;
-    Ok(())
+        writeln!(
+            out,
+            "posterior over the library (each schema as one or more instances; uniform prior):"
+        )?;
+        let mut hyps = inf.posterior.hypotheses.clone();
+        hyps.sort_by(|a, b| b.posterior.total_cmp(&a.posterior));
+        for h in &hyps {
+            let bar = "#".repeat((h.posterior * 30.0).round() as usize);
+            let ev = h
+                .log_evidence
+                .map_or("impossible".to_string(), |l| format!("log p(x|S) = {l:9.2}"));
+            writeln!(out, "  {:<16} {:>7.4}  {:<30} {ev}", h.schema, h.posterior, bar)?;
+        }
+        writeln!(
+            out,
+            "MAP: {} (p = {:.4}){}",
+            inf.posterior.map,
+            inf.posterior.map_posterior,
+            if inf.posterior.map == "none" {
+                " — no schema of the library explains this demonstration"
+            } else {
+                ""
+            }
+        )?;
+        if !inf.state_path.is_empty() {
+            let path: Vec<String> = inf
+                .state_path
+                .iter()
+                .filter(|v| v.schema != "gap")
+                .map(|v| format!("{}@{:.1}s", v.state, v.t_start))
+                .collect();
+            writeln!(out, "state path: {}", path.join(" → "))?;
+        }
+        writeln!(out, "instances: {}", inf.instances.len())?;
+        for (i, inst) in inf.instances.iter().enumerate() {
+            let truth = file.truth.get(i).cloned().flatten();
+            writeln!(
+                out,
+                "  {}. {:<15} {:>6.1}–{:<6.1} s  p = {:.3}  object {}{}  place {}  arm {}",
+                i + 1,
+                inst.schema,
+                inst.t_start,
+                inst.t_end,
+                inst.posterior.map_posterior,
+                inst.object.map_or("-".into(), |o| format!("segment {o}")),
+                truth.map_or(String::new(), |t| format!(" (= {})", t.object)),
+                inst.place.as_deref().unwrap_or("-"),
+                inst.arm.as_deref().unwrap_or("-"),
+            )?;
+        }
+        writeln!(
+            out,
+            "wrote {} and {} (open with the demo in Foxglove)",
+            json.display(),
+            mcap.display()
+        )?;
+        Ok(())
     }
 }

@@ -60,7 +60,11 @@ pub struct LearnReport {
 
 impl fmt::Display for LearnReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        writeln!(f, "learned from {} demonstrations → {}", self.demonstrations, self.output)?;
+        writeln!(
+            f,
+            "learned from {} demonstrations → {}",
+            self.demonstrations, self.output
+        )?;
         write!(f, "{}", self.explanation)
     }
 }
@@ -147,7 +151,12 @@ pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport
         bail!("no demonstrations given (pass *.infer.json or *.mcap files)");
     }
     let output = args.output.clone();
-    let inputs: Vec<&Path> = args.demos.iter().map(PathBuf::as_path).chain(args.update.as_deref()).collect();
+    let inputs: Vec<&Path> = args
+        .demos
+        .iter()
+        .map(PathBuf::as_path)
+        .chain(args.update.as_deref())
+        .collect();
     crate::files::refuse_inputs_as_outputs(&inputs, &[output.as_path()])?;
     let mut examples = Vec::new();
     let mut listing = Vec::new();

@@ -406,7 +406,7 @@ pub fn record(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordRep
             )
         }
         None => {
-            let t = tasks(&args, &sim, &scene)?;
+            let t = tasks(args, &sim, &scene)?;
             let teacher = Teacher::with_tasks(&sim, &scene, &t, seed)?;
             (
                 TeleopSource::Script(Box::new(teacher)),
@@ -565,7 +565,7 @@ impl fmt::Display for RecordReport {
             report.demo.percepts,
             report.output
         )?;
-    
+
         Ok(())
     }
 }

@@ -8,12 +8,12 @@ use std::cell::RefCell;
 use std::fmt;
 use std::path::PathBuf;
 
-use serde::{Deserialize, Serialize};
 use dexter_sim::Arm;
 use dexter_sim::physics::{DEXTER_URDF, DexterSim, SimSettings};
 use dexter_sim::pick_place::{PickPlaceReport, PickPlaceRequest, WorldObserver, pick_and_place_in};
 use dexter_sim::scene::Scene;
 use dexter_sim::vision::Image;
+use serde::{Deserialize, Serialize};
 
 use crate::mcap_log::{LogLevel, McapLog};
 use crate::progress::Progress;
@@ -209,33 +209,33 @@ pub fn pick_place(args: &PickPlaceOptions, progress: &dyn Progress) -> anyhow::R
 
 impl fmt::Display for PickPlaceRun {
     fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
-    let r = &self.report;
-    writeln!(
-        out,
-        "pick-place `{}` → `{}` with the {} arm: {}",
-        r.object,
-        r.place,
-        r.arm,
-        if r.success { "SUCCESS" } else { "FAILED" }
-    )?;
-    writeln!(out, "  outcome      {}", r.outcome)?;
-    writeln!(out, "  lifted       {}", r.lifted)?;
-    writeln!(
-        out,
-        "  final        ({:.3}, {:.3}, {:.3}) m",
-        r.final_position[0], r.final_position[1], r.final_position[2]
-    )?;
-    writeln!(out, "  sim time     {:.2} s in {} steps", r.sim_time, r.steps)?;
-    writeln!(
-        out,
-        "  wall time    {:.2} s (real-time factor {:.2})",
-        r.wall_time, r.real_time_factor
-    )?;
-    let phases: Vec<String> = r.phases.iter().map(|(n, t)| format!("{n} @{t:.2}s")).collect();
-    writeln!(out, "  phases       {}", phases.join(", "))?;
-    if let Some(p) = &self.mcap {
-        writeln!(out, "  recording    {p} (open in Foxglove)")?;
-    }
-    Ok(())
+        let r = &self.report;
+        writeln!(
+            out,
+            "pick-place `{}` → `{}` with the {} arm: {}",
+            r.object,
+            r.place,
+            r.arm,
+            if r.success { "SUCCESS" } else { "FAILED" }
+        )?;
+        writeln!(out, "  outcome      {}", r.outcome)?;
+        writeln!(out, "  lifted       {}", r.lifted)?;
+        writeln!(
+            out,
+            "  final        ({:.3}, {:.3}, {:.3}) m",
+            r.final_position[0], r.final_position[1], r.final_position[2]
+        )?;
+        writeln!(out, "  sim time     {:.2} s in {} steps", r.sim_time, r.steps)?;
+        writeln!(
+            out,
+            "  wall time    {:.2} s (real-time factor {:.2})",
+            r.wall_time, r.real_time_factor
+        )?;
+        let phases: Vec<String> = r.phases.iter().map(|(n, t)| format!("{n} @{t:.2}s")).collect();
+        writeln!(out, "  phases       {}", phases.join(", "))?;
+        if let Some(p) = &self.mcap {
+            writeln!(out, "  recording    {p} (open in Foxglove)")?;
+        }
+        Ok(())
     }
 }

@@ -22,8 +22,16 @@ fn same_seed_gives_identical_files_on_two_runs_and_any_number_of_threads() {
     let first = demo(&options, &Quiet).unwrap();
     let (infer_1, model_1) = (read(&out.join("demo.infer.json")), read(&out.join("model.json")));
     let second = demo(&options, &Quiet).unwrap();
-    assert_eq!(read(&out.join("demo.infer.json")), infer_1, "demo.infer.json differs between two runs");
-    assert_eq!(read(&out.join("model.json")), model_1, "model.json differs between two runs");
+    assert_eq!(
+        read(&out.join("demo.infer.json")),
+        infer_1,
+        "demo.infer.json differs between two runs"
+    );
+    assert_eq!(
+        read(&out.join("model.json")),
+        model_1,
+        "model.json differs between two runs"
+    );
     assert_eq!(first.execute.placed, second.execute.placed);
 
     let csv_with = |threads: usize| {

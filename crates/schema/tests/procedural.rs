@@ -2,7 +2,6 @@
 //! The acceptance figures on rendered catalog features are measured with the experiment itself, in
 //! `crates/pbd/tests/sorting_acceptance.rs`.
 
-
 use proptest::prelude::*;
 use rand::seq::SliceRandom;
 use schema::SchemaError;

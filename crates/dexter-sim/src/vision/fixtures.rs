@@ -2,11 +2,11 @@
 //! cameras, a table with two bins, catalog-like objects and a stand-in for the robot's link shapes.
 
 use crate::error::SimError;
-use bayes::rng::{Draw, Generator};
 use crate::scene::{CameraSpec, ColorPatch, Shape};
 use crate::vision::camera::SpecCamera;
 use crate::vision::render::{ItemLabel, RenderItem, RenderScene};
 use crate::vision::stereo::StereoCameras;
+use bayes::rng::{Draw, Generator};
 use control_basis::hardware::Camera;
 use control_basis::math::{Iso3, Rot3, Vec3};
 use nalgebra::{Translation3, Unit};

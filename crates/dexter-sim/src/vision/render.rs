@@ -752,8 +752,8 @@ pub fn check_camera(camera: &Camera) -> Result<(), SimError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use bayes::rng::Draw;
     use crate::convert::iso_to_glam;
+    use bayes::rng::Draw;
     use control_basis::math::iso_from_xyz_rpy;
 
     /// The slab box cast agrees with parry's.

@@ -17,8 +17,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use dexter_sim::experiment::{ExperimentConfig, ObjectRow, Summary, run_scene, summarize};
 use dexter_sim::scene::Scene;
-use serde::{Deserialize, Serialize};
 use schema::Library;
+use serde::{Deserialize, Serialize};
 
 use crate::progress::Progress;
 
@@ -107,7 +107,9 @@ pub fn run(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> Result<E
     let wall = std::time::Instant::now();
     progress.phase("execute", Some(args.scenes as u64));
     let indices: Vec<usize> = (0..args.scenes).collect();
-    let runs = crate::parallel::map(&indices, progress, |&i| Ok(run_scene(&base, &args.scene, &library, &config, i)?))?;
+    let runs = crate::parallel::map(&indices, progress, |&i| {
+        Ok(run_scene(&base, &args.scene, &library, &config, i)?)
+    })?;
     progress.finish();
     let (rows, summary) = summarize(&config, &runs);
     let wall_time = wall.elapsed().as_secs_f64();
@@ -180,4 +182,3 @@ fn markdown(args: &ExecuteExperimentOptions, s: &Summary, wall_time: f64) -> Str
     m.push_str(&format!("\nHand-to-hand transfers: {}.\n", s.transfers));
     m
 }
-

@@ -8,11 +8,11 @@
 
 use anyhow::{Context, bail};
 use bayes::rng::Draw;
-use rand::Rng as _;
 use dexter_sim::scene::{CameraSpec, Catalog, LightSpec};
 use dexter_sim::vision::fixtures::{TABLE_FIXATION, TABLE_TOP, head_cameras, table_and_bins};
 use dexter_sim::vision::{ItemLabel, RenderItem, StereoVision};
 use nalgebra::Vector3;
+use rand::Rng as _;
 use schema::SegmentPercept;
 use schema::procedural::Features;
 use serde::{Deserialize, Serialize};

@@ -310,7 +310,12 @@ fn plan(args: &SortingOptions) -> anyhow::Result<(Vec<String>, Label, Hyper)> {
     Ok((classes, label, hyper))
 }
 
-fn run_with(args: &SortingOptions, bank: &FeatureBank, render_secs: f64, progress: &dyn Progress) -> anyhow::Result<Summary> {
+fn run_with(
+    args: &SortingOptions,
+    bank: &FeatureBank,
+    render_secs: f64,
+    progress: &dyn Progress,
+) -> anyhow::Result<Summary> {
     let (classes, label, hyper) = plan(args)?;
     let t1 = Instant::now();
     let mut summary = Summary {
@@ -730,7 +735,13 @@ fn selection_tasks() -> Vec<(&'static str, Connectivity, Vec<TaskPlace>)> {
     ]
 }
 
-fn selection(args: &SortingOptions, progress: &dyn Progress, bank: &FeatureBank, hyper: &Hyper, summary: &mut Summary) -> anyhow::Result<()> {
+fn selection(
+    args: &SortingOptions,
+    progress: &dyn Progress,
+    bank: &FeatureBank,
+    hyper: &Hyper,
+    summary: &mut Summary,
+) -> anyhow::Result<()> {
     let max_n = args.max_examples.min(3);
     let tasks = selection_tasks();
     progress.phase("trials", Some((tasks.len() * max_n * args.trials) as u64));

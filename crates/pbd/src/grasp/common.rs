@@ -1,7 +1,6 @@
 //! Shared by the `pbd grasp` subcommands: presenting one object, choosing collision-free reachable
 //! candidates, seeds and a small work pool.
 
-
 use anyhow::{Result, anyhow, bail};
 use dexter_sim::Arm;
 use dexter_sim::grasp_trial::{self, Percept};

@@ -17,8 +17,8 @@ use serde::{Deserialize, Serialize};
 
 use super::common::{self, Method, Presenter, Rejections, select_candidates};
 use super::report::{EvalSummary, ObjectResult, Trial};
-use crate::progress::Progress;
 use super::{PresentOptions, command_for, learn_config, mat2, model_summary, record_scripted};
+use crate::progress::Progress;
 
 /// Options of [`run`] (`pbd grasp eval`).
 #[derive(Debug, Clone, Serialize, Deserialize)]

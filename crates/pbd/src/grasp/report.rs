@@ -3,8 +3,8 @@
 //!
 //! The figure is returned as data ([`figure`]) for the front end to draw.
 
-use std::fmt::Write as _;
 use std::fmt;
+use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::Result;
@@ -268,37 +268,36 @@ fn markdown(s: &EvalSummary, model: &GraspModel) -> String {
 /// The terminal report.
 impl fmt::Display for EvalSummary {
     fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
-    let s = self;
-    let mut t = crate::table::Table::new(["object", "model", "naive"]);
-    for o in &s.objects {
-        t.row([o.object.clone(), o.model.to_string(), o.naive.to_string()]);
-    }
-    write!(out, "{}", t.render(2))?;
-    writeln!(
-        out,
-        "model {}/{} ({:.1} %), naive {}/{} ({:.1} %); Fisher one-sided p = {:.3e}, chi2 (Yates) {:.2}, p = {:.3e}",
-        s.model_total.0,
-        s.model_total.1,
-        pct(s.model_total.0, s.model_total.1),
-        s.naive_total.0,
-        s.naive_total.1,
-        pct(s.naive_total.0, s.naive_total.1),
-        s.significance.fisher_one_sided_p,
-        s.significance.chi2,
-        s.significance.chi2_p
-    )?;
-    writeln!(
-        out,
-        "{} prototypes, {:.0} % shared by >= 2 training objects",
-        s.model.prototypes,
-        100.0 * s.model.shared_fraction
-    )?;
-    writeln!(out)?;
-    write!(out, "{}", s.model.sharing_table)?;
-    writeln!(out)?;
-    writeln!(out, "wrote {}", s.files.join(", "))?;
-    writeln!(out, "wall time {:.0} s", s.wall_time)?;
-    Ok(())
+        let s = self;
+        let mut t = crate::table::Table::new(["object", "model", "naive"]);
+        for o in &s.objects {
+            t.row([o.object.clone(), o.model.to_string(), o.naive.to_string()]);
+        }
+        write!(out, "{}", t.render(2))?;
+        writeln!(
+            out,
+            "model {}/{} ({:.1} %), naive {}/{} ({:.1} %); Fisher one-sided p = {:.3e}, chi2 (Yates) {:.2}, p = {:.3e}",
+            s.model_total.0,
+            s.model_total.1,
+            pct(s.model_total.0, s.model_total.1),
+            s.naive_total.0,
+            s.naive_total.1,
+            pct(s.naive_total.0, s.naive_total.1),
+            s.significance.fisher_one_sided_p,
+            s.significance.chi2,
+            s.significance.chi2_p
+        )?;
+        writeln!(
+            out,
+            "{} prototypes, {:.0} % shared by >= 2 training objects",
+            s.model.prototypes,
+            100.0 * s.model.shared_fraction
+        )?;
+        writeln!(out)?;
+        write!(out, "{}", s.model.sharing_table)?;
+        writeln!(out)?;
+        writeln!(out, "wrote {}", s.files.join(", "))?;
+        writeln!(out, "wall time {:.0} s", s.wall_time)?;
+        Ok(())
     }
 }
-

@@ -93,7 +93,6 @@ impl Pose {
             orientation: Quaternion::IDENTITY,
         }
     }
-
 }
 
 fn split(iso: &Iso3) -> (Vector3, Quaternion) {

@@ -164,61 +164,61 @@ impl FkReport {
 
 impl fmt::Display for FkReport {
     fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
-    let r = self;
-    let n = r.joint_names.len();
-    let d = DECIMALS;
-    writeln!(
-        out,
-        "chain   {} -> {}   ({n} joint variables, model {})",
-        r.base, r.tip, r.model
-    )?;
-    writeln!(out)?;
-    writeln!(out, "joint values (rad, or m for prismatic joints)")?;
-    let mut t = Table::new(["", "joint", "q"]);
-    for (i, (name, q)) in r.joint_names.iter().zip(&r.q).enumerate() {
-        t.row([format!("j{}", i + 1), name.clone(), num(*q, d)]);
-    }
-    write!(out, "{}", t.render(2))?;
-    writeln!(out)?;
-    writeln!(out, "tip pose in the base frame (base_from_tip)")?;
-    let mut t = Table::new(Vec::<String>::new());
-    t.row([
-        "position (m)".to_string(),
-        num(r.position[0], d),
-        num(r.position[1], d),
-        num(r.position[2], d),
-    ]);
-    for i in 0..3 {
-        let label = if i == 0 { "rotation" } else { "" };
-        let m = &r.rotation_rowmajor[3 * i..3 * i + 3];
-        t.row([label.to_string(), num(m[0], d), num(m[1], d), num(m[2], d)]);
-    }
-    let qt = r.quaternion_xyzw;
-    t.row([
-        "quaternion (x y z w)".to_string(),
-        num(qt[0], d),
-        num(qt[1], d),
-        num(qt[2], d),
-        num(qt[3], d),
-    ]);
-    t.row([
-        "rpy (rad)".to_string(),
-        num(r.rpy[0], d),
-        num(r.rpy[1], d),
-        num(r.rpy[2], d),
-    ]);
-    write!(out, "{}", t.render(2))?;
-    writeln!(out)?;
-    writeln!(
-        out,
-        "Jacobian (6x{n}; rows: tip origin velocity and angular velocity in base axes; columns: j1..j{n} above)"
-    )?;
-    let mut t = Table::new(std::iter::once(String::new()).chain((1..=n).map(|c| format!("j{c}"))));
-    for (row, label) in ROWS.iter().enumerate() {
-        t.row(std::iter::once(label.to_string()).chain((0..n).map(|c| num(r.jacobian_rowmajor[row * n + c], d))));
-    }
-    write!(out, "{}", t.render(2))?;
-    Ok(())
+        let r = self;
+        let n = r.joint_names.len();
+        let d = DECIMALS;
+        writeln!(
+            out,
+            "chain   {} -> {}   ({n} joint variables, model {})",
+            r.base, r.tip, r.model
+        )?;
+        writeln!(out)?;
+        writeln!(out, "joint values (rad, or m for prismatic joints)")?;
+        let mut t = Table::new(["", "joint", "q"]);
+        for (i, (name, q)) in r.joint_names.iter().zip(&r.q).enumerate() {
+            t.row([format!("j{}", i + 1), name.clone(), num(*q, d)]);
+        }
+        write!(out, "{}", t.render(2))?;
+        writeln!(out)?;
+        writeln!(out, "tip pose in the base frame (base_from_tip)")?;
+        let mut t = Table::new(Vec::<String>::new());
+        t.row([
+            "position (m)".to_string(),
+            num(r.position[0], d),
+            num(r.position[1], d),
+            num(r.position[2], d),
+        ]);
+        for i in 0..3 {
+            let label = if i == 0 { "rotation" } else { "" };
+            let m = &r.rotation_rowmajor[3 * i..3 * i + 3];
+            t.row([label.to_string(), num(m[0], d), num(m[1], d), num(m[2], d)]);
+        }
+        let qt = r.quaternion_xyzw;
+        t.row([
+            "quaternion (x y z w)".to_string(),
+            num(qt[0], d),
+            num(qt[1], d),
+            num(qt[2], d),
+            num(qt[3], d),
+        ]);
+        t.row([
+            "rpy (rad)".to_string(),
+            num(r.rpy[0], d),
+            num(r.rpy[1], d),
+            num(r.rpy[2], d),
+        ]);
+        write!(out, "{}", t.render(2))?;
+        writeln!(out)?;
+        writeln!(
+            out,
+            "Jacobian (6x{n}; rows: tip origin velocity and angular velocity in base axes; columns: j1..j{n} above)"
+        )?;
+        let mut t = Table::new(std::iter::once(String::new()).chain((1..=n).map(|c| format!("j{c}"))));
+        for (row, label) in ROWS.iter().enumerate() {
+            t.row(std::iter::once(label.to_string()).chain((0..n).map(|c| num(r.jacobian_rowmajor[row * n + c], d))));
+        }
+        write!(out, "{}", t.render(2))?;
+        Ok(())
     }
 }
 

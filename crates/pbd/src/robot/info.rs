@@ -264,67 +264,67 @@ fn named_chain_candidates(model: &RobotModel) -> Vec<(String, String, String)> {
 
 impl fmt::Display for RobotSummary {
     fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
-    let s = self;
-    let k = &s.joint_kinds;
-    writeln!(out, "robot   {}   (from {})", s.name, s.source)?;
-    writeln!(out, "root    {}", s.root)?;
-    writeln!(out, "links   {}", s.link_count)?;
-    writeln!(
-        out,
-        "joints  {}   ({} revolute, {} continuous, {} prismatic, {} fixed)",
-        s.joint_count, k.revolute, k.continuous, k.prismatic, k.fixed
-    )?;
-    writeln!(out)?;
-    writeln!(
-        out,
-        "degrees of freedom: {}   (independent moving joints; {} more follow them through <mimic>)",
-        s.dof_count,
-        s.mimic.len()
-    )?;
-    let mut t = Table::new(["joint", "kind", "lower", "upper", "velocity", "effort"]);
-    for d in &s.dofs {
-        t.row([
-            d.name.clone(),
-            format!("{:?}", d.kind).to_lowercase(),
-            num(d.lower, 4),
-            num(d.upper, 4),
-            num(d.velocity, 3),
-            num(d.effort, 2),
-        ]);
-    }
-    write!(out, "{}", t.render(2))?;
-    writeln!(out, "  (rad or m; rad/s or m/s; N·m or N; inf = no limit given)")?;
-    if !s.mimic.is_empty() {
+        let s = self;
+        let k = &s.joint_kinds;
+        writeln!(out, "robot   {}   (from {})", s.name, s.source)?;
+        writeln!(out, "root    {}", s.root)?;
+        writeln!(out, "links   {}", s.link_count)?;
+        writeln!(
+            out,
+            "joints  {}   ({} revolute, {} continuous, {} prismatic, {} fixed)",
+            s.joint_count, k.revolute, k.continuous, k.prismatic, k.fixed
+        )?;
         writeln!(out)?;
-        writeln!(out, "mimic couplings: q_joint = multiplier * q_follows + offset")?;
-        let mut t = Table::new(["joint", "follows", "multiplier", "offset"]);
-        for m in &s.mimic {
+        writeln!(
+            out,
+            "degrees of freedom: {}   (independent moving joints; {} more follow them through <mimic>)",
+            s.dof_count,
+            s.mimic.len()
+        )?;
+        let mut t = Table::new(["joint", "kind", "lower", "upper", "velocity", "effort"]);
+        for d in &s.dofs {
             t.row([
-                m.joint.clone(),
-                m.follows.clone(),
-                num(m.multiplier, 6),
-                num(m.offset, 6),
+                d.name.clone(),
+                format!("{:?}", d.kind).to_lowercase(),
+                num(d.lower, 4),
+                num(d.upper, 4),
+                num(d.velocity, 3),
+                num(d.effort, 2),
             ]);
         }
         write!(out, "{}", t.render(2))?;
-    }
-    if !s.named_chains.is_empty() {
+        writeln!(out, "  (rad or m; rad/s or m/s; N·m or N; inf = no limit given)")?;
+        if !s.mimic.is_empty() {
+            writeln!(out)?;
+            writeln!(out, "mimic couplings: q_joint = multiplier * q_follows + offset")?;
+            let mut t = Table::new(["joint", "follows", "multiplier", "offset"]);
+            for m in &s.mimic {
+                t.row([
+                    m.joint.clone(),
+                    m.follows.clone(),
+                    num(m.multiplier, 6),
+                    num(m.offset, 6),
+                ]);
+            }
+            write!(out, "{}", t.render(2))?;
+        }
+        if !s.named_chains.is_empty() {
+            writeln!(out)?;
+            writeln!(out, "named chains (use with: pbd robot fk --base BASE --tip TIP --q …)")?;
+            let mut t = Table::new(["chain", "base", "tip", "dof"]);
+            for c in &s.named_chains {
+                t.row([c.name.clone(), c.base.clone(), c.tip.clone(), c.dof.to_string()]);
+            }
+            write!(out, "{}", t.render(2))?;
+        }
         writeln!(out)?;
-        writeln!(out, "named chains (use with: pbd robot fk --base BASE --tip TIP --q …)")?;
-        let mut t = Table::new(["chain", "base", "tip", "dof"]);
-        for c in &s.named_chains {
-            t.row([c.name.clone(), c.base.clone(), c.tip.clone(), c.dof.to_string()]);
+        writeln!(out, "chains from the root '{}' to each leaf link", s.root)?;
+        let mut t = Table::new(["leaf link", "dof"]);
+        for c in &s.leaf_chains {
+            t.row([c.link.clone(), c.dof.to_string()]);
         }
         write!(out, "{}", t.render(2))?;
-    }
-    writeln!(out)?;
-    writeln!(out, "chains from the root '{}' to each leaf link", s.root)?;
-    let mut t = Table::new(["leaf link", "dof"]);
-    for c in &s.leaf_chains {
-        t.row([c.link.clone(), c.dof.to_string()]);
-    }
-    write!(out, "{}", t.render(2))?;
-    Ok(())
+        Ok(())
     }
 }
 
