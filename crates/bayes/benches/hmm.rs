@@ -9,15 +9,12 @@ use std::hint::black_box;
 const N: usize = 16;
 const T: usize = 100_000;
 
-/// SplitMix64 → uniform (0, 1); deterministic inputs without an RNG dependency.
-struct SplitMix(u64);
-impl SplitMix {
+/// Uniform (0, 1] draws from pbd's seeded generator: deterministic inputs.
+struct Uniform(bayes::rng::Generator);
+impl Uniform {
     fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64 + 1e-12
+        use bayes::rng::Draw;
+        self.0.uniform() + 1e-12
     }
 }
 
@@ -26,7 +23,7 @@ fn normalised_log(row: &[f64]) -> Vec<f64> {
     row.iter().map(|p| (p / s).ln()).collect()
 }
 
-fn dense(rng: &mut SplitMix) -> Hmm {
+fn dense(rng: &mut Uniform) -> Hmm {
     let start = normalised_log(&(0..N).map(|_| rng.next()).collect::<Vec<_>>());
     let trans = (0..N)
         .flat_map(|_| normalised_log(&(0..N).map(|_| rng.next()).collect::<Vec<_>>()))
@@ -35,7 +32,7 @@ fn dense(rng: &mut SplitMix) -> Hmm {
 }
 
 /// Left-to-right: stay or advance by one or two states (3 non-zeros per row).
-fn left_to_right(rng: &mut SplitMix) -> Hmm {
+fn left_to_right(rng: &mut Uniform) -> Hmm {
     let mut start = [f64::NEG_INFINITY; N];
     start[0] = 0.0;
     let mut trans = vec![0.0; N * N];
@@ -50,7 +47,7 @@ fn left_to_right(rng: &mut SplitMix) -> Hmm {
 }
 
 fn bench(c: &mut Criterion) {
-    let mut rng = SplitMix(20110201);
+    let mut rng = Uniform(bayes::rng::seeded(20110201));
     // Emissions favour the early states a little so the left-to-right model moves along slowly.
     let log_e: Vec<f64> = (0..T * N).map(|_| rng.next().ln()).collect();
     let models = [("dense", dense(&mut rng)), ("left_to_right", left_to_right(&mut rng))];

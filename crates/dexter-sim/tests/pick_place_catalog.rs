@@ -10,9 +10,6 @@
 //!
 //! `PBD_CATALOG_SEEDS=1` runs one seed only (quicker local iterations).
 
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use dexter_sim::physics::SimSettings;
 use dexter_sim::pick_place::{PickPlaceReport, PickPlaceRequest, pick_and_place};
 use dexter_sim::scene::{ObjectPlacement, Scene};
@@ -41,49 +38,39 @@ fn every_catalog_object_into_every_reachable_bin() {
             }
         }
     }
-    let next = AtomicUsize::new(0);
     type Outcome = (String, String, u64, Result<PickPlaceReport, String>);
-    let results: Mutex<Vec<Outcome>> = Mutex::new(Vec::new());
     let start = std::time::Instant::now();
-    std::thread::scope(|scope| {
-        for _ in 0..2 {
-            scope.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some((object, place, seed)) = jobs.get(i) else {
-                        break;
-                    };
-                    let scene = base
-                        .with_objects(vec![ObjectPlacement {
-                            presentation: object.clone(),
-                            xy: [0.55, 0.0],
-                            yaw_deg: 0.0,
-                            z: None,
-                        }])
-                        .expect("scene with one object");
-                    let req = PickPlaceRequest {
-                        object: object.clone(),
-                        place: place.clone(),
-                        arm: None,
-                    };
-                    let r = pick_and_place(
-                        &scene,
-                        &req,
-                        SimSettings {
-                            seed: *seed,
-                            ..SimSettings::default()
-                        },
-                    )
-                    .map_err(|e| e.to_string());
-                    results
-                        .lock()
-                        .expect("lock")
-                        .push((object.clone(), place.clone(), *seed, r));
-                }
-            });
-        }
-    });
-    let mut results = results.into_inner().expect("results");
+    // The two cores of CI through rayon's pool (pbd's one pool; RAYON_NUM_THREADS sizes it).
+    use rayon::prelude::*;
+    let results: Vec<Outcome> = jobs
+        .par_iter()
+        .map(|(object, place, seed)| {
+            let scene = base
+                .with_objects(vec![ObjectPlacement {
+                    presentation: object.clone(),
+                    xy: [0.55, 0.0],
+                    yaw_deg: 0.0,
+                    z: None,
+                }])
+                .expect("scene with one object");
+            let req = PickPlaceRequest {
+                object: object.clone(),
+                place: place.clone(),
+                arm: None,
+            };
+            let r = pick_and_place(
+                &scene,
+                &req,
+                SimSettings {
+                    seed: *seed,
+                    ..SimSettings::default()
+                },
+            )
+            .map_err(|e| e.to_string());
+            (object.clone(), place.clone(), *seed, r)
+        })
+        .collect();
+    let mut results = results;
     results.sort_by(|a, b| (&a.0, &a.1, a.2).cmp(&(&b.0, &b.1, b.2)));
     let mut ok = 0;
     let mut lifted = 0;

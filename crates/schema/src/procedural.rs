@@ -517,7 +517,7 @@ pub const DEFAULT_RELEVANCE_LOG_THRESHOLD: f64 = 2.0;
 
 /// Default base measure over the colour terms (black, grey, white, red, orange, yellow, green,
 /// blue, purple, pink): the mean colour-term shares of the presentations of the built-in household
-/// catalog as Dexter's head cameras see them (`tests/data/household_features.json`, before the
+/// catalog as Dexter's head cameras see them (`crates/pbd/tests/data/household_features.json`, before the
 /// chromatic rule), each term smoothed by half an object.
 pub const DEFAULT_COLOR_BASE: [f64; COLORS] = [0.119, 0.156, 0.162, 0.131, 0.118, 0.018, 0.109, 0.139, 0.007, 0.041];
 
