@@ -74,7 +74,7 @@ impl ManipulabilityWorkspace {
 /// ∂w/∂q_k = w · tr(A⁻¹ J ∂Jᵀ/∂q_k) with A = J Jᵀ, and ∂J/∂q_k in closed form from the geometric
 /// Jacobian (for revolute joints f and columns e: z_f × (z_e × (p − p_e)) when f < e, z_e × (z_f × (p − p_f))
 /// when f ≥ e, z_f × z_e on the angular rows when f < e; prismatic joints analogously), so the gradient
-/// is exact and costs O(n²). A tiny Tikhonov term keeps A⁻¹ finite at singularities.
+/// is exact and costs O(n²). At an exact singularity a tiny Tikhonov term keeps A⁻¹ finite.
 pub fn manipulability(
     chain: &Chain,
     state: &ChainState,
@@ -102,17 +102,22 @@ pub fn manipulability(
     }
     let scale = (0..m).map(|i| a[i + i * m]).fold(0.0, f64::max).max(1e-300);
     let mut l = a;
-    let w = if crate::linalg::cholesky_in_place(&mut l[..m * m], m) {
+    let factored = crate::linalg::cholesky_in_place(&mut l[..m * m], m);
+    let w = if factored {
         (0..m).map(|i| l[i + i * m]).product::<f64>()
     } else {
         0.0
     };
-    // A tiny Tikhonov term keeps A⁻¹ finite at singularities (where w → 0 anyway).
-    let mut l = a;
-    for i in 0..m {
-        l[i + i * m] += 1e-12 * scale;
-    }
-    let ok = crate::linalg::cholesky_in_place(&mut l[..m * m], m);
+    // The exact factor where A is positive definite; only at a singularity (where w → 0 anyway) a
+    // tiny Tikhonov term keeps A⁻¹ finite. Damping always would bias the gradient wherever one
+    // singular value of J is small but not zero.
+    let ok = factored && w > 0.0 || {
+        l = a;
+        for i in 0..m {
+            l[i + i * m] += 1e-12 * scale;
+        }
+        crate::linalg::cholesky_in_place(&mut l[..m * m], m)
+    };
     ws.b.fill(0.0);
     if ok {
         let mut col = [0.0f64; 6];
