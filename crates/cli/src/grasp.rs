@@ -207,6 +207,7 @@ pub struct EvalArgs {
 pub fn main(cmd: GraspCommand, out: &mut dyn Write) -> anyhow::Result<()> {
     match cmd {
         GraspCommand::Record(a) => {
+            anyhow::ensure!(a.demos > 0 || !a.teleop.is_empty(), "--demos must be at least 1");
             let options = GraspRecordOptions {
                 present: a.present.options()?,
                 objects: a.objects,
@@ -233,6 +234,7 @@ pub fn main(cmd: GraspCommand, out: &mut dyn Write) -> anyhow::Result<()> {
             emit(a.json, &pbd::grasp::learn(&options, &Bars::new(a.json, false)?)?, out)
         }
         GraspCommand::Generate(a) => {
+            anyhow::ensure!(a.n > 0, "--n must be at least 1");
             let options = GenerateOptions {
                 model: a.model,
                 object: a.object,
@@ -243,6 +245,7 @@ pub fn main(cmd: GraspCommand, out: &mut dyn Write) -> anyhow::Result<()> {
             emit(a.json, &pbd::grasp::generate(&options)?, out)
         }
         GraspCommand::Eval(a) => {
+            anyhow::ensure!(a.candidates > 0, "--candidates must be at least 1");
             let options = EvalOptions {
                 present: a.present.options()?,
                 test: a.test,
