@@ -39,6 +39,9 @@ pub struct DoctorReport {
 
 /// Checks `file`; with `repair`, writes a complete copy of everything readable there.
 pub fn doctor(file: &Path, repair_to: Option<&Path>) -> Result<DoctorReport> {
+    if let Some(out) = repair_to {
+        crate::files::refuse_inputs_as_outputs(&[file], &[out])?;
+    }
     let s = read_summary(file)?;
     let (complete, problem) = match &s.status {
         FileStatus::Complete => (true, None),
