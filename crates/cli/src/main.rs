@@ -84,20 +84,26 @@ fn main() -> ExitCode {
         eprintln!("error: {e:#}");
         return ExitCode::FAILURE;
     }
+    // A panic anywhere (a library bug, a physics engine failing on a case validation missed) is
+    // reported as an error with exit code 1, never an abort with a backtrace.
+    let panic_message = std::sync::Arc::new(std::sync::Mutex::new(None::<String>));
+    let sink = std::sync::Arc::clone(&panic_message);
+    std::panic::set_hook(Box::new(move |info| {
+        if let Ok(mut m) = sink.lock()
+            && m.is_none()
+        {
+            *m = Some(info.to_string());
+        }
+    }));
     let stdout = io::stdout();
     let mut out = stdout.lock();
-    let result = match cli.command {
-        Command::Robot(cmd) => robot::main(cmd, &mut out),
-        Command::Sim(cmd) => sim::main(cmd, &mut out),
-        Command::Record(args) => record::main(args, &mut out),
-        Command::Grasp(cmd) => grasp::main(cmd, &mut out),
-        Command::Infer(args) => infer::main(args, &mut out),
-        Command::Doctor(args) => doctor::main(args, &mut out),
-        Command::Learn(args) => learn::main(args, &mut out),
-        Command::Demo(args) => demo::main(args, &mut out),
-        Command::Execute(args) => execute::main(args, &mut out),
-        Command::Experiment(cmd) => experiment::main(cmd, &mut out),
-    };
+    let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| dispatch(cli.command, &mut out)));
+    let result = run.unwrap_or_else(|_| {
+        let what = panic_message.lock().ok().and_then(|m| m.clone()).unwrap_or_default();
+        Err(anyhow::anyhow!(
+            "internal error (a bug in pbd; please report it with the command that caused it): {what}"
+        ))
+    });
     let result = result.and_then(|()| out.flush().map_err(anyhow::Error::from));
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -115,4 +121,19 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
         c.downcast_ref::<io::Error>()
             .is_some_and(|io| io.kind() == io::ErrorKind::BrokenPipe)
     })
+}
+
+fn dispatch(command: Command, out: &mut dyn Write) -> anyhow::Result<()> {
+    match command {
+        Command::Robot(cmd) => robot::main(cmd, out),
+        Command::Sim(cmd) => sim::main(cmd, out),
+        Command::Record(args) => record::main(args, out),
+        Command::Grasp(cmd) => grasp::main(cmd, out),
+        Command::Infer(args) => infer::main(args, out),
+        Command::Doctor(args) => doctor::main(args, out),
+        Command::Learn(args) => learn::main(args, out),
+        Command::Demo(args) => demo::main(args, out),
+        Command::Execute(args) => execute::main(args, out),
+        Command::Experiment(cmd) => experiment::main(cmd, out),
+    }
 }

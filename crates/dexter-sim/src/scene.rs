@@ -488,14 +488,14 @@ fn validate_object(c: &Check<'_>, f: &str, object: &ObjectSpec) -> Result<(), Si
     match object.shape {
         Shape::Box { size } => {
             for (k, s) in size.iter().enumerate() {
-                c.positive(&format!("{f}.shape.size[{k}]"), *s)?;
+                c.length(&format!("{f}.shape.size[{k}]"), *s)?;
             }
         }
         Shape::Cylinder { radius, height } | Shape::Capsule { radius, height } => {
-            c.positive(&format!("{f}.shape.radius"), radius)?;
-            c.positive(&format!("{f}.shape.height"), height)?;
+            c.length(&format!("{f}.shape.radius"), radius)?;
+            c.length(&format!("{f}.shape.height"), height)?;
         }
-        Shape::Sphere { radius } => c.positive(&format!("{f}.shape.radius"), radius)?,
+        Shape::Sphere { radius } => c.length(&format!("{f}.shape.radius"), radius)?,
     }
     c.positive(&format!("{f}.mass"), object.mass)?;
     c.positive(&format!("{f}.friction"), object.friction)?;
@@ -698,6 +698,9 @@ impl Scene {
     }
 }
 
+/// Largest length or coordinate a scene may hold (m): a room, not a planet.
+pub const MAX_LENGTH: f64 = 100.0;
+
 /// Validates everything in a scene but the objects; normalises the light direction.
 fn validate_setup(c: &Check<'_>, spec: &mut SceneSpec) -> Result<(), SimError> {
     c.version(spec.version)?;
@@ -705,10 +708,10 @@ fn validate_setup(c: &Check<'_>, spec: &mut SceneSpec) -> Result<(), SimError> {
         return Err(c.invalid("name", "must not be empty"));
     }
     let table = &spec.table;
-    c.positive("table.height", table.height)?;
-    c.finite_all("table.center", &table.center)?;
+    c.length("table.height", table.height)?;
+    c.coordinates("table.center", &table.center)?;
     for (k, s) in table.size.iter().enumerate() {
-        c.positive(&format!("table.size[{k}]"), *s)?;
+        c.length(&format!("table.size[{k}]"), *s)?;
     }
     c.hsv("table.hsv", &table.hsv)?;
     c.positive("table.friction", table.friction)?;
@@ -720,9 +723,9 @@ fn validate_setup(c: &Check<'_>, spec: &mut SceneSpec) -> Result<(), SimError> {
         c.name(&format!("{f}.name"), &place.name)?;
         claim_name(c, &mut names, &place.name, format!("{f}.name"))?;
         let named = |e| in_context(e, &place.name);
-        c.finite_all(&format!("{f}.center"), &place.center).map_err(named)?;
+        c.coordinates(&format!("{f}.center"), &place.center).map_err(named)?;
         for (k, s) in place.size.iter().enumerate() {
-            c.positive(&format!("{f}.size[{k}]"), *s).map_err(named)?;
+            c.length(&format!("{f}.size[{k}]"), *s).map_err(named)?;
         }
         c.non_negative(&format!("{f}.wall_height"), place.wall_height)
             .map_err(named)?;
@@ -1145,6 +1148,31 @@ impl Check<'_> {
     fn finite_all(&self, field: &str, values: &[f64]) -> Result<(), SimError> {
         for (k, v) in values.iter().enumerate() {
             self.finite(&format!("{field}[{k}]"), *v)?;
+        }
+        Ok(())
+    }
+
+    /// A length of the tabletop world: finite, > 0 and at most [`MAX_LENGTH`] (physics engines fail
+    /// on absurd sizes such as 1e300).
+    fn length(&self, field: &str, v: f64) -> Result<(), SimError> {
+        self.positive(field, v)?;
+        if v <= MAX_LENGTH {
+            Ok(())
+        } else {
+            Err(self.invalid(field, format!("must be at most {MAX_LENGTH} m (got {v:e})")))
+        }
+    }
+
+    /// Coordinates within [`MAX_LENGTH`] of the world origin.
+    fn coordinates(&self, field: &str, values: &[f64]) -> Result<(), SimError> {
+        self.finite_all(field, values)?;
+        for (k, v) in values.iter().enumerate() {
+            if v.abs() > MAX_LENGTH {
+                return Err(self.invalid(
+                    &format!("{field}[{k}]"),
+                    format!("must be within ±{MAX_LENGTH} m (got {v:e})"),
+                ));
+            }
         }
         Ok(())
     }

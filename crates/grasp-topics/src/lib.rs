@@ -82,8 +82,8 @@ pub use error::{GraspError, Result};
 pub use gibbs::GibbsState;
 pub use metrics::{adjusted_rand_index, gelman_rubin};
 pub use model::{
-    AppearancePosterior, ChainTrace, Config, Diagnostics, DpConfig, Fit, GraspModel, MODEL_FORMAT, MODEL_VERSION,
-    PositionPosterior, PreGrasp, Prototype, SharingTable, fit, naive_baseline,
+    AppearancePosterior, ChainTrace, Config, Diagnostics, DpConfig, Fit, GraspModel, MAX_GENERATE, MODEL_FORMAT,
+    MODEL_VERSION, PositionPosterior, PreGrasp, Prototype, SharingTable, fit, naive_baseline,
 };
 pub use orientation::{CanonicalOrientations, orientation_distance};
 pub use prior::{AppearancePrior, Hyperparameters, PositionPredictive, PositionPrior};

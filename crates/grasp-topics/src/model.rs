@@ -89,11 +89,47 @@ impl Default for Config {
     }
 }
 
+/// Largest number of pre-grasps one [`GraspModel::generate`] call draws.
+pub const MAX_GENERATE: usize = 100_000;
+
 impl Config {
-    /// Checks the ranges (names as in the model file's `config`).
+    /// Largest number of prototypes A.
+    pub const MAX_PROTOTYPES: usize = 1_000;
+    /// Largest number of canonical orientations Q.
+    pub const MAX_ORIENTATIONS: usize = 360;
+    /// Largest number of chains.
+    pub const MAX_CHAINS: usize = 64;
+    /// Largest number of sweeps per chain (burn-in + kept samples × thinning).
+    pub const MAX_SWEEPS: usize = 1_000_000;
+
+    /// Checks the ranges (names as in the model file's `config`), including the upper bounds
+    /// ([`Self::MAX_PROTOTYPES`], …).
     pub fn validate(&self) -> Result<()> {
         if self.nonparametric.is_none() && self.prototypes == 0 {
             return Err(invalid("config.prototypes", "A must be at least 1"));
+        }
+        // Upper bounds, checked before anything is allocated: each is far above any useful value
+        // (the seed used A = 10, Q = 6, ~200 sweeps) and keeps memory and time bounded.
+        for (field, value, max) in [
+            ("config.prototypes", self.prototypes, Self::MAX_PROTOTYPES),
+            ("config.orientations", self.orientations, Self::MAX_ORIENTATIONS),
+            ("config.chains", self.chains, Self::MAX_CHAINS),
+            ("config.burn_in", self.burn_in, Self::MAX_SWEEPS),
+            ("config.samples", self.samples, Self::MAX_SWEEPS),
+            ("config.thin", self.thin, Self::MAX_SWEEPS),
+        ] {
+            if value > max {
+                return Err(invalid(field, format!("{value} is above the limit of {max}")));
+            }
+        }
+        if self.burn_in + self.samples.saturating_mul(self.thin) > Self::MAX_SWEEPS {
+            return Err(invalid(
+                "config",
+                format!(
+                    "burn_in + samples × thin is above the limit of {} sweeps per chain",
+                    Self::MAX_SWEEPS
+                ),
+            ));
         }
         if self.orientations == 0 {
             return Err(invalid("config.orientations", "Q must be at least 1"));
@@ -590,6 +626,12 @@ impl GraspModel {
     /// (6.28), w_t ~ Multinomial(φ̂_j) (6.26), x_t ~ Normal(μ̂_j, Σ̂_j) (6.27) with the posterior
     /// means as point estimates.
     pub fn generate<R: Rng + ?Sized>(&self, appearance: &Matrix2<f64>, n: usize, rng: &mut R) -> Result<Vec<PreGrasp>> {
+        if n > MAX_GENERATE {
+            return Err(invalid(
+                "n",
+                format!("{n} pre-grasps is above the limit of {MAX_GENERATE}"),
+            ));
+        }
         let pz = self.prototype_probabilities(appearance)?;
         let chols: Vec<Matrix3<f64>> = self
             .prototypes
@@ -714,6 +756,12 @@ impl GraspModel {
 /// object's extents (m, any order); positions are uniform on the hemisphere's surface.
 pub fn naive_baseline<R: Rng + ?Sized>(dimensions: &Vector3<f64>, n: usize, rng: &mut R) -> Result<Vec<PreGrasp>> {
     crate::error::check_finite(|| "dimensions".into(), dimensions.as_slice())?;
+    if n > MAX_GENERATE {
+        return Err(invalid(
+            "n",
+            format!("{n} pre-grasps is above the limit of {MAX_GENERATE}"),
+        ));
+    }
     if dimensions.iter().any(|&d| d <= 0.0) {
         return Err(invalid(
             "dimensions",

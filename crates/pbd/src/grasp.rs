@@ -298,6 +298,7 @@ pub fn record(args: &GraspRecordOptions, progress: &dyn Progress) -> Result<Reco
     if args.teleop.is_empty() && args.demos == 0 {
         bail!("demos must be at least 1");
     }
+    crate::limits::check_at_most("demos", args.demos, crate::limits::MAX_PER_OBJECT)?;
     let mut corpus = if args.append && args.output.exists() {
         Corpus::load(&args.output)?
     } else {
@@ -518,6 +519,7 @@ pub fn generate(args: &GenerateOptions) -> Result<GenerateReport> {
     if args.n == 0 {
         bail!("n must be at least 1");
     }
+    crate::limits::check_at_most("n", args.n, grasp_topics::MAX_GENERATE)?;
     let (scene, settings) = presenter.scene(&args.object, args.seed)?;
     let percept = match grasp_trial::perceive(&scene, &settings)? {
         Ok(p) => p,

@@ -213,6 +213,7 @@ pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport
 /// Explains a saved model; with `samples > 0`, also draws that many task instances from its posterior
 /// predictive (seeded by `seed`) for pictures.
 pub fn explain(path: &Path, samples: usize, seed: u64) -> Result<ModelExplanation> {
+    crate::limits::check_at_most("samples", samples, crate::limits::MAX_SAMPLES)?;
     let model = ProceduralModel::load(path)?;
     let explanation = model.explain()?;
     let mut out = ModelExplanation {

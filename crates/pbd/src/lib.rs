@@ -66,6 +66,7 @@ pub mod files;
 pub mod grasp;
 pub mod infer;
 pub mod learn;
+pub mod limits;
 pub mod mcap_log;
 pub mod parallel;
 pub mod progress;

@@ -14,7 +14,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use dexter_sim::experiment::{ExperimentConfig, ObjectRow, Summary, run_scene, summarize};
 use dexter_sim::scene::Scene;
 use schema::Library;
@@ -85,9 +85,8 @@ fn parse_task(task: &[String]) -> Result<BTreeMap<String, String>> {
 /// Runs the experiment: the scenes in parallel on the thread pool, then `objects.csv` and `summary.md`
 /// in the output directory. The same seed gives the same files, whatever the number of threads.
 pub fn run(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> Result<ExecuteExperimentRun> {
-    if args.scenes == 0 || args.objects == 0 {
-        bail!("--scenes and --objects must be at least 1");
-    }
+    crate::limits::check_count("scenes", args.scenes, crate::limits::MAX_SCENES)?;
+    crate::limits::check_count("objects", args.objects, crate::limits::MAX_OBJECTS)?;
     let base = Scene::open(&args.scene)?;
     let task = parse_task(&args.task)?;
     for p in task.values() {

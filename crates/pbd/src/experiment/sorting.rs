@@ -267,9 +267,9 @@ pub fn run_on_bank(args: &SortingOptions, bank: &FeatureBank, progress: &dyn Pro
 
 /// The classes, the kind of label and the hyperparameters of a run, validated.
 fn plan(args: &SortingOptions) -> anyhow::Result<(Vec<String>, Label, Hyper)> {
-    if args.trials == 0 || args.max_examples == 0 || args.views == 0 {
-        bail!("trials, max_examples and views must be at least 1");
-    }
+    crate::limits::check_count("trials", args.trials, crate::limits::MAX_TRIALS)?;
+    crate::limits::check_count("max_examples", args.max_examples, crate::limits::MAX_EXAMPLES)?;
+    crate::limits::check_count("views", args.views, crate::limits::MAX_VIEWS)?;
     let classes: Vec<String> = if args.classes.is_empty() {
         match args.feature {
             Feature::Size => vec!["small".into(), "large".into()],

@@ -96,6 +96,14 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
     if args.candidates == 0 {
         bail!("candidates must be at least 1");
     }
+    for (name, v) in [
+        ("candidates", args.candidates),
+        ("test", args.test),
+        ("train", args.train),
+        ("demos", args.demos),
+    ] {
+        crate::limits::check_at_most(name, v, crate::limits::MAX_PER_OBJECT)?;
+    }
     for o in &args.objects {
         presenter.check(o)?;
     }

@@ -1,0 +1,118 @@
+//! Regression tests for the hostile-input sweep (issue 20): inputs are never overwritten, absurd
+//! sizes and counts are refused before any work, and nothing panics.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{pbd, repo, stderr};
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("pbd-hostile-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Runs `pbd args`: exit code 1 (never a panic's 101 or an abort), stderr naming every needle.
+fn refused(args: &[&str], needles: &[&str]) {
+    let o = pbd(args);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+    assert!(!e.contains("panicked"), "{args:?}: {e}");
+    for n in needles {
+        assert!(e.contains(n), "{args:?}: expected {n:?} in: {e}");
+    }
+}
+
+fn s(p: &Path) -> String {
+    p.display().to_string()
+}
+
+/// A scene whose table is 1e300 m wide once panicked inside the physics engine.
+#[test]
+fn absurd_scene_sizes_are_refused_naming_the_field() {
+    let d = dir("scene");
+    let text = std::fs::read_to_string(repo().join("assets/scenes/pick-place.toml")).unwrap();
+    let catalog = s(&repo().join("assets/objects/household.toml"));
+    let text = text.replace("\"../objects/household.toml\"", &format!("{catalog:?}"));
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let first_size = lines
+        .iter()
+        .position(|l| l.starts_with("size ="))
+        .expect("a table size");
+    lines[first_size] = "size = [1e300, 1e300]".into();
+    let p = d.join("big.toml");
+    std::fs::write(&p, lines.join("\n")).unwrap();
+    refused(
+        &["sim", "pick-place", "--scene", &s(&p)],
+        &["table.size[0]", "at most 100 m"],
+    );
+}
+
+#[test]
+fn absurd_counts_are_refused_before_any_work() {
+    let d = dir("counts");
+    let corpus = d.join("c.json");
+    std::fs::write(&corpus, "{}").unwrap();
+    // Bounds are checked before the corpus is even read… or with it; either way no abort.
+    let out = s(&d.join("m.json"));
+    let c = s(&corpus);
+    refused(&["grasp", "learn", &c, "-o", &out, "--chains", "100000000"], &[]);
+    refused(&["grasp", "learn", &c, "-o", &out, "--prototypes", "1000000000"], &[]);
+    refused(
+        &[
+            "experiment",
+            "sorting",
+            "--feature",
+            "color",
+            "--views",
+            "100000000",
+            "-o",
+            &s(&d.join("x")),
+        ],
+        &["views", "limit"],
+    );
+    refused(
+        &[
+            "experiment",
+            "sorting",
+            "--feature",
+            "color",
+            "--trials",
+            "1000000000",
+            "-o",
+            &s(&d.join("x")),
+        ],
+        &["trials", "limit"],
+    );
+}
+
+/// `doctor --repair` onto its own input (by another name, or a symlink) once truncated it.
+#[test]
+fn outputs_never_overwrite_inputs() {
+    let d = dir("overwrite");
+    let rec = d.join("x.mcap");
+    let o = pbd(&["record", "--script", "touch", "--max-seconds", "20", "-o", &s(&rec)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before = std::fs::read(&rec).unwrap();
+    let link = d.join("link.mcap");
+    std::os::unix::fs::symlink(&rec, &link).unwrap();
+    let dotted = format!("{}/./x.mcap", s(&d));
+    for target in [dotted.as_str(), &s(&link)] {
+        refused(
+            &["doctor", &s(&rec), "--repair", target],
+            &["refusing to overwrite an input"],
+        );
+    }
+    // infer -o naming the companion MCAP after the input.
+    refused(
+        &["infer", &s(&rec), "-o", &s(&d.join("x.json"))],
+        &["refusing to overwrite an input"],
+    );
+    refused(
+        &["infer", &s(&rec), "-o", &s(&rec)],
+        &["refusing to overwrite an input"],
+    );
+    assert_eq!(std::fs::read(&rec).unwrap(), before, "the recording was changed");
+    let _ = std::fs::remove_dir_all(&d);
+}
