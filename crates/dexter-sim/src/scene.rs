@@ -1169,7 +1169,7 @@ impl Check<'_> {
         for (k, v) in values.iter().enumerate() {
             if v.abs() > MAX_LENGTH {
                 return Err(self.invalid(
-                    &format!("{field}[{k}]"),
+                    format!("{field}[{k}]"),
                     format!("must be within ±{MAX_LENGTH} m (got {v:e})"),
                 ));
             }
