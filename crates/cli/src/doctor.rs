@@ -22,5 +22,15 @@ pub struct DoctorArgs {
 
 /// Runs `pbd doctor`.
 pub fn main(a: DoctorArgs, out: &mut dyn Write) -> anyhow::Result<()> {
-    emit(a.json, &pbd::doctor::doctor(&a.file, a.repair.as_deref())?, out)
+    let report = pbd::doctor::doctor(&a.file, a.repair.as_deref())?;
+    emit(a.json, &report, out)?;
+    if report.needs_repair() {
+        anyhow::bail!(
+            "{} is {}; `pbd doctor {} --repair NEW.mcap` writes a complete copy of everything readable",
+            report.file,
+            if report.complete { "damaged" } else { "cut short" },
+            report.file
+        );
+    }
+    Ok(())
 }

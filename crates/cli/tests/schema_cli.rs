@@ -305,8 +305,9 @@ fn a_killed_recording_is_recovered_up_to_its_last_chunk_and_sigint_loses_nothing
             !status.success(),
             "{signal}: the exit status says the recording was cut short"
         );
+        // doctor exits 1 for a file cut short (and says how to repair it), 0 for a complete one.
         let o = pbd(&["doctor", path.to_str().unwrap(), "--json"]);
-        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(o.status.success(), signal == "INT", "{}", stderr(&o));
         let d: Value = serde_json::from_str(&stdout(&o)).unwrap();
         assert!(d["messages"].as_u64().unwrap() > 100, "{d:#}");
         assert_eq!(

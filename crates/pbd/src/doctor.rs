@@ -33,6 +33,8 @@ pub struct DoctorReport {
     pub metadata: Vec<String>,
     /// Inconsistencies found.
     pub issues: Vec<String>,
+    /// Damaged chunks skipped (everything else was read).
+    pub skipped_chunks: Vec<String>,
     /// The repaired copy and its message count.
     pub repaired: Option<(String, u64)>,
 }
@@ -66,8 +68,16 @@ pub fn doctor(file: &Path, repair_to: Option<&Path>) -> Result<DoctorReport> {
         attachments: s.attachments.clone(),
         metadata: s.metadata.clone(),
         issues: s.issues.clone(),
+        skipped_chunks: s.skipped_chunks.clone(),
         repaired,
     })
+}
+
+impl DoctorReport {
+    /// The file needs a repair: cut short or with damaged chunks, and no repaired copy was written.
+    pub fn needs_repair(&self) -> bool {
+        (!self.complete || !self.skipped_chunks.is_empty()) && self.repaired.is_none()
+    }
 }
 
 impl fmt::Display for DoctorReport {
@@ -77,7 +87,11 @@ impl fmt::Display for DoctorReport {
             out,
             "{}: {} ({:.1} MB, {} messages over {:.1} s)",
             report.file,
-            if report.complete { "complete" } else { "CUT SHORT" },
+            match (report.complete, report.skipped_chunks.is_empty()) {
+                (true, true) => "complete".to_string(),
+                (true, false) => format!("full length, {} DAMAGED chunk(s) skipped", report.skipped_chunks.len()),
+                (false, _) => "CUT SHORT".to_string(),
+            },
             report.bytes as f64 / 1e6,
             report.messages,
             report.duration_secs
@@ -96,6 +110,9 @@ impl fmt::Display for DoctorReport {
         }
         for i in &report.issues {
             writeln!(out, "  issue       {i}")?;
+        }
+        for c in &report.skipped_chunks {
+            writeln!(out, "  damaged     {c}")?;
         }
         if let Some((path, n)) = &report.repaired {
             writeln!(out, "  repaired    {path} ({n} messages, complete)")?;

@@ -55,6 +55,17 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     })
 }
 
+/// A temporary path beside `path` (same directory, so a rename onto `path` is atomic).
+pub fn temporary_beside(path: &Path) -> Result<std::path::PathBuf> {
+    let name = path
+        .file_name()
+        .with_context(|| format!("cannot write {}: not a file name", path.display()))?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(".{}.tmp", std::process::id()));
+    Ok(path.with_file_name(tmp_name))
+}
+
 /// Checks, before long work, that `path` can be written: its directory exists and accepts a new file.
 pub fn check_writable(path: &Path) -> Result<()> {
     let dir = match path.parent() {

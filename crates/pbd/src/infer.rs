@@ -101,6 +101,9 @@ pub fn read_percepts(path: &Path) -> Result<Demonstration> {
             path.display()
         ));
     }
+    for c in &rec.skipped_chunks {
+        warnings.push(format!("{}: damaged {c}", path.display()));
+    }
     let metadata = rec.metadata.get("pbd").cloned().unwrap_or_default();
     if let Some(v) = metadata.get("percept_version")
         && v != &schema::percept::PERCEPT_VERSION.to_string()

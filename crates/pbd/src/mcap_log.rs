@@ -546,6 +546,8 @@ pub struct Summary {
     pub metadata: Vec<String>,
     /// Disagreements between what was read and the file's own statistics record.
     pub issues: Vec<String>,
+    /// Damaged chunks that were skipped (their CRC or compression failed); everything else was read.
+    pub skipped_chunks: Vec<String>,
 }
 
 impl Summary {
@@ -617,9 +619,10 @@ pub fn read_summary(path: impl AsRef<Path>) -> Result<Summary> {
         attachments: Vec::new(),
         metadata: Vec::new(),
         issues: Vec::new(),
+        skipped_chunks: Vec::new(),
     };
     let mut stats = None;
-    let (file_bytes, status) = scan(path, &mut |record| match record {
+    let (file_bytes, status, skipped) = scan(path, &mut |record| match record {
         Record::Schema { header, .. } => {
             schemas.insert(header.id, header.name);
         }
@@ -661,6 +664,7 @@ pub fn read_summary(path: impl AsRef<Path>) -> Result<Summary> {
         _ => {}
     })?;
     summary.file_bytes = file_bytes;
+    summary.skipped_chunks = skipped;
     summary.status = match status {
         FileStatus::Recovered { reason, .. } => FileStatus::Recovered {
             messages: summary.message_count,
@@ -668,7 +672,9 @@ pub fn read_summary(path: impl AsRef<Path>) -> Result<Summary> {
         },
         s => s,
     };
-    if let Some(stats) = stats {
+    if let Some(stats) = stats
+        && summary.skipped_chunks.is_empty()
+    {
         if stats.message_count != summary.message_count {
             summary.issues.push(format!(
                 "the statistics record counts {} messages, {} were read",
@@ -690,20 +696,26 @@ pub fn read_summary(path: impl AsRef<Path>) -> Result<Summary> {
     Ok(summary)
 }
 
-/// Reads every record of the MCAP file at `path` in file order, validating chunk CRCs, and hands each
-/// to `visit`. Returns the file size and how the file ended (`Recovered` carries 0 messages; callers
-/// count their own). Errors: the file cannot be read, or not one record could be parsed (not MCAP).
-fn scan(path: &Path, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStatus)> {
+/// Reads every record of the MCAP file at `path` in file order and hands each to `visit`. Chunks are
+/// checked one by one (decompression and CRC): a damaged chunk is skipped and described in the third
+/// return value, and reading goes on with the next one. Returns the file size, how the file ended
+/// (`Recovered` carries 0 messages; callers count their own) and the skipped chunks. Errors: the file
+/// cannot be read, or not one record could be parsed (not MCAP).
+fn scan(path: &Path, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStatus, Vec<String>)> {
     let context = || format!("cannot read MCAP log {}", path.display());
     let mut file = File::open(path).with_context(context)?;
     let file_bytes = file.metadata().with_context(context)?.len();
+    // Chunks are handed to us whole, so that one bad chunk costs its own messages only; the data
+    // section CRC would fail for any bad chunk, so the chunks' own CRCs are the check.
     let options = LinearReaderOptions::default()
-        .with_prevalidate_chunk_crcs(true)
-        .with_validate_data_section_crc(true)
+        .with_emit_chunks(true)
+        .with_validate_data_section_crc(false)
         .with_validate_summary_section_crc(true)
         .with_record_length_limit(READ_RECORD_LIMIT);
     let mut reader = LinearReader::new_with_options(options);
     let mut records_read = 0_u64;
+    let mut chunks = 0_usize;
+    let mut skipped = Vec::new();
     let mut stop = None;
     while let Some(event) = reader.next_event() {
         let record = match event {
@@ -716,6 +728,17 @@ fn scan(path: &Path, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStat
             Err(e) => Err(e),
         };
         match record {
+            Ok(Record::Chunk { header, data }) => {
+                chunks += 1;
+                records_read += 1;
+                if let Err(why) = visit_chunk(&header, &data, visit) {
+                    skipped.push(format!(
+                        "chunk {chunks} (messages logged {:.3}–{:.3} s): {why}; skipped",
+                        header.message_start_time as f64 * 1e-9,
+                        header.message_end_time as f64 * 1e-9
+                    ));
+                }
+            }
             Ok(record) => {
                 records_read += 1;
                 visit(record);
@@ -744,7 +767,73 @@ fn scan(path: &Path, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStat
             },
         },
     };
-    Ok((file_bytes, status))
+    Ok((file_bytes, status, skipped))
+}
+
+/// Decompresses one chunk, checks its CRC and hands its records to `visit`; nothing is visited when
+/// the chunk is damaged.
+fn visit_chunk(
+    header: &mcap::records::ChunkHeader,
+    data: &[u8],
+    visit: &mut dyn FnMut(Record<'_>),
+) -> std::result::Result<(), String> {
+    let size = usize::try_from(header.uncompressed_size)
+        .ok()
+        .filter(|&n| n <= READ_RECORD_LIMIT)
+        .ok_or_else(|| format!("uncompressed size {} is too large", header.uncompressed_size))?;
+    let owned;
+    let bytes: &[u8] = match header.compression.as_str() {
+        "" => data,
+        "zstd" => {
+            owned = zstd::bulk::decompress(data, size).map_err(|e| format!("zstd: {e}"))?;
+            &owned
+        }
+        "lz4" => {
+            let mut out = Vec::with_capacity(size);
+            lz4::Decoder::new(data)
+                .and_then(|mut d| std::io::copy(&mut d, &mut out))
+                .map_err(|e| format!("lz4: {e}"))?;
+            owned = out;
+            &owned
+        }
+        other => return Err(format!("unknown compression `{other}`")),
+    };
+    if bytes.len() != size {
+        return Err(format!(
+            "{} bytes after decompression, the header says {size}",
+            bytes.len()
+        ));
+    }
+    if header.uncompressed_crc != 0 {
+        let crc = crc32fast::hash(bytes);
+        if crc != header.uncompressed_crc {
+            return Err(format!(
+                "CRC {crc:#010x} does not match the header's {:#010x}",
+                header.uncompressed_crc
+            ));
+        }
+    }
+    // Parse everything first: a chunk whose records do not parse is skipped whole.
+    let mut records = Vec::new();
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        if rest.len() < 9 {
+            return Err("a record header is cut short".into());
+        }
+        let opcode = rest[0];
+        let mut len_bytes = [0u8; 8];
+        len_bytes.copy_from_slice(&rest[1..9]);
+        let len = usize::try_from(u64::from_le_bytes(len_bytes)).unwrap_or(usize::MAX);
+        let body = rest
+            .get(9..9usize.saturating_add(len))
+            .ok_or_else(|| "a record runs past the chunk's end".to_string())?;
+        records.push(mcap::parse_record(opcode, body).map_err(|e| e.to_string())?);
+        rest = &rest[9 + len..];
+    }
+    for r in records {
+        visit(r);
+    }
+    Ok(())
 }
 
 /// Rewrites every readable record of `path` (schemas, channels, messages, attachments, metadata) into
@@ -752,7 +841,10 @@ fn scan(path: &Path, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStat
 pub fn repair(path: impl AsRef<Path>, out: impl AsRef<Path>) -> Result<u64> {
     let (path, out) = (path.as_ref(), out.as_ref());
     ensure!(path != out, "--repair must name a new file, not {}", path.display());
-    let file = File::create(out).with_context(|| format!("cannot create {}", out.display()))?;
+    crate::files::refuse_inputs_as_outputs(&[path], &[out])?;
+    // Written beside the target and renamed at the end: never a half-written repair.
+    let tmp = crate::files::temporary_beside(out)?;
+    let file = File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
     let mut writer = Writer::with_options(
         BufWriter::new(file),
         WriteOptions::new().compression(Some(Compression::Zstd)).profile(""),
@@ -761,7 +853,7 @@ pub fn repair(path: impl AsRef<Path>, out: impl AsRef<Path>) -> Result<u64> {
     let mut channel_ids: HashMap<u16, u16> = HashMap::new();
     let mut count = 0u64;
     let mut failure: Option<anyhow::Error> = None;
-    scan(path, &mut |record| {
+    let scanned = scan(path, &mut |record| {
         if failure.is_some() {
             return;
         }
@@ -801,13 +893,20 @@ pub fn repair(path: impl AsRef<Path>, out: impl AsRef<Path>) -> Result<u64> {
         if let Err(e) = r {
             failure = Some(e);
         }
-    })?;
-    if let Some(e) = failure {
-        return Err(e.context(format!("cannot write {}", out.display())));
+    });
+    let finished = match (scanned, failure) {
+        (Err(e), _) => Err(e),
+        (Ok(_), Some(e)) => Err(e.context(format!("cannot write {}", out.display()))),
+        (Ok(_), None) => writer
+            .finish()
+            .map(|_| ())
+            .with_context(|| format!("cannot write {}", out.display())),
+    };
+    if let Err(e) = finished {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e);
     }
-    writer
-        .finish()
-        .with_context(|| format!("cannot write {}", out.display()))?;
+    std::fs::rename(&tmp, out).with_context(|| format!("cannot write {}", out.display()))?;
     Ok(count)
 }
 
@@ -822,6 +921,8 @@ pub struct Recording {
     pub attachments: BTreeMap<String, Vec<u8>>,
     /// How the file ended.
     pub status: Option<FileStatus>,
+    /// Damaged chunks that were skipped (see [`Summary::skipped_chunks`]).
+    pub skipped_chunks: Vec<String>,
 }
 
 impl Recording {
@@ -841,7 +942,7 @@ pub fn read_recording(path: impl AsRef<Path>, topics: &[&str]) -> Result<Recordi
     let path = path.as_ref();
     let mut wanted: HashMap<u16, String> = HashMap::new();
     let mut rec = Recording::default();
-    let (_, status) = scan(path, &mut |record| match record {
+    let (_, status, skipped) = scan(path, &mut |record| match record {
         Record::Channel(c) if topics.is_empty() || topics.contains(&c.topic.as_str()) => {
             wanted.insert(c.id, c.topic);
         }
@@ -859,6 +960,7 @@ pub fn read_recording(path: impl AsRef<Path>, topics: &[&str]) -> Result<Recordi
         _ => {}
     })?;
     let count = rec.messages.len() as u64;
+    rec.skipped_chunks = skipped;
     rec.status = Some(match status {
         FileStatus::Recovered { reason, .. } => FileStatus::Recovered {
             messages: count,

@@ -518,6 +518,44 @@ fn a_file_cut_at_60_percent_recovers_the_messages_of_its_complete_chunks() {
     assert_eq!(full.message_count, written);
 }
 
+/// One flipped byte in one chunk costs that chunk only: the others are read, the file is reported
+/// full length with the damaged chunk named, and a repair keeps everything readable.
+#[test]
+fn a_damaged_chunk_is_skipped_and_the_rest_is_read() {
+    let tmp = TempFile::new("damaged");
+    let options = McapLogOptions {
+        chunk_bytes: 32 << 10,
+        ..McapLogOptions::default()
+    };
+    let mut log = McapLog::create_with(&tmp.0, options).unwrap();
+    let written = write_snapshots(&mut log, 240);
+    let stats = log.finish().unwrap();
+    assert!(stats.chunks >= 10, "{} chunks", stats.chunks);
+    let mut bytes = std::fs::read(&tmp.0).unwrap();
+    let i = bytes.len() * 3 / 10;
+    bytes[i] ^= 0xFF;
+    let bad = TempFile::new("damaged-bad");
+    std::fs::write(&bad.0, &bytes).unwrap();
+
+    let s = read_summary(&bad.0).unwrap();
+    assert_eq!(s.status, FileStatus::Complete, "a full-length file is not cut short");
+    assert_eq!(s.skipped_chunks.len(), 1, "{:?}", s.skipped_chunks);
+    let lost = written - s.message_count;
+    assert!(lost > 0 && lost < written / 5, "lost {lost} of {written}");
+
+    let rec = read_recording(&bad.0, &[]).unwrap();
+    assert_eq!(rec.messages.len() as u64, s.message_count);
+    assert_eq!(rec.skipped_chunks, s.skipped_chunks);
+
+    let fixed = TempFile::new("damaged-fixed");
+    assert_eq!(repair(&bad.0, &fixed.0).unwrap(), s.message_count);
+    let r = read_summary(&fixed.0).unwrap();
+    assert_eq!(
+        (r.status, r.skipped_chunks.len(), r.message_count),
+        (FileStatus::Complete, 0, s.message_count)
+    );
+}
+
 #[test]
 fn a_crashed_writer_leaves_every_flushed_chunk_on_disk() {
     let tmp = TempFile::new("crash");
