@@ -53,6 +53,6 @@ pub fn main(a: ExecuteArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         seed: a.seed,
         output: a.output,
     };
-    let report = execute(&options, &Bars::new(a.json, false)?)?;
+    let report = execute(&options, &Bars::new(a.json, true)?)?;
     emit(a.json, &report, out)
 }

@@ -8,6 +8,14 @@ use std::sync::{Arc, Mutex};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use pbd::Progress;
 
+/// The stop flag the signal handlers set (shared by every [`Bars`] of the process).
+static STOP: std::sync::OnceLock<Arc<AtomicBool>> = std::sync::OnceLock::new();
+
+/// Whether Ctrl-C or SIGTERM asked the run to stop.
+pub fn interrupted() -> bool {
+    STOP.get().is_some_and(|s| s.load(Ordering::SeqCst))
+}
+
 /// Progress bars for one command.
 #[derive(Debug)]
 pub struct Bars {
@@ -21,7 +29,7 @@ impl Bars {
     /// SIGTERM asks the run to stop at its next safe point (a recording finishes its file with what
     /// was captured) and a second one ends the process at once.
     pub fn new(quiet: bool, interruptible: bool) -> anyhow::Result<Self> {
-        let stop = Arc::new(AtomicBool::new(false));
+        let stop = Arc::clone(STOP.get_or_init(|| Arc::new(AtomicBool::new(false))));
         if interruptible {
             for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
                 // Order matters: the conditional shutdown sees the flag before this signal sets it.

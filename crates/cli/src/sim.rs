@@ -81,6 +81,6 @@ pub fn main(cmd: SimCommand, out: &mut dyn Write) -> anyhow::Result<()> {
         mcap: a.mcap,
         log_hz: a.log_hz,
     };
-    let run = pick_place(&options, &Bars::new(a.json, false)?)?;
+    let run = pick_place(&options, &Bars::new(a.json, true)?)?;
     emit(a.json, &run, out)
 }

@@ -116,3 +116,45 @@ fn outputs_never_overwrite_inputs() {
     assert_eq!(std::fs::read(&rec).unwrap(), before, "the recording was changed");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `pbd execute` stops promptly on SIGINT, finishes its MCAP log and exits 130 (it once ran on to
+/// the end, or died leaving the log cut short).
+#[test]
+fn execute_stops_on_sigint_with_a_complete_log() {
+    let d = dir("sigint");
+    let demo = d.join("demo");
+    // A model to execute: the demo's, learned from one recorded demonstration.
+    let o = pbd(&["demo", "--out", &s(&demo), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let log = d.join("run.mcap");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_pbd"))
+        .args([
+            "execute",
+            "--model",
+            &s(&demo.join("model.json")),
+            "--scene",
+            "sorting-demo",
+            "-o",
+            &s(&log),
+        ])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_secs(4));
+    let ok = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(ok.success());
+    let start = std::time::Instant::now();
+    let status = child.wait().unwrap();
+    assert!(
+        start.elapsed().as_secs_f64() < 10.0,
+        "took {:?} to stop",
+        start.elapsed()
+    );
+    assert_eq!(status.code(), Some(130));
+    let o = pbd(&["doctor", &s(&log), "--json"]);
+    assert!(o.status.success(), "the log is complete: {}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -299,6 +299,9 @@ pub enum HardwareError {
     /// A model or parameter error.
     #[error(transparent)]
     Model(#[from] CbError),
+    /// The operator asked the robot to stop (Ctrl-C, an e-stop): the run ends here.
+    #[error("interrupted: a stop was requested")]
+    Interrupted,
 }
 
 /// What a robot offers its computer: joint encoders and motor units (through [`Plant`]), their

@@ -35,6 +35,11 @@ pub trait RunLog {
     fn percept(&mut self, _t: f64, _percept: &Percept, _truth: &[(String, [f64; 3])]) {}
     /// The outcome of one object.
     fn outcome(&mut self, _t: f64, _object: &str, _success: bool) {}
+    /// Asked every control period: `true` stops the run (the robot's hardware reports
+    /// [`control_basis::hardware::HardwareError::Interrupted`]).
+    fn should_stop(&mut self) -> bool {
+        false
+    }
 }
 
 /// A [`RunLog`] that ignores everything.
@@ -346,8 +351,10 @@ pub fn execute_scene(
     let t_start = sim.time();
     let ws = workspace(scene);
     let hook_logger = logger.clone();
+    let stop_logger = logger.clone();
     let mut hw = SimRobot::new(&mut sim, scene, seed)?
-        .with_hook(Box::new(move |s: &DexterSim| hook_logger.borrow_mut().world(s)));
+        .with_hook(Box::new(move |s: &DexterSim| hook_logger.borrow_mut().world(s)))
+        .with_stop(Box::new(move || stop_logger.borrow_mut().log.should_stop()));
     let mut sink = RobotSink(logger.clone());
     let mut reports = Vec::new();
     {

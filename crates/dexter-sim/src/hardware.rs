@@ -176,7 +176,11 @@ pub struct SimRobot<'a> {
     cameras: SimCameras,
     ft_frames: Vec<String>,
     hook: Option<WorldHook<'a>>,
+    stop: Option<StopRequest<'a>>,
 }
+
+/// Asked before every advance: `true` ends the run with [`HardwareError::Interrupted`].
+pub type StopRequest<'a> = Box<dyn FnMut() -> bool + 'a>;
 
 impl std::fmt::Debug for SimRobot<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -208,7 +212,15 @@ impl<'a> SimRobot<'a> {
             cameras,
             ft_frames,
             hook: None,
+            stop: None,
         })
+    }
+
+    /// Asks `stop` before every [`Hardware::advance`]; when it says `true`, the hardware refuses to
+    /// move on ([`HardwareError::Interrupted`]) — the simulated e-stop behind Ctrl-C.
+    pub fn with_stop(mut self, stop: StopRequest<'a>) -> Self {
+        self.stop = Some(stop);
+        self
     }
 
     /// Calls `hook` with the world after every [`Hardware::advance`] (logging truth and snapshots).
@@ -272,6 +284,11 @@ impl Hardware for SimRobot<'_> {
                 index: 0,
                 value: dt_secs,
             }));
+        }
+        if let Some(stop) = self.stop.as_mut()
+            && stop()
+        {
+            return Err(HardwareError::Interrupted);
         }
         let n = ((dt_secs / self.sim.settings().dt).round() as usize).max(1);
         for _ in 0..n {

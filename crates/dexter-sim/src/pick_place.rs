@@ -105,6 +105,7 @@ pub type WorldImages<'a> = dyn FnMut(f64, &Image, &Image) + 'a;
 pub struct WorldObserver<'a> {
     tick: &'a mut dyn FnMut(&DexterSim, &str),
     images: Option<&'a mut WorldImages<'a>>,
+    stop: Option<&'a dyn Fn() -> bool>,
 }
 
 impl std::fmt::Debug for WorldObserver<'_> {
@@ -116,7 +117,17 @@ impl std::fmt::Debug for WorldObserver<'_> {
 impl<'a> WorldObserver<'a> {
     /// Calls `tick(sim, activity)` after every control period.
     pub fn new(tick: &'a mut dyn FnMut(&DexterSim, &str)) -> Self {
-        WorldObserver { tick, images: None }
+        WorldObserver {
+            tick,
+            images: None,
+            stop: None,
+        }
+    }
+
+    /// Ask `stop` every control period; `true` ends the run with an interruption error.
+    pub fn with_stop(mut self, stop: &'a dyn Fn() -> bool) -> Self {
+        self.stop = Some(stop);
+        self
     }
 
     /// Also receive the head's images.
@@ -161,9 +172,12 @@ pub fn pick_and_place_in(
     let seed = sim.settings().seed ^ 0xE7E5;
     let frame_secs = 1.0 / scene.spec.camera.rate_hz;
     let activity = RefCell::new(String::from("search-track"));
-    let WorldObserver { tick, images } = obs;
+    let WorldObserver { tick, images, stop } = obs;
     let mut hook = |s: &DexterSim| tick(s, &activity.borrow());
     let mut hw = SimRobot::new(sim, scene, seed)?.with_hook(Box::new(&mut hook));
+    if let Some(stop) = stop {
+        hw = hw.with_stop(Box::new(stop));
+    }
     let mut note = |_: &mut dyn Hardware, a: &str| {
         if *activity.borrow() != a {
             *activity.borrow_mut() = a.to_string();

@@ -150,6 +150,10 @@ impl RunLog for McapRunLog<'_> {
         self.keep(r);
     }
 
+    fn should_stop(&mut self) -> bool {
+        self.progress.should_stop()
+    }
+
     fn outcome(&mut self, t: f64, object: &str, success: bool) {
         if let Some(log) = self.log.as_mut() {
             let r = log.log_text(

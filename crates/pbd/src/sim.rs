@@ -183,7 +183,9 @@ pub fn pick_place(args: &PickPlaceOptions, progress: &dyn Progress) -> anyhow::R
         &mut sim,
         &scene,
         &request,
-        &mut WorldObserver::new(&mut callback).with_images(&mut on_images),
+        &mut WorldObserver::new(&mut callback)
+            .with_images(&mut on_images)
+            .with_stop(&|| progress.should_stop()),
     )?;
     progress.finish();
     if let Some(e) = log_error.into_inner() {
