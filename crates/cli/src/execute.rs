@@ -25,7 +25,7 @@ pub struct ExecuteArgs {
     #[arg(long)]
     object: Option<String>,
     /// Override the place (with --demo).
-    #[arg(long)]
+    #[arg(long, requires = "demo")]
     place: Option<String>,
     /// Schema library (TOML; default: the built-in library).
     #[arg(long)]

@@ -23,7 +23,7 @@ pub struct LearnArgs {
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Explain the model MODEL.json in plain words (no learning).
-    #[arg(long, value_name = "MODEL")]
+    #[arg(long, value_name = "MODEL", conflicts_with_all = ["demos", "update", "output", "relevance_threshold"])]
     explain: Option<PathBuf>,
     /// With --explain: draw N synthetic task instances from the posterior predictive and render them.
     #[arg(long, default_value_t = 0)]

@@ -87,6 +87,56 @@ fn absurd_counts_are_refused_before_any_work() {
     );
 }
 
+/// Inputs that were accepted and silently did the wrong thing.
+#[test]
+fn accepted_but_wrong_inputs_are_refused() {
+    let d = dir("wrong");
+    // A scene array with an extra element (the third number was silently dropped).
+    let text = std::fs::read_to_string(repo().join("assets/scenes/pick-place.toml")).unwrap();
+    let catalog = s(&repo().join("assets/objects/household.toml"));
+    let text = text.replace("\"../objects/household.toml\"", &format!("{catalog:?}"));
+    let xy = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("xy ="))
+        .expect("an object xy")
+        .to_string();
+    let p = d.join("xy3.toml");
+    std::fs::write(&p, text.replace(&xy, "xy = [0.55, 0.0, 1.0]")).unwrap();
+    refused(&["sim", "pick-place", "--scene", &s(&p)], &["xy", "exactly 2 numbers"]);
+    // A class named twice, or one class only.
+    let out = s(&d.join("x"));
+    refused(
+        &[
+            "experiment",
+            "sorting",
+            "--feature",
+            "color",
+            "--classes",
+            "red,red",
+            "-o",
+            &out,
+        ],
+        &["named twice"],
+    );
+    refused(
+        &[
+            "experiment",
+            "sorting",
+            "--feature",
+            "color",
+            "--classes",
+            "red",
+            "-o",
+            &out,
+        ],
+        &["at least two classes"],
+    );
+    // --place means nothing with a model; --explain takes no demonstrations.
+    refused(&["execute", "--model", "m.json", "--place", "bin-left"], &["--demo"]);
+    let o = pbd(&["learn", "--explain", "m.json", "a.infer.json"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}
+
 /// `doctor --repair` onto its own input (by another name, or a symlink) once truncated it.
 #[test]
 fn outputs_never_overwrite_inputs() {

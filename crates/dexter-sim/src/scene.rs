@@ -69,6 +69,7 @@ pub use crate::geometry::Shape;
 #[serde(deny_unknown_fields)]
 pub struct ColorPatch {
     /// `[h_deg, s, v]`: hue in degrees [0, 360), saturation and value in [0, 1].
+    #[serde(deserialize_with = "exact_array")]
     pub hsv: [f64; 3],
     /// Share of the surface (0, 1].
     pub fraction: f64,
@@ -83,6 +84,7 @@ pub struct PresentationSpec {
     /// Roll, pitch, yaw (degrees) of the object frame relative to upright, applied as
     /// `Rz(yaw)·Ry(pitch)·Rx(roll)`; the object is lowered until it rests on the table.
     #[serde(default)]
+    #[serde(deserialize_with = "exact_array")]
     pub rpy_deg: [f64; 3],
 }
 
@@ -110,6 +112,7 @@ pub struct ObjectSpec {
     /// Roll, pitch, yaw (degrees) of the default presentation (the one named like the object);
     /// `[0, 0, 0]` (the default) is upright. Capsules, which cannot stand on an end, lie down here.
     #[serde(default)]
+    #[serde(deserialize_with = "exact_array")]
     pub rpy_deg: [f64; 3],
     /// Extra presentations besides the default one.
     #[serde(default)]
@@ -140,11 +143,14 @@ pub struct TableSpec {
     /// Height of the top surface above the floor (m).
     pub height: f64,
     /// Centre of the top surface in x, y (m, world).
+    #[serde(deserialize_with = "exact_array")]
     pub center: [f64; 2],
     /// Full extent in x, y (m).
+    #[serde(deserialize_with = "exact_array")]
     pub size: [f64; 2],
     /// Colour of the top, HSV.
     #[serde(default = "default_table_hsv")]
+    #[serde(deserialize_with = "exact_array")]
     pub hsv: [f64; 3],
     /// Friction coefficient.
     #[serde(default = "default_friction")]
@@ -171,8 +177,10 @@ pub struct PlaceSpec {
     /// Unique name (e.g. `bin-a`).
     pub name: String,
     /// Centre of the floor of the place on the table, x, y (m, world).
+    #[serde(deserialize_with = "exact_array")]
     pub center: [f64; 2],
     /// Inner size x, y (m).
+    #[serde(deserialize_with = "exact_array")]
     pub size: [f64; 2],
     /// Wall height (m); 0 = a flat marked region.
     #[serde(default)]
@@ -182,6 +190,7 @@ pub struct PlaceSpec {
     pub wall_thickness: f64,
     /// Colour, HSV.
     #[serde(default = "default_place_hsv")]
+    #[serde(deserialize_with = "exact_array")]
     pub hsv: [f64; 3],
 }
 
@@ -217,6 +226,7 @@ pub struct ObjectPlacement {
     /// Presentation name from the catalog (`jif`, `jif-1`).
     pub presentation: String,
     /// Position on the table x, y (m, world).
+    #[serde(deserialize_with = "exact_array")]
     pub xy: [f64; 2],
     /// Yaw about world z (degrees).
     #[serde(default)]
@@ -282,6 +292,7 @@ impl Default for CameraSpec {
 pub struct LightSpec {
     /// Direction the light travels (world), normalised on load.
     #[serde(default = "default_light_dir")]
+    #[serde(deserialize_with = "exact_array")]
     pub direction: [f64; 3],
     /// Ambient share in [0, 1].
     #[serde(default = "default_ambient")]
@@ -1239,4 +1250,17 @@ impl Check<'_> {
         }
         Ok(())
     }
+}
+
+/// Deserialises exactly `N` numbers: TOML arrays with extra elements are an error (serde's fixed-size
+/// arrays silently drop them), and the message says how many were given.
+fn exact_array<'de, D, const N: usize>(d: D) -> Result<[f64; N], D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    use serde::de::Error as _;
+    let v: Vec<f64> = serde::Deserialize::deserialize(d)?;
+    let n = v.len();
+    v.try_into()
+        .map_err(|_| D::Error::invalid_length(n, &format!("exactly {N} numbers").as_str()))
 }

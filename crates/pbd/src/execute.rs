@@ -213,7 +213,14 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
             scene.place(&demo_place)?;
             Decider::Place(demo_place.clone())
         }
-        (None, Some(path)) => Decider::Model(path),
+        (None, Some(path)) => {
+            if args.place.is_some() {
+                bail!(
+                    "place overrides the place of a demonstration (--demo); a model (--model) decides the place per object"
+                );
+            }
+            Decider::Model(path)
+        }
         (None, None) => bail!("pass --demo demo.infer.json or --model model.json"),
     };
     let log = match &args.output {

@@ -278,6 +278,15 @@ fn plan(args: &SortingOptions) -> anyhow::Result<(Vec<String>, Label, Hyper)> {
     } else {
         args.classes.clone()
     };
+    let mut unique = classes.clone();
+    unique.sort();
+    unique.dedup();
+    if unique.len() != classes.len() {
+        bail!("classes {classes:?}: a class is named twice");
+    }
+    if args.feature != Feature::Selection && classes.len() < 2 {
+        bail!("classes {classes:?}: give at least two classes to sort");
+    }
     let label_for = |cs: &[String]| {
         if cs.iter().all(|c| dexter_sim::scene::SIZE_CLASSES.contains(&c.as_str())) {
             Label::Size
