@@ -57,6 +57,7 @@ pub mod contingency;
 pub mod dirichlet;
 pub mod error;
 pub mod hmm;
+pub mod input;
 pub mod multivariate;
 pub mod rng;
 pub mod roc;

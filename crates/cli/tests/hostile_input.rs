@@ -87,6 +87,16 @@ fn absurd_counts_are_refused_before_any_work() {
     );
 }
 
+/// An endless input (a device, a pipe) is read up to the input limit, then refused.
+#[test]
+fn endless_input_is_refused_at_the_size_limit() {
+    refused(
+        &["sim", "pick-place", "--scene", "/dev/zero"],
+        &["/dev/zero", "input limit"],
+    );
+    refused(&["robot", "info", "/dev/zero"], &["/dev/zero"]);
+}
+
 /// Inputs that were accepted and silently did the wrong thing.
 #[test]
 fn accepted_but_wrong_inputs_are_refused() {

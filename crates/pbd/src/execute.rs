@@ -181,7 +181,7 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
     let demo_place;
     let decider = match (&args.demo, &args.model) {
         (Some(path), _) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+            let text = bayes::input::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
             let file: InferFile =
                 serde_json::from_str(&text).with_context(|| format!("{} is not an inference file", path.display()))?;
             if file.format != crate::infer::INFER_FORMAT || file.version != crate::infer::INFER_VERSION {

@@ -105,7 +105,7 @@ pub fn examples_from(path: &Path, progress: &dyn Progress) -> Result<Vec<Example
             truth: vec![],
         }
     } else {
-        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+        let text = bayes::input::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
         let file: InferFile = serde_json::from_str(&text)
             .with_context(|| format!("{} is not an inference file (from `pbd infer`)", path.display()))?;
         if file.format != INFER_FORMAT || file.version != crate::infer::INFER_VERSION {

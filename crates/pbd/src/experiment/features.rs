@@ -140,7 +140,7 @@ pub fn render_bank(
 
 /// Reads a feature bank written by `pbd experiment sorting --dump-features FILE`.
 pub fn load_bank(path: &std::path::Path) -> anyhow::Result<FeatureBank> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text = bayes::input::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
     let bank: FeatureBank =
         serde_json::from_str(&text).with_context(|| format!("{} is not a feature bank", path.display()))?;
     if bank.presentations.len() != bank.features.len() || bank.features.iter().any(Vec::is_empty) {
