@@ -120,7 +120,7 @@ impl RobotModel {
     /// Reads and validates a URDF file.
     pub fn from_urdf_file(path: impl AsRef<Path>) -> Result<Self, CbError> {
         let path = path.as_ref();
-        let text = bayes::input::read_text(path.as_ref()).map_err(|source| CbError::Io {
+        let text = bayes::input::read_text(path).map_err(|source| CbError::Io {
             path: path.to_path_buf(),
             source,
         })?;

@@ -1053,7 +1053,7 @@ fn show_rect(r: &[f64; 4]) -> String {
 // ---------------------------------------------------------------------------------------------
 
 fn read_file(path: &Path) -> Result<String, SimError> {
-    bayes::input::read_text(path.as_ref()).map_err(|source| SimError::Io {
+    bayes::input::read_text(path).map_err(|source| SimError::Io {
         path: path.to_path_buf(),
         source,
     })

@@ -101,7 +101,7 @@ impl TeleopStream {
     /// Reads a CSV (`.csv`) or JSON-lines (anything else) teleop file and validates it.
     pub fn load(path: impl AsRef<Path>) -> Result<TeleopStream, SimError> {
         let path = path.as_ref();
-        let text = bayes::input::read_text(path.as_ref()).map_err(|e| SimError::Io {
+        let text = bayes::input::read_text(path).map_err(|e| SimError::Io {
             path: path.to_path_buf(),
             source: e,
         })?;

@@ -733,7 +733,7 @@ impl GraspModel {
     /// Reads and validates a model file.
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let text = bayes::input::read_text(path.as_ref()).map_err(|source| GraspError::Io {
+        let text = bayes::input::read_text(path).map_err(|source| GraspError::Io {
             path: path.display().to_string(),
             source,
         })?;

@@ -184,7 +184,7 @@ impl Library {
     /// Reads a library file.
     pub fn open(path: impl AsRef<std::path::Path>) -> Result<Library, SchemaError> {
         let path = path.as_ref();
-        let text = bayes::input::read_text(path.as_ref()).map_err(|source| SchemaError::Io {
+        let text = bayes::input::read_text(path).map_err(|source| SchemaError::Io {
             path: path.display().to_string(),
             source,
         })?;

@@ -1416,7 +1416,7 @@ impl ProceduralModel {
     /// Reads and validates a model file.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, SchemaError> {
         let path = path.as_ref();
-        let text = bayes::input::read_text(path.as_ref()).map_err(|source| SchemaError::Io {
+        let text = bayes::input::read_text(path).map_err(|source| SchemaError::Io {
             path: path.display().to_string(),
             source,
         })?;
