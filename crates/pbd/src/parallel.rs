@@ -27,6 +27,27 @@ pub fn threads() -> usize {
     rayon::current_num_threads()
 }
 
+/// Like [`map`], but a stop request is not an error: items not yet started when `progress` asks to
+/// stop give `None`, finished ones keep their result (in input order), so a caller can write what
+/// was done. Errors of `f` still end the run.
+pub fn map_until_stopped<T: Sync, U: Send>(
+    items: &[T],
+    progress: &dyn Progress,
+    f: impl Fn(&T) -> Result<U> + Sync,
+) -> Result<Vec<Option<U>>> {
+    items
+        .par_iter()
+        .map(|item| {
+            if progress.should_stop() {
+                return Ok(None);
+            }
+            let r = f(item).map(Some);
+            progress.advance(1);
+            r
+        })
+        .collect()
+}
+
 /// `f(item)` for every item on the pool; results in input order; the first error (in input order)
 /// wins. Each finished item advances `progress` by one; when `progress` asks to stop, items not yet
 /// started fail with "interrupted".

@@ -106,15 +106,43 @@ pub fn run(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> Result<E
     let wall = std::time::Instant::now();
     progress.phase("execute", Some(args.scenes as u64));
     let indices: Vec<usize> = (0..args.scenes).collect();
-    let runs = crate::parallel::map(&indices, progress, |&i| {
+    // On Ctrl-C, scenes not yet started are skipped; the finished ones are written, marked partial.
+    let runs = crate::parallel::map_until_stopped(&indices, progress, |&i| {
         Ok(run_scene(&base, &args.scene, &library, &config, i)?)
     })?;
     progress.finish();
-    let (rows, summary) = summarize(&config, &runs);
+    let done: Vec<usize> = runs
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.is_some())
+        .map(|(i, _)| i)
+        .collect();
+    let completed: Vec<_> = runs.into_iter().flatten().collect();
+    let (mut rows, summary) = summarize(&config, &completed);
+    for r in &mut rows {
+        r.scene = done[r.scene];
+    }
     let wall_time = wall.elapsed().as_secs_f64();
     write_csv(&args.output.join("objects.csv"), &rows)?;
-    let md = markdown(args, &summary, wall_time);
+    let mut md = markdown(args, &summary, wall_time);
+    let partial = completed.len() < args.scenes;
+    if partial {
+        md = format!(
+            "**PARTIAL: interrupted after {} of {} scenes** (scenes {:?}); the figures below are over those.\n\n{md}",
+            completed.len(),
+            args.scenes,
+            done
+        );
+    }
     crate::files::write_atomic(&args.output.join("summary.md"), md.as_bytes())?;
+    if partial {
+        anyhow::bail!(
+            "interrupted after {} of {} scenes; the partial results are in {} (marked PARTIAL)",
+            completed.len(),
+            args.scenes,
+            args.output.display()
+        );
+    }
     Ok(ExecuteExperimentRun {
         summary,
         rows,
