@@ -1,0 +1,99 @@
+"""record → infer → learn → execute from Python; the same inference as `pbd infer`; Ctrl-C."""
+
+import json
+import subprocess
+import threading
+import _thread
+
+import numpy as np
+import pytest
+
+import pbd
+from conftest import MODEL, pbd_cli
+
+
+def test_record_and_demonstration(touch_demo):
+    path, report = touch_demo
+    assert report["percepts"] > 0
+    assert "recorded" in str(report)
+    demo = pbd.Demonstration.open(path)
+    assert len(demo) == report["percepts"]
+    assert demo.times.shape == (len(demo),) and np.all(np.diff(demo.times) > 0)
+    assert demo.topics["/pbd/percept"] == len(demo)
+    times, msgs = demo.messages("/pbd/percept")
+    assert times.shape == (len(demo),) and msgs[0]["t"] == demo.percepts[0]["t"]
+    assert "Demonstration(" in repr(demo)
+
+
+def strip_paths(file):
+    file = dict(file)
+    file.pop("demo", None)
+    return file
+
+
+def test_infer_from_python_equals_the_json_pbd_infer_writes(touch_demo, tmp_path):
+    path, _ = touch_demo
+    out = tmp_path / "py.infer.json"
+    run = pbd.infer(path, output=out)
+    assert run["file"]["inference"]["posterior"]["map"] == "reach_and_touch"
+    written = json.loads(out.read_text())
+    assert run["file"] == written
+    cli = pbd_cli()
+    if cli is None:
+        pytest.skip("no pbd binary built (cargo build --release -p pbd-cli); compared with the file only")
+    cli_out = tmp_path / "cli.infer.json"
+    subprocess.run([cli, "infer", str(path), "-o", str(cli_out)], check=True, capture_output=True)
+    assert strip_paths(json.loads(cli_out.read_text())) == strip_paths(written)
+
+
+def test_procedural_model_learn_update_predict(tmp_path):
+    model = pbd.ProceduralModel.load(MODEL)
+    assert model.places == ["bin-left", "bin-right"]
+    assert "Colour decides the place" in model.explain()
+    features = {"histogram": [[40, 1.0]], "pixels": [150, 140], "colors": [[7, 1.0]]}  # blue
+    p = model.predict(features)
+    assert p["map_place"] == "bin-left", p
+    ex = {"features": features, "reference": "bin-left"}
+    n = model.num_demonstrations
+    assert model.update(ex) == 1 and model.num_demonstrations == n + 1
+    again = pbd.ProceduralModel.from_json(model.to_json())
+    assert again.predict(features) == model.predict(features)
+    import pickle
+
+    assert pickle.loads(pickle.dumps(model)).to_json() == model.to_json()
+
+
+def test_execute_in_a_scene():
+    report = pbd.execute(pbd.ProceduralModel.load(MODEL), scene="sorting-new", object="blue_block", seed=1)
+    assert report["objects"], report
+    assert "bin-left" in str(report) or report["objects"][0]["decision"]
+
+
+def test_callback_exception_stops_the_recording(tmp_path):
+    class Stop(Exception):
+        pass
+
+    seen = []
+
+    def progress(event, text, value):
+        seen.append(event)
+        if len(seen) > 20:
+            raise Stop()
+
+    path = tmp_path / "stopped.mcap"
+    with pytest.raises(Stop):
+        pbd.record(path, script="touch", progress=progress)
+    # The recording finished its file with what was captured.
+    assert len(pbd.Demonstration.open(path)) > 0
+
+
+def test_ctrl_c_interrupts_a_long_call_and_keeps_the_file(tmp_path):
+    path = tmp_path / "interrupted.mcap"
+    timer = threading.Timer(1.0, _thread.interrupt_main)
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            pbd.record(path, scene="sorting", script="sort")
+    finally:
+        timer.cancel()
+    assert len(pbd.Demonstration.open(path)) > 0
