@@ -74,7 +74,12 @@ impl GaussianStats {
         self.0.m2()
     }
     fn __repr__(&self) -> String {
-        format!("GaussianStats(n={}, mean={}, m2={})", self.0.n(), self.0.mean(), self.0.m2())
+        format!(
+            "GaussianStats(n={}, mean={}, m2={})",
+            self.0.n(),
+            self.0.mean(),
+            self.0.m2()
+        )
     }
 }
 
@@ -113,7 +118,12 @@ impl StudentT {
             .unbind())
     }
     fn __repr__(&self) -> String {
-        format!("StudentT(df={}, loc={}, scale={})", self.0.df(), self.0.loc(), self.0.scale())
+        format!(
+            "StudentT(df={}, loc={}, scale={})",
+            self.0.df(),
+            self.0.loc(),
+            self.0.scale()
+        )
     }
 }
 
@@ -127,7 +137,9 @@ pub struct NormalInverseGamma(uni::NormalInverseGamma);
 impl NormalInverseGamma {
     #[new]
     fn new(mu: f64, kappa: f64, alpha: f64, beta: f64) -> PyResult<Self> {
-        Ok(NormalInverseGamma(uni::NormalInverseGamma::new(mu, kappa, alpha, beta).py_err()?))
+        Ok(NormalInverseGamma(
+            uni::NormalInverseGamma::new(mu, kappa, alpha, beta).py_err()?,
+        ))
     }
     #[getter]
     fn mu(&self) -> f64 {
@@ -237,7 +249,9 @@ pub struct SymmetricDirichlet(dir::SymmetricDirichlet);
 impl SymmetricDirichlet {
     #[new]
     fn new(num_categories: usize, gamma: f64) -> PyResult<Self> {
-        Ok(SymmetricDirichlet(dir::SymmetricDirichlet::new(num_categories, gamma).py_err()?))
+        Ok(SymmetricDirichlet(
+            dir::SymmetricDirichlet::new(num_categories, gamma).py_err()?,
+        ))
     }
     #[getter]
     fn num_categories(&self) -> usize {
@@ -264,7 +278,11 @@ impl SymmetricDirichlet {
         self.0.log_posterior_marginal(&counts.0, &indices(obs, "obs")?).py_err()
     }
     fn __repr__(&self) -> String {
-        format!("SymmetricDirichlet(num_categories={}, gamma={})", self.0.num_categories(), self.0.gamma())
+        format!(
+            "SymmetricDirichlet(num_categories={}, gamma={})",
+            self.0.num_categories(),
+            self.0.gamma()
+        )
     }
 }
 

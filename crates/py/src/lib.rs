@@ -42,5 +42,5 @@ fn _pbd(m: &Bound<'_, PyModule>) -> PyResult<()> {
 /// gives the same results whatever the number of threads).
 #[pyfunction]
 fn set_threads(n: usize) -> PyResult<()> {
-    pbd::parallel::set_threads(n).map_err(|e| errors::to_py(e.into()))
+    pbd::parallel::set_threads(n).map_err(errors::to_py)
 }

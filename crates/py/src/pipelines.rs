@@ -150,9 +150,7 @@ impl Demonstration {
     fn messages(&self, py: Python<'_>, topic: &str) -> PyResult<(Py<PyAny>, Py<PyAny>)> {
         use numpy::IntoPyArray;
         let path = self.path.clone();
-        let rec = py
-            .detach(|| pbd::mcap_log::read_recording(&path, &[topic]))
-            .py_err()?;
+        let rec = py.detach(|| pbd::mcap_log::read_recording(&path, &[topic])).py_err()?;
         let mut times = Vec::new();
         let mut values = Vec::new();
         for (i, (t, data)) in rec.topic(topic).enumerate() {
@@ -166,7 +164,10 @@ impl Demonstration {
             values.push(v);
         }
         Ok((
-            numpy::ndarray::Array1::from_vec(times).into_pyarray(py).into_any().unbind(),
+            numpy::ndarray::Array1::from_vec(times)
+                .into_pyarray(py)
+                .into_any()
+                .unbind(),
             to_python(py, &values)?,
         ))
     }

@@ -203,6 +203,9 @@ impl Chain {
     }
 }
 
+/// `(pose 4×4, Jacobian 6×n)`.
+type PoseJacobian<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
+
 /// A 4×4 homogeneous transform as an isometry (rotation checked to be orthonormal).
 fn isometry(target: &PyReadonlyArray2<'_, f64>) -> PyResult<cb::math::Iso3> {
     let a = target.as_array();
@@ -215,7 +218,11 @@ fn isometry(target: &PyReadonlyArray2<'_, f64>) -> PyResult<cb::math::Iso3> {
     let flat: Vec<f64> = a.iter().copied().collect();
     check_finite(&flat, "target")?;
     let bottom = [a[(3, 0)], a[(3, 1)], a[(3, 2)], a[(3, 3)]];
-    if bottom.iter().zip([0.0, 0.0, 0.0, 1.0]).any(|(x, y)| (x - y).abs() > 1e-9) {
+    if bottom
+        .iter()
+        .zip([0.0, 0.0, 0.0, 1.0])
+        .any(|(x, y)| (x - y).abs() > 1e-9)
+    {
         return Err(value_error(format!(
             "target: the last row must be [0, 0, 0, 1], got {bottom:?}"
         )));
@@ -307,11 +314,7 @@ impl Chain {
     }
 
     /// Both at once: `(pose 4×4, jacobian 6×n)` at `q`, one traversal of the chain.
-    fn fk_jacobian<'py>(
-        &mut self,
-        py: Python<'py>,
-        q: &Bound<'py, PyAny>,
-    ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>)> {
+    fn fk_jacobian<'py>(&mut self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<PoseJacobian<'py>> {
         self.set_q(q)?;
         cb::forward_kinematics(&self.chain, &mut self.state);
         cb::jacobian(&self.chain, &mut self.state);

@@ -140,7 +140,10 @@ where
                 .map(|s| s.to_string())
                 .or_else(|| panic.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "unknown panic".into());
-            Err(error(Kind::Base, format!("internal error in pbd (please report it): {what}")))
+            Err(error(
+                Kind::Base,
+                format!("internal error in pbd (please report it): {what}"),
+            ))
         }
     }
 }
