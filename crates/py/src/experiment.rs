@@ -7,6 +7,8 @@ use std::path::PathBuf;
 
 use pbd::dexter_sim::experiment::{ExperimentConfig, run_scene, summarize};
 use pbd::dexter_sim::scene::Scene;
+use pbd::grasp::eval::EvalOptions;
+use pbd::grasp_topics::GraspModel;
 use pbd::schema::Library;
 use pyo3::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -103,8 +105,55 @@ fn execute_trial(py: Python<'_>, config: &Bound<'_, PyAny>, trial: usize) -> PyR
     to_python(py, &result)
 }
 
+/// The grasp experiment's config: `pbd grasp eval`'s options (`present`, `seed`, `candidates`,
+/// `objects` or `test`) with a required `model` (prototypes JSON).
+fn grasp_options(config: &Bound<'_, PyAny>) -> PyResult<(EvalOptions, GraspModel)> {
+    let options: EvalOptions = from_python(config, "grasp experiment config")?;
+    let Some(path) = &options.model else {
+        return Err(value_error(
+            "the grasp experiment config needs `model` (a prototype model from pbd.grasp.learn)",
+        ));
+    };
+    let model = GraspModel::load(path).py_err()?;
+    Ok((options, model))
+}
+
+/// The test presentations of the grasp experiment, in trial order (`objects`, or the first `test`
+/// of the catalog presentations in the seed's order that the model was not trained on).
+#[pyfunction]
+fn grasp_objects(config: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
+    let (options, model) = grasp_options(config)?;
+    pbd::grasp::eval::test_presentations(&options, &model.objects).py_err()
+}
+
+/// One trial of the grasp experiment (§6.5): test presentation `trial` of [`grasp_objects`],
+/// perceived, with `candidates` pre-grasps from the model and from the naive baseline, each executed
+/// in the sim (reach, close, lift 10 cm, held?). Returns `{trial, object, result: {object row, trials}}`:
+/// the same rows `pbd grasp eval` gives that object.
+#[pyfunction]
+fn grasp_trial(py: Python<'_>, config: &Bound<'_, PyAny>, trial: usize) -> PyResult<Py<PyAny>> {
+    let (options, model) = grasp_options(config)?;
+    let objects = pbd::grasp::eval::test_presentations(&options, &model.objects).py_err()?;
+    let Some(object) = objects.get(trial).cloned() else {
+        return Err(value_error(format!(
+            "trial {trial} is out of range: the experiment has {} test presentations",
+            objects.len()
+        )));
+    };
+    let (result, _) = runner::run(py, None, |_| {
+        pbd::grasp::eval::object_trial(&options, &model, trial, &object)
+    })?;
+    let d = pyo3::types::PyDict::new(py);
+    d.set_item("trial", trial)?;
+    d.set_item("object", object)?;
+    d.set_item("result", to_python(py, &result)?)?;
+    Ok(d.into_any().unbind())
+}
+
 /// Adds the functions to the `pbd._pbd.experiment` module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(execute_trial, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp_trial, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp_objects, m)?)?;
     Ok(())
 }

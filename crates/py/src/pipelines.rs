@@ -71,6 +71,36 @@ pub fn demo(py: Python<'_>, options: &Bound<'_, PyAny>, progress: Option<Py<PyAn
     pipeline(py, options, progress, "demo options", pbd::demo::demo)
 }
 
+/// `pbd grasp record`: scripted grasp demonstrations on training presentations → a corpus (ch. 6).
+#[pyfunction]
+#[pyo3(signature = (options, progress=None))]
+pub fn grasp_record(py: Python<'_>, options: &Bound<'_, PyAny>, progress: Option<Py<PyAny>>) -> PyResult<Outcome> {
+    pipeline(py, options, progress, "grasp record options", pbd::grasp::record)
+}
+
+/// `pbd grasp learn`: grasp prototypes from a corpus (topic model, finite or Dirichlet process).
+#[pyfunction]
+#[pyo3(signature = (options, progress=None))]
+pub fn grasp_learn(py: Python<'_>, options: &Bound<'_, PyAny>, progress: Option<Py<PyAny>>) -> PyResult<Outcome> {
+    pipeline(py, options, progress, "grasp learn options", pbd::grasp::learn)
+}
+
+/// `pbd grasp generate`: pre-grasp candidates for an object from a prototype model.
+#[pyfunction]
+#[pyo3(signature = (options, progress=None))]
+pub fn grasp_generate(py: Python<'_>, options: &Bound<'_, PyAny>, progress: Option<Py<PyAny>>) -> PyResult<Outcome> {
+    pipeline(py, options, progress, "grasp generate options", |o, _| {
+        pbd::grasp::generate(o)
+    })
+}
+
+/// `pbd grasp eval`: the grasp experiment of §6.5 (model against the naive baseline).
+#[pyfunction]
+#[pyo3(signature = (options, progress=None))]
+pub fn grasp_eval(py: Python<'_>, options: &Bound<'_, PyAny>, progress: Option<Py<PyAny>>) -> PyResult<Outcome> {
+    pipeline(py, options, progress, "grasp eval options", pbd::grasp::eval::run)
+}
+
 /// A recorded demonstration (an MCAP file of `pbd record`): percepts, ground truth, metadata, topics.
 #[pyclass(module = "pbd", frozen)]
 #[derive(Debug)]

@@ -12,6 +12,7 @@ DATA = REPO / "tests" / "data"
 BAYES_DATA = REPO / "crates" / "bayes" / "tests" / "data"
 SHARED = pathlib.Path(os.environ.get("PBD_SHARED", REPO.parent / "shared")) / "reference"
 MODEL = HERE / "data" / "sorting-model.json"
+GRASP_MODEL = HERE / "data" / "grasp-prototypes.json"
 
 
 def pbd_cli():

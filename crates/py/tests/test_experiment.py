@@ -4,7 +4,7 @@ import pytest
 
 import pbd
 from pbd.experiment import strip_timing
-from conftest import MODEL
+from conftest import GRASP_MODEL, MODEL
 
 CONFIG = {
     "model": str(MODEL),
@@ -41,3 +41,16 @@ def test_unknown_backend_and_kind():
         pbd.experiment.run(CONFIG, 1, backend="slurm", progress=False)
     with pytest.raises(pbd.PbdLookupError):
         pbd.experiment.run(CONFIG, 1, kind="nope", progress=False)
+
+
+def test_grasp_trials_give_the_rows_of_pbd_grasp_eval(tmp_path):
+    config = {"model": str(GRASP_MODEL), "test": 2, "candidates": 2, "seed": 3}
+    objects = pbd.experiment.grasp_objects(config)
+    assert len(objects) == 2
+    results = pbd.experiment.run(config, None, kind="grasp", progress=False)
+    assert [r["object"] for r in results] == objects
+    summary = pbd.grasp.eval(tmp_path / "eval", **config)
+    assert [r["result"]["object"] for r in results] == summary["objects"]
+    assert all(len(r["result"]["trials"]) == 4 for r in results)
+    with pytest.raises(pbd.PbdValueError, match="out of range"):
+        pbd.experiment.grasp_trial(config, 2)

@@ -220,7 +220,7 @@ def demo(
     return _report(_pbd.demo(_options(out=out, seed=seed), _progress(progress)))
 
 
-from . import bayes, experiment  # noqa: E402  (they import the names above)
+from . import bayes, experiment, grasp  # noqa: E402  (they import the names above)
 
 __all__ = [
     "Chain",
@@ -239,6 +239,7 @@ __all__ = [
     "demo",
     "execute",
     "experiment",
+    "grasp",
     "infer",
     "learn",
     "record",

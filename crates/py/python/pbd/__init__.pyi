@@ -8,6 +8,7 @@ import numpy.typing as npt
 
 from . import bayes as bayes
 from . import experiment as experiment
+from . import grasp as grasp
 
 __version__: str
 

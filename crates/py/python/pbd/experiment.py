@@ -15,6 +15,9 @@ Kinds of trial (``kind=``):
 
 - ``"execute"`` (:func:`execute_trial`): random scene ``trial`` drawn from the base scene's catalog
   and the robot's execution of the model's task in it (``pbd experiment execute``, one scene).
+- ``"grasp"`` (:func:`grasp_trial`): test object ``trial`` of the grasp evaluation (§6.5), every
+  candidate of the prototype model and of the naive baseline executed (``pbd grasp eval``, one
+  object); ``trials=None`` runs every test object.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from typing import Any, Callable, Dict, Iterable, List, Optional, Union
 
 from . import _pbd
 
-__all__ = ["execute_trial", "run", "trial", "strip_timing", "KINDS"]
+__all__ = ["execute_trial", "grasp_trial", "grasp_objects", "run", "trial", "strip_timing", "KINDS"]
 
 
 def _materialize(config: Dict[str, Any], tmp: str) -> Dict[str, Any]:
@@ -59,7 +62,40 @@ def execute_trial(config: Dict[str, Any], trial: int) -> Dict[str, Any]:
         return _pbd.experiment.execute_trial(_materialize(config, tmp), int(trial))
 
 
-KINDS: Dict[str, Callable[[Dict[str, Any], int], Dict[str, Any]]] = {"execute": execute_trial}
+def grasp_objects(config: Dict[str, Any]) -> List[str]:
+    """The test presentations of the grasp experiment in trial order (``objects``, or the first ``test``
+    catalog presentations in the seed's order that the model was not trained on)."""
+    with tempfile.TemporaryDirectory(prefix="pbd-trial-") as tmp:
+        return _pbd.experiment.grasp_objects(_materialize(_inline_model(config), tmp))
+
+
+def grasp_trial(config: Dict[str, Any], trial: int) -> Dict[str, Any]:
+    """One trial of the grasp experiment (§6.5), a pure function of ``(config, trial)``: test
+    presentation ``trial`` perceived, ``candidates`` pre-grasps from the prototype model and from the
+    naive baseline, each executed in the sim (reach, close, lift 10 cm, still held?).
+
+    ``config``: ``model`` (prototypes JSON from :func:`pbd.grasp.learn`, or ``model_json``),
+    ``present`` (``{"scene", "xy", "arm"}``), ``seed``, ``candidates`` (6), ``objects`` or ``test``
+    (12) — the options of ``pbd grasp eval``. Returns ``{trial, object, result: {object, trials}}``,
+    the rows ``pbd grasp eval`` reports for that object.
+    """
+    with tempfile.TemporaryDirectory(prefix="pbd-trial-") as tmp:
+        return _pbd.experiment.grasp_trial(_materialize(_inline_model(config), tmp), int(trial))
+
+
+def _inline_model(config: Dict[str, Any]) -> Dict[str, Any]:
+    config = dict(config)
+    model = config.get("model")
+    if model is not None and not isinstance(model, (str, os.PathLike)):
+        config.pop("model")
+        config["model_json"] = model.to_json()
+    return config
+
+
+KINDS: Dict[str, Callable[[Dict[str, Any], int], Dict[str, Any]]] = {
+    "execute": execute_trial,
+    "grasp": grasp_trial,
+}
 
 
 def trial(kind: str, config: Dict[str, Any], index: int) -> Dict[str, Any]:
@@ -117,7 +153,7 @@ def _ray_trial(kind: str, config: Dict[str, Any], index: int) -> Dict[str, Any]:
 
 def run(
     config: Dict[str, Any],
-    trials: Union[int, Iterable[int]],
+    trials: Union[int, Iterable[int], None] = None,
     backend: str = "local",
     *,
     kind: str = "execute",
@@ -135,7 +171,6 @@ def run(
     ``wall_time``); the model is sent inline to the workers, so they need pbd installed but no shared
     files.
     """
-    indices = list(range(trials)) if isinstance(trials, int) else [int(i) for i in trials]
     if kind not in KINDS:
         raise _pbd.PbdLookupError(f"unknown experiment kind {kind!r}; known: {', '.join(KINDS)}")
     config = dict(config)
@@ -150,6 +185,11 @@ def run(
                 raise _pbd.PbdFileError(f"cannot read model {os.fspath(model)}: {e}") from None
         else:
             config["model_json"] = model.to_json()
+    if trials is None:
+        if kind != "grasp":
+            raise _pbd.PbdValueError("trials: give the number of trials (or their indices)")
+        trials = len(grasp_objects(config))
+    indices = list(range(trials)) if isinstance(trials, int) else [int(i) for i in trials]
     bar = _Bar(len(indices), f"{kind} trials ({backend})", progress)
     try:
         if backend == "local":
