@@ -11,6 +11,7 @@ mod json;
 mod pipelines;
 mod robot;
 mod runner;
+mod sim;
 
 use pyo3::prelude::*;
 
@@ -21,6 +22,7 @@ fn _pbd(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<robot::Robot>()?;
     m.add_class::<robot::Chain>()?;
+    m.add_class::<sim::Sim>()?;
     m.add_class::<pipelines::Demonstration>()?;
     m.add_class::<pipelines::ProceduralModel>()?;
     m.add_function(wrap_pyfunction!(pipelines::record, m)?)?;
@@ -28,6 +30,7 @@ fn _pbd(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pipelines::learn, m)?)?;
     m.add_function(wrap_pyfunction!(pipelines::execute, m)?)?;
     m.add_function(wrap_pyfunction!(pipelines::demo, m)?)?;
+    m.add_function(wrap_pyfunction!(pipelines::pick_place, m)?)?;
     m.add_function(wrap_pyfunction!(pipelines::grasp_record, m)?)?;
     m.add_function(wrap_pyfunction!(pipelines::grasp_learn, m)?)?;
     m.add_function(wrap_pyfunction!(pipelines::grasp_generate, m)?)?;

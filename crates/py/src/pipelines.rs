@@ -71,6 +71,13 @@ pub fn demo(py: Python<'_>, options: &Bound<'_, PyAny>, progress: Option<Py<PyAn
     pipeline(py, options, progress, "demo options", pbd::demo::demo)
 }
 
+/// `pbd sim pick-place`: one autonomous pick-and-place in the simulator.
+#[pyfunction]
+#[pyo3(signature = (options, progress=None))]
+pub fn pick_place(py: Python<'_>, options: &Bound<'_, PyAny>, progress: Option<Py<PyAny>>) -> PyResult<Outcome> {
+    pipeline(py, options, progress, "pick-place options", pbd::sim::pick_place)
+}
+
 /// `pbd grasp record`: scripted grasp demonstrations on training presentations → a corpus (ch. 6).
 #[pyfunction]
 #[pyo3(signature = (options, progress=None))]

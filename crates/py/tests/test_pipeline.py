@@ -97,3 +97,28 @@ def test_ctrl_c_interrupts_a_long_call_and_keeps_the_file(tmp_path):
     finally:
         timer.cancel()
     assert len(pbd.Demonstration.open(path)) > 0
+
+
+def test_sim_steps_renders_and_commands():
+    sim = pbd.Sim("pick-place", seed=2)
+    assert "pick-place" in repr(sim) and sim.objects
+    n = len(sim.joint_names)
+    assert sim.q.shape == (n,)
+    img = sim.image("head/left")
+    assert img.dtype == np.uint8 and img.ndim == 3 and img.shape[2] == 3 and img.std() > 0
+    target = sim.q.copy()
+    i = sim.joint_names.index("left/elbow_pitch_joint")
+    target[i] += 0.2
+    sim.set_targets(target)
+    sim.step(500)
+    assert abs(sim.time - 0.5) < 1e-9
+    assert abs(sim.q[i] - target[i]) < 0.05
+    w = sim.fingertip_wrenches()
+    assert len(w) == 6 and w["right/3"][0].shape == (3,)
+    assert sim.object_pose(sim.objects[0]).shape == (4, 4)
+    with pytest.raises(pbd.PbdLookupError):
+        sim.image("nose/camera")
+    with pytest.raises(pbd.PbdValueError):
+        sim.set_targets(np.zeros(3))
+    with pytest.raises(pbd.PbdLookupError):
+        pbd.Sim("no-such-scene")

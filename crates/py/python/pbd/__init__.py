@@ -37,6 +37,7 @@ from ._pbd import (
     PbdValueError,
     ProceduralModel,
     Robot,
+    Sim,
     set_threads,
 )
 
@@ -220,6 +221,15 @@ def demo(
     return _report(_pbd.demo(_options(out=out, seed=seed), _progress(progress)))
 
 
+def pick_place(
+    *, scene: Optional[str] = None, progress: Union[bool, ProgressCallback, None] = None, **options: Any
+) -> Report:
+    """One autonomous pick-and-place in the simulator (``pbd sim pick-place``): Search-Track (§3.2.2.1),
+    Reach (3.17), Grasp, Lift and weigh, Transport and Place (§3.3.3). Options as the command
+    (``object``, ``place``, ``arm``, ``seed``, ``mcap``)."""
+    return _report(_pbd.pick_place(_options(scene=scene, **options), _progress(progress)))
+
+
 from . import bayes, experiment, grasp  # noqa: E402  (they import the names above)
 
 __all__ = [
@@ -234,6 +244,7 @@ __all__ = [
     "ProceduralModel",
     "Report",
     "Robot",
+    "Sim",
     "TextProgress",
     "bayes",
     "demo",
@@ -242,6 +253,7 @@ __all__ = [
     "grasp",
     "infer",
     "learn",
+    "pick_place",
     "record",
     "set_threads",
 ]
