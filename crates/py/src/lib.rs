@@ -5,6 +5,7 @@
 //! crates only (the facade `pbd` and below), never on the CLI.
 
 mod bayes;
+mod control;
 mod errors;
 mod experiment;
 mod json;
@@ -23,6 +24,7 @@ fn _pbd(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<robot::Robot>()?;
     m.add_class::<robot::Chain>()?;
     m.add_class::<sim::Sim>()?;
+    m.add_class::<control::ControlStack>()?;
     m.add_class::<pipelines::Demonstration>()?;
     m.add_class::<pipelines::ProceduralModel>()?;
     m.add_function(wrap_pyfunction!(pipelines::record, m)?)?;

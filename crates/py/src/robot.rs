@@ -207,7 +207,7 @@ impl Chain {
 type PoseJacobian<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
 
 /// A 4×4 homogeneous transform as an isometry (rotation checked to be orthonormal).
-fn isometry(target: &PyReadonlyArray2<'_, f64>) -> PyResult<cb::math::Iso3> {
+pub fn isometry(target: &PyReadonlyArray2<'_, f64>) -> PyResult<cb::math::Iso3> {
     let a = target.as_array();
     if a.shape() != [4, 4] {
         return Err(value_error(format!(
@@ -384,6 +384,18 @@ impl Chain {
         d.set_item("orientation_error", sol.orientation_error)?;
         d.set_item("attempts", sol.attempts)?;
         Ok(d)
+    }
+
+    /// The controller stack Reach ◁ Manipulability on this chain (a `ControlStack`): `pose=False`
+    /// reaches a position with positional manipulability, `pose=True` a full pose; κ gains in 1/s.
+    #[pyo3(signature = (*, pose=false, reach_gain=4.0, manipulability_gain=2.0))]
+    fn control_stack(
+        &self,
+        pose: bool,
+        reach_gain: f64,
+        manipulability_gain: f64,
+    ) -> PyResult<crate::control::ControlStack> {
+        crate::control::ControlStack::create(self.chain.clone(), pose, reach_gain, manipulability_gain)
     }
 
     fn __repr__(&self) -> String {

@@ -83,3 +83,25 @@ def test_objects_print_usefully():
     assert "left/base_link -> left/wrist_palm_link" in repr(arm) and "dof=7" in repr(arm)
     info = robot.info()
     assert any(c["name"] for c in info["named_chains"])
+
+
+def test_reach_with_manipulability_in_its_null_space_converges():
+    arm = pbd.Robot.from_urdf(None).chain("left/base_link", "left/wrist_palm_link")
+    q_goal = np.array([0.4, -0.3, 0.2, 1.4, 0.1, 0.3, 0.0])
+    target = arm.fk(q_goal)[:3, 3]
+    stack = arm.control_stack()
+    stack.set_target(target)
+    out = stack.run(np.array([0.0, -0.2, 0.0, 1.0, 0.0, 0.2, 0.0]), dt=0.01, steps=800)
+    assert out["q"].shape == (801, 7) and out["tip"].shape == (801, 3)
+    assert np.linalg.norm(out["tip"][-1] - target) < 1e-3, out["tip"][-1] - target
+    assert out["predicates"][0] == "1" and out["converged_at"] is not None
+    # Manipulability acts only in Reach's null space: the tip moves as Reach alone asks (3.5)-(3.7).
+    du = stack.tick(out["q"][-1], 0.01)
+    jac = arm.jacobian(out["q"][-1])
+    steps = stack.level_steps
+    assert du.shape == (7,) and steps.shape == (2, 7) and np.abs(du - steps[0]).max() > 1e-6
+    assert np.abs(jac[:3] @ du - jac[:3] @ steps[0]).max() < 1e-12
+    with pytest.raises(pbd.PbdValueError):
+        stack.set_target([1.0, 2.0])
+    with pytest.raises(pbd.PbdValueError):
+        stack.tick(np.zeros(7), -1.0)

@@ -28,6 +28,7 @@ from typing import Any, Callable, Iterable, Optional, Union
 from . import _pbd
 from ._pbd import (
     Chain,
+    ControlStack,
     Demonstration,
     PbdError,
     PbdFileError,
@@ -234,6 +235,7 @@ from . import bayes, experiment, grasp  # noqa: E402  (they import the names abo
 
 __all__ = [
     "Chain",
+    "ControlStack",
     "Demonstration",
     "PbdError",
     "PbdFileError",
