@@ -122,3 +122,23 @@ def test_sim_steps_renders_and_commands():
         sim.set_targets(np.zeros(3))
     with pytest.raises(pbd.PbdLookupError):
         pbd.Sim("no-such-scene")
+
+
+def test_long_calls_release_the_gil(tmp_path):
+    ticks = []
+    stop = threading.Event()
+
+    def count():
+        while not stop.is_set():
+            ticks.append(1)
+            stop.wait(0.01)
+
+    t = threading.Thread(target=count)
+    t.start()
+    try:
+        pbd.record(tmp_path / "gil.mcap", script="touch", seed=1)
+    finally:
+        stop.set()
+        t.join()
+    # ~3 s of recording: a thread blocked on the GIL would have ticked a handful of times at most.
+    assert len(ticks) > 50, len(ticks)
