@@ -14,7 +14,7 @@ import os
 from typing import Any, Optional, Sequence
 
 from . import _pbd
-from . import Report, _options, _progress, _report
+from ._util import Report, _options, _progress, _report
 
 __all__ = ["record", "learn", "generate", "eval"]
 
