@@ -7,11 +7,12 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
 use pbd::control_basis::Image;
 use pbd::dexter_sim::hardware::{CAMERAS, SimCameras, park_robot};
 use pbd::dexter_sim::physics::{DexterSim, SimSettings};
-use pbd::dexter_sim::scene::Scene;
+use pbd::dexter_sim::scene::{BUILTIN_HOUSEHOLD, Catalog, Scene, SceneSpec};
 use pbd::dexter_sim::snapshot::FingertipWrench;
 use pyo3::prelude::*;
 
 use crate::errors::{IntoPy, Kind, error, value_error};
+use crate::json::{from_python, to_python};
 use crate::robot::vector;
 
 fn iso_array<'py>(py: Python<'py>, pose: &pbd::control_basis::math::Iso3) -> Bound<'py, PyArray2<f64>> {
@@ -22,8 +23,10 @@ fn iso_array<'py>(py: Python<'py>, pose: &pbd::control_basis::math::Iso3) -> Bou
 /// The simulated Dexter in a scene (Rapier physics at 1 kHz, PD motor units, fingertip F/T sensing,
 /// ray-cast cameras with pixel noise).
 ///
-/// `Sim(scene=None, seed=0)`: `scene` is a built-in name (`pick-place`, `sorting`, `sorting-new`,
-/// `sorting-demo`; None = `pick-place`), a TOML file, or TOML text via `Sim.from_toml(text)`. The
+/// `Sim(scene=None, seed=0, *, catalog=None)`: `scene` is a built-in name (`pick-place`, `sorting`,
+/// `sorting-new`, `sorting-demo`; None = `pick-place`), a TOML file, a dict with the fields of the
+/// scene TOML (see `Sim(...).scene_spec`; `catalog=` a dict or file then), or TOML text via
+/// `Sim.from_toml(text)`. The
 /// robot starts parked above the table. The same seed gives the same run.
 #[pyclass(module = "pbd", unsendable)]
 #[derive(Debug)]
@@ -77,11 +80,54 @@ impl Sim {
 #[pymethods]
 impl Sim {
     #[new]
-    #[pyo3(signature = (scene=None, seed=0))]
-    fn new(py: Python<'_>, scene: Option<String>, seed: u64) -> PyResult<Sim> {
-        let name = scene.unwrap_or_else(|| "pick-place".into());
+    #[pyo3(signature = (scene=None, seed=0, *, catalog=None))]
+    fn new(
+        py: Python<'_>,
+        scene: Option<&Bound<'_, PyAny>>,
+        seed: u64,
+        catalog: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Sim> {
+        let Some(scene) = scene else {
+            return Sim::build(Scene::builtin("pick-place").py_err()?, seed);
+        };
+        if scene.is_instance_of::<pyo3::types::PyDict>() {
+            // A scene as data (the fields of the scene TOML); the catalog as data, a file, or the
+            // scene's own `catalog` entry (`builtin:household` or a path from the current directory).
+            let spec: SceneSpec = from_python(scene, "scene")?;
+            let catalog = match catalog {
+                Some(c) if c.is_instance_of::<pyo3::types::PyDict>() => from_python::<Catalog>(c, "catalog")?,
+                Some(c) => Catalog::load(c.extract::<std::path::PathBuf>()?).py_err()?,
+                None if spec.catalog == BUILTIN_HOUSEHOLD => Catalog::builtin_household().py_err()?,
+                None => Catalog::load(&spec.catalog).py_err()?,
+            };
+            let scene = Scene::new(spec, catalog, "dict").py_err()?;
+            return Sim::build(scene, seed);
+        }
+        if catalog.is_some() {
+            return Err(value_error("catalog= goes with a scene given as a dict"));
+        }
+        let name: String = scene
+            .extract()
+            .map_err(|_| value_error("scene: expected a built-in name, a TOML path or a dict"))?;
         let scene = py.detach(|| Scene::open(&name)).py_err()?;
         Sim::build(scene, seed)
+    }
+
+    /// The scene as data (the fields of the scene TOML): edit it and pass it back to `Sim(...)`.
+    #[getter]
+    fn scene_spec(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let mut spec = self.scene.spec.clone();
+        // A built-in scene names the shipped catalog file; as data it is the built-in catalog.
+        if self.scene.path.to_string_lossy().starts_with("builtin:") {
+            spec.catalog = BUILTIN_HOUSEHOLD.to_string();
+        }
+        to_python(py, &spec)
+    }
+
+    /// The scene's object catalog as data.
+    #[getter]
+    fn catalog(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        to_python(py, &self.scene.catalog)
     }
 
     /// A scene from TOML text (the format of `assets/scenes/*.toml`; a relative `catalog` path is read

@@ -124,6 +124,23 @@ def test_sim_steps_renders_and_commands():
         pbd.Sim("no-such-scene")
 
 
+def test_sim_scene_and_catalog_as_dicts():
+    base = pbd.Sim("sorting")
+    spec = base.scene_spec
+    assert spec["objects"] and "table" in spec
+    spec["objects"] = spec["objects"][:1]
+    one = pbd.Sim(spec, seed=1)
+    assert len(one.objects) == 1
+    catalog = base.catalog
+    two = pbd.Sim(spec, catalog=catalog)
+    assert two.objects == one.objects
+    spec["table"]["height"] = -1.0
+    with pytest.raises(pbd.PbdValueError):
+        pbd.Sim(spec)
+    with pytest.raises(pbd.PbdValueError):
+        pbd.Sim({"no": "scene"})
+
+
 def test_long_calls_release_the_gil(tmp_path):
     ticks = []
     stop = threading.Event()
