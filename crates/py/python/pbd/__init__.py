@@ -21,7 +21,6 @@ Errors are :class:`PbdError` subclasses (also the builtin exception they resembl
 from __future__ import annotations
 
 import os
-import sys
 import tempfile
 from typing import Any, Callable, Iterable, Optional, Union
 
@@ -46,7 +45,6 @@ __version__ = _pbd.__version__
 
 PathLike = Union[str, "os.PathLike[str]"]
 ProgressCallback = Callable[[str, str, Optional[int]], None]
-
 
 from ._util import Report, TextProgress, _options, _progress, _report  # noqa: E402
 
