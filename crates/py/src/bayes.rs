@@ -2,7 +2,7 @@
 //! numpy arrays (Sweeney 2011, ch. 5 and app. A; the `bayes` crate).
 
 use numpy::ndarray::{Array1, Array2};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pbd::bayes::bayes_factor::{self as bf, PredictiveMode};
 use pbd::bayes::dirichlet as dir;
 use pbd::bayes::hmm;
@@ -11,12 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::errors::{IntoPy, value_error};
-use crate::robot::vector;
-
-fn matrix(a: &PyReadonlyArray2<'_, f64>) -> (usize, usize, Vec<f64>) {
-    let v = a.as_array();
-    (v.nrows(), v.ncols(), v.iter().copied().collect())
-}
+use crate::robot::{matrix, vector};
 
 fn indices(obs: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<usize>> {
     let v = vector(obs, what)?;
@@ -366,8 +361,8 @@ fn gaussian_bayes_factor<'py>(
 pub struct Hmm(hmm::Hmm);
 
 impl Hmm {
-    fn emissions(&self, log_emissions: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<f64>> {
-        let (t, n, e) = matrix(log_emissions);
+    fn emissions(&self, log_emissions: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+        let (t, n, e) = matrix(log_emissions, "log_emissions")?;
         if n != self.0.n_states() {
             return Err(value_error(format!(
                 "log_emissions: expected T x {} (one column per state), got {t} x {n}",
@@ -393,8 +388,8 @@ impl Hmm {
 impl Hmm {
     /// From probabilities: `start` (n,) and `transitions` (n×n).
     #[new]
-    fn new(start: &Bound<'_, PyAny>, transitions: PyReadonlyArray2<'_, f64>) -> PyResult<Self> {
-        let (r, c, a) = matrix(&transitions);
+    fn new(start: &Bound<'_, PyAny>, transitions: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let (r, c, a) = matrix(transitions, "transitions")?;
         let s = vector(start, "start")?;
         if r != c || r != s.len() {
             return Err(value_error(format!(
@@ -406,8 +401,8 @@ impl Hmm {
     }
     /// From log-probabilities.
     #[staticmethod]
-    fn from_log(log_start: &Bound<'_, PyAny>, log_transitions: PyReadonlyArray2<'_, f64>) -> PyResult<Self> {
-        let (r, c, a) = matrix(&log_transitions);
+    fn from_log(log_start: &Bound<'_, PyAny>, log_transitions: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let (r, c, a) = matrix(log_transitions, "log_transitions")?;
         let s = vector(log_start, "log_start")?;
         if r != c || r != s.len() {
             return Err(value_error(format!(
@@ -436,17 +431,17 @@ impl Hmm {
         Ok(a.into_pyarray(py))
     }
     /// ln p(o_1..T) by the forward recursion (4.10); `-inf` when the observations are impossible.
-    fn forward(&self, py: Python<'_>, log_emissions: PyReadonlyArray2<'_, f64>) -> PyResult<f64> {
-        let e = self.emissions(&log_emissions)?;
+    fn forward(&self, py: Python<'_>, log_emissions: &Bound<'_, PyAny>) -> PyResult<f64> {
+        let e = self.emissions(log_emissions)?;
         py.detach(|| self.0.forward(&e)).py_err()
     }
     /// The most probable state path: `(path (T,) int64, ln p(path, o))`, or None when impossible.
     fn viterbi<'py>(
         &self,
         py: Python<'py>,
-        log_emissions: PyReadonlyArray2<'py, f64>,
+        log_emissions: &Bound<'py, PyAny>,
     ) -> PyResult<Option<(Bound<'py, PyArray1<i64>>, f64)>> {
-        let e = self.emissions(&log_emissions)?;
+        let e = self.emissions(log_emissions)?;
         let v = py.detach(|| self.0.viterbi(&e)).py_err()?;
         Ok(v.map(|v| {
             (
@@ -459,9 +454,9 @@ impl Hmm {
     fn forward_backward<'py>(
         &self,
         py: Python<'py>,
-        log_emissions: PyReadonlyArray2<'py, f64>,
+        log_emissions: &Bound<'py, PyAny>,
     ) -> PyResult<Option<(f64, Bound<'py, PyArray2<f64>>)>> {
-        let e = self.emissions(&log_emissions)?;
+        let e = self.emissions(log_emissions)?;
         let n = self.0.n_states();
         let s = py.detach(|| self.0.forward_backward(&e)).py_err()?;
         match s {
@@ -487,10 +482,10 @@ impl Hmm {
 #[pyfunction]
 fn categorical_log_emissions<'py>(
     py: Python<'py>,
-    log_emission_probs: PyReadonlyArray2<'py, f64>,
+    log_emission_probs: &Bound<'py, PyAny>,
     obs: &Bound<'py, PyAny>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let (n, _, p) = matrix(&log_emission_probs);
+    let (n, _, p) = matrix(log_emission_probs, "log_emission_probs")?;
     let obs = indices(obs, "obs")?;
     let e = hmm::categorical_log_emissions(&p, n, &obs).py_err()?;
     let t = obs.len();

@@ -2,7 +2,7 @@
 //! superior first (Reach ◁ Manipulability, (3.5)–(3.7)), ticked on a plant.
 
 use numpy::ndarray::{Array1, Array2};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pbd::control_basis::{
     self as cb, ControlStack as Stack, Controller, KinematicPlant, ManipulabilityRows, Plant, Predicate, Reference,
     StackSettings,
@@ -84,8 +84,7 @@ impl ControlStack {
     /// 4×4 pose.
     fn set_target(&mut self, target: &Bound<'_, PyAny>) -> PyResult<()> {
         let reference = if self.pose {
-            let t: PyReadonlyArray2<'_, f64> = target.extract()?;
-            Reference::Pose(crate::robot::isometry(&t)?)
+            Reference::Pose(crate::robot::isometry(target)?)
         } else {
             let v = vector(target, "target")?;
             if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use nalgebra::{Matrix3, Rotation3, Translation3, UnitQuaternion};
 use numpy::ndarray::{Array1, Array2};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
 use pbd::control_basis::{self as cb, IkSettings, JointKind, RobotModel};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -37,6 +37,29 @@ pub fn vector(q: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<f64>> {
     }
     q.extract::<Vec<f64>>()
         .map_err(|_| value_error(format!("{what}: expected a 1-D array or a sequence of numbers")))
+}
+
+/// Reads a 2-D float matrix `(rows, cols, row-major values)` from a numpy array (fast path) or any
+/// nested sequence numpy can convert.
+pub fn matrix(m: &Bound<'_, PyAny>, what: &str) -> PyResult<(usize, usize, Vec<f64>)> {
+    if let Ok(a) = m.cast::<PyArray2<f64>>() {
+        let r = a.readonly();
+        let v = r.as_array();
+        return Ok((v.nrows(), v.ncols(), v.iter().copied().collect()));
+    }
+    let np = m.py().import("numpy")?;
+    let a = np
+        .call_method1("asarray", (m, np.getattr("float64")?))
+        .map_err(|e| value_error(format!("{what}: expected a 2-D array of numbers ({e})")))?;
+    match a.cast::<PyArray2<f64>>() {
+        Ok(_) => matrix(&a, what),
+        Err(_) => {
+            let shape: Vec<usize> = a.getattr("shape")?.extract()?;
+            Err(value_error(format!(
+                "{what}: expected a 2-D array, got shape {shape:?}"
+            )))
+        }
+    }
 }
 
 fn check_finite(q: &[f64], what: &str) -> PyResult<()> {
@@ -207,17 +230,16 @@ impl Chain {
 type PoseJacobian<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
 
 /// A 4×4 homogeneous transform as an isometry (rotation checked to be orthonormal).
-pub fn isometry(target: &PyReadonlyArray2<'_, f64>) -> PyResult<cb::math::Iso3> {
-    let a = target.as_array();
-    if a.shape() != [4, 4] {
+pub fn isometry(target: &Bound<'_, PyAny>) -> PyResult<cb::math::Iso3> {
+    let (rows, cols, flat) = matrix(target, "target")?;
+    if (rows, cols) != (4, 4) {
         return Err(value_error(format!(
-            "target: expected a 4x4 homogeneous matrix, got shape {:?}",
-            a.shape()
+            "target: expected a 4x4 homogeneous matrix, got shape [{rows}, {cols}]"
         )));
     }
-    let flat: Vec<f64> = a.iter().copied().collect();
     check_finite(&flat, "target")?;
-    let bottom = [a[(3, 0)], a[(3, 1)], a[(3, 2)], a[(3, 3)]];
+    let a = |i: usize, j: usize| flat[4 * i + j];
+    let bottom = [a(3, 0), a(3, 1), a(3, 2), a(3, 3)];
     if bottom
         .iter()
         .zip([0.0, 0.0, 0.0, 1.0])
@@ -227,7 +249,7 @@ pub fn isometry(target: &PyReadonlyArray2<'_, f64>) -> PyResult<cb::math::Iso3> 
             "target: the last row must be [0, 0, 0, 1], got {bottom:?}"
         )));
     }
-    let r = Matrix3::from_fn(|i, j| a[(i, j)]);
+    let r = Matrix3::from_fn(a);
     let err = (r.transpose() * r - Matrix3::identity()).abs().max();
     if err > 1e-6 || r.determinant() < 0.0 {
         return Err(value_error(format!(
@@ -237,7 +259,7 @@ pub fn isometry(target: &PyReadonlyArray2<'_, f64>) -> PyResult<cb::math::Iso3> 
     }
     let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
     Ok(cb::math::Iso3::from_parts(
-        Translation3::new(a[(0, 3)], a[(1, 3)], a[(2, 3)]),
+        Translation3::new(a(0, 3), a(1, 3), a(2, 3)),
         rot,
     ))
 }
@@ -332,7 +354,7 @@ impl Chain {
     fn ik<'py>(
         &self,
         py: Python<'py>,
-        target: PyReadonlyArray2<'py, f64>,
+        target: &Bound<'py, PyAny>,
         q0: Option<&Bound<'py, PyAny>>,
         position_tolerance: f64,
         orientation_tolerance: f64,
@@ -340,7 +362,7 @@ impl Chain {
         restarts: usize,
         seed: u64,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let target = isometry(&target)?;
+        let target = isometry(target)?;
         let n = self.chain.dof();
         let q0 = match q0 {
             Some(q) => {

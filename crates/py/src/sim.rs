@@ -141,13 +141,15 @@ impl Sim {
 
     /// Advances the physics by `n` steps (1 ms each), the GIL released.
     #[pyo3(signature = (n=1))]
-    fn step(&mut self, py: Python<'_>, n: usize) {
+    fn step(&mut self, py: Python<'_>, n: i64) -> PyResult<()> {
+        let n = usize::try_from(n).map_err(|_| value_error(format!("n must be >= 0, got {n}")))?;
         let sim = &mut self.sim;
         py.detach(|| {
             for _ in 0..n {
                 sim.step();
             }
         });
+        Ok(())
     }
 
     /// Simulated time (s).

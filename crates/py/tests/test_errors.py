@@ -99,3 +99,13 @@ def test_bad_options():
         h.forward(np.full((4, 2), np.nan))
     with pytest.raises(pbd.PbdValueError):
         pbd.bayes.CategoryCounts([1, -2, 3])
+
+
+def test_matrices_accept_nested_lists_and_reject_bad_shapes():
+    h = pbd.bayes.Hmm([0.5, 0.5], [[0.9, 0.1], [0.2, 0.8]])
+    assert np.isfinite(h.forward([[0.0, -1.0], [-2.0, 0.0]]))
+    for bad in ([1.0, 2.0, 3.0], "abc", np.zeros((0, 2))):
+        with pytest.raises(pbd.PbdValueError):
+            h.forward(bad)
+    with pytest.raises(pbd.PbdValueError):
+        pbd.Sim().step(-1)

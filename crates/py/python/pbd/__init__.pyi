@@ -76,7 +76,7 @@ class Chain:
     def fk_jacobian(self, q: ArrayLike) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
     def ik(
         self,
-        target: npt.NDArray[np.float64],
+        target: Union[npt.NDArray[np.float64], Sequence[Sequence[float]]],
         q0: Optional[ArrayLike] = None,
         *,
         position_tolerance: float = 1e-5,
