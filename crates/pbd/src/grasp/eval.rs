@@ -124,22 +124,13 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
     }
     std::fs::create_dir_all(&args.output).with_context(|| format!("cannot create {}", args.output.display()))?;
     // Split.
-    let mut all = presenter.presentations();
-    all.shuffle(&mut crate::rng::stream(args.seed, 1));
+    let all = shuffled_presentations(&presenter, args.seed);
     let known: Vec<String> = match (&given_model, &given_corpus) {
         (Some(m), _) => m.objects.clone(),
         (_, Some(c)) => c.objects.iter().map(|o| o.name.clone()).collect(),
         _ => Vec::new(),
     };
-    let test: Vec<String> = if args.objects.is_empty() {
-        all.iter()
-            .filter(|o| !known.contains(o))
-            .take(args.test)
-            .cloned()
-            .collect()
-    } else {
-        args.objects.clone()
-    };
+    let test = test_split(&all, &known, args);
     if test.is_empty() {
         bail!("no test presentations (every catalog presentation is a training object of the model)");
     }
@@ -192,58 +183,8 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
     let n = args.candidates;
     progress.phase("perceive", Some(test.len() as u64));
     let indexed: Vec<(usize, &String)> = test.iter().enumerate().collect();
-    let prepared = crate::parallel::map(&indexed, progress, |&(i, name)| -> Result<Prepared> {
-        let (scene, settings) = presenter.scene(name, crate::rng::split(args.seed, 1000 + i as u64))?;
-        let percept = match grasp_trial::perceive(&scene, &settings)? {
-            Ok(p) => p,
-            Err(_) => {
-                let mut jobs = Vec::new();
-                for m in [Method::Model, Method::Naive] {
-                    for k in 0..n {
-                        jobs.push((m, k, None));
-                    }
-                }
-                return Ok(Prepared {
-                    percept: None,
-                    top_prototype: None,
-                    jobs,
-                    rejected: [Rejections::default(); 2],
-                });
-            }
-        };
-        let reach_sim = grasp_trial::parked_sim(&scene, &settings)?;
-        let b = mat2(percept.appearance);
-        let pz = model.prototype_probabilities(&b)?;
-        let top = pz.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map(|(j, _)| j);
-        let dims = common::seen_shape(&percept).0.dimensions();
-        let mut jobs = Vec::new();
-        let mut rejected = [Rejections::default(); 2];
-        for (mi, m) in [Method::Model, Method::Naive].into_iter().enumerate() {
-            let mut rng = crate::rng::stream(args.seed, 2000 + 2 * i as u64 + mi as u64);
-            let sel = select_candidates(
-                &presenter,
-                &scene,
-                &reach_sim,
-                &percept,
-                m,
-                n,
-                |k, rng| match m {
-                    Method::Model => model.generate(&b, k, rng).map_err(anyhow::Error::from),
-                    Method::Naive => naive_baseline(&dims, k, rng).map_err(anyhow::Error::from),
-                },
-                &mut rng,
-            )?;
-            rejected[mi] = sel.rejected;
-            for k in 0..n {
-                jobs.push((m, k, sel.chosen.get(k).cloned()));
-            }
-        }
-        Ok(Prepared {
-            percept: Some(percept),
-            top_prototype: top,
-            jobs,
-            rejected,
-        })
+    let prepared = crate::parallel::map(&indexed, progress, |&(i, name)| {
+        prepare(&presenter, &model, args.seed, n, i, name)
     })?;
     progress.finish();
     // Execute every candidate.
@@ -254,67 +195,19 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
         }
     }
     progress.phase("grasp", Some(jobs.len() as u64));
-    let outcomes = crate::parallel::map(&jobs, progress, |(i, m, _k, c)| -> Result<Option<TrialOutcome>> {
-        let r = match c {
-            None => None,
-            Some(c) => {
-                let (scene, settings) = presenter.scene(&test[*i], crate::rng::split(args.seed, 1000 + *i as u64))?;
-                let seen = prepared[*i].percept.as_ref().context("a candidate without a percept")?;
-                Some(grasp_trial::execute(
-                    &scene,
-                    &settings,
-                    presenter.arm,
-                    &command_for(c, *m),
-                    seen,
-                )?)
-            }
-        };
-        Ok(r)
+    let outcomes = crate::parallel::map(&jobs, progress, |(i, m, _k, c)| {
+        execute_job(&presenter, args.seed, &test[*i], *i, &prepared[*i], *m, c.as_ref())
     })?;
     progress.finish();
     let trials: Vec<Trial> = jobs
         .iter()
         .zip(outcomes)
-        .map(|((i, m, k, c), o)| {
-            let seen = prepared[*i].percept.is_some();
-            Trial {
-                object: test[*i].clone(),
-                method: *m,
-                candidate: k + 1,
-                prototype: c.as_ref().and_then(|c| c.pre_grasp.prototype.map(|j| j + 1)),
-                position: c.as_ref().map(|c| c.pre_grasp.position),
-                orientation: c.as_ref().map(|c| c.pre_grasp.orientation),
-                success: o.as_ref().is_some_and(|o| o.success),
-                rose: o.as_ref().map_or(0.0, |o| o.rose),
-                outcome: match (&o, seen) {
-                    (Some(o), _) => o.outcome.clone(),
-                    (None, false) => "object not seen".into(),
-                    (None, true) => "no collision-free reachable candidate".into(),
-                },
-                sim_time: o.as_ref().map_or(0.0, |o| o.sim_time),
-            }
-        })
+        .map(|((i, m, k, c), o)| to_trial(&test[*i], prepared[*i].percept.is_some(), *m, *k, c.as_ref(), o))
         .collect();
     let objects: Vec<ObjectResult> = test
         .iter()
         .enumerate()
-        .map(|(i, name)| {
-            let count = |m: Method| {
-                trials
-                    .iter()
-                    .filter(|t| &t.object == name && t.method == m && t.success)
-                    .count()
-            };
-            ObjectResult {
-                object: name.clone(),
-                model: count(Method::Model),
-                naive: count(Method::Naive),
-                appearance: prepared[i].percept.as_ref().map(|p| p.appearance),
-                top_prototype: prepared[i].top_prototype.map(|j| j + 1),
-                model_rejected: prepared[i].rejected[0],
-                naive_rejected: prepared[i].rejected[1],
-            }
-        })
+        .map(|(i, name)| object_result(name, &prepared[i], &trials))
         .collect();
     let attempts = test.len() * n;
     let ms: usize = objects.iter().map(|o| o.model).sum();
@@ -341,4 +234,187 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
     crate::files::write_atomic(&p, serde_json::to_string_pretty(&summary)?.as_bytes())?;
     summary.files.push(path_str(&p));
     Ok(summary)
+}
+
+/// Perceives test presentation `i` (`name`) and chooses its candidates for both methods.
+fn prepare(presenter: &Presenter, model: &GraspModel, seed: u64, n: usize, i: usize, name: &str) -> Result<Prepared> {
+    let (scene, settings) = presenter.scene(name, crate::rng::split(seed, 1000 + i as u64))?;
+    let percept = match grasp_trial::perceive(&scene, &settings)? {
+        Ok(p) => p,
+        Err(_) => {
+            let mut jobs = Vec::new();
+            for m in [Method::Model, Method::Naive] {
+                for k in 0..n {
+                    jobs.push((m, k, None));
+                }
+            }
+            return Ok(Prepared {
+                percept: None,
+                top_prototype: None,
+                jobs,
+                rejected: [Rejections::default(); 2],
+            });
+        }
+    };
+    let reach_sim = grasp_trial::parked_sim(&scene, &settings)?;
+    let b = mat2(percept.appearance);
+    let pz = model.prototype_probabilities(&b)?;
+    let top = pz.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map(|(j, _)| j);
+    let dims = common::seen_shape(&percept).0.dimensions();
+    let mut jobs = Vec::new();
+    let mut rejected = [Rejections::default(); 2];
+    for (mi, m) in [Method::Model, Method::Naive].into_iter().enumerate() {
+        let mut rng = crate::rng::stream(seed, 2000 + 2 * i as u64 + mi as u64);
+        let sel = select_candidates(
+            presenter,
+            &scene,
+            &reach_sim,
+            &percept,
+            m,
+            n,
+            |k, rng| match m {
+                Method::Model => model.generate(&b, k, rng).map_err(anyhow::Error::from),
+                Method::Naive => naive_baseline(&dims, k, rng).map_err(anyhow::Error::from),
+            },
+            &mut rng,
+        )?;
+        rejected[mi] = sel.rejected;
+        for k in 0..n {
+            jobs.push((m, k, sel.chosen.get(k).cloned()));
+        }
+    }
+    Ok(Prepared {
+        percept: Some(percept),
+        top_prototype: top,
+        jobs,
+        rejected,
+    })
+}
+
+/// Executes one candidate (`None`: nothing to execute) of test presentation `i`.
+fn execute_job(
+    presenter: &Presenter,
+    seed: u64,
+    name: &str,
+    i: usize,
+    prepared: &Prepared,
+    m: Method,
+    c: Option<&grasp_topics::RankedPreGrasp>,
+) -> Result<Option<TrialOutcome>> {
+    let Some(c) = c else { return Ok(None) };
+    let (scene, settings) = presenter.scene(name, crate::rng::split(seed, 1000 + i as u64))?;
+    let seen = prepared.percept.as_ref().context("a candidate without a percept")?;
+    Ok(Some(grasp_trial::execute(
+        &scene,
+        &settings,
+        presenter.arm,
+        &command_for(c, m),
+        seen,
+    )?))
+}
+
+/// The report row of one executed (or not executable) candidate.
+fn to_trial(
+    object: &str,
+    seen: bool,
+    m: Method,
+    k: usize,
+    c: Option<&grasp_topics::RankedPreGrasp>,
+    o: Option<TrialOutcome>,
+) -> Trial {
+    Trial {
+        object: object.to_string(),
+        method: m,
+        candidate: k + 1,
+        prototype: c.and_then(|c| c.pre_grasp.prototype.map(|j| j + 1)),
+        position: c.map(|c| c.pre_grasp.position),
+        orientation: c.map(|c| c.pre_grasp.orientation),
+        success: o.as_ref().is_some_and(|o| o.success),
+        rose: o.as_ref().map_or(0.0, |o| o.rose),
+        outcome: match (&o, seen) {
+            (Some(o), _) => o.outcome.clone(),
+            (None, false) => "object not seen".into(),
+            (None, true) => "no collision-free reachable candidate".into(),
+        },
+        sim_time: o.as_ref().map_or(0.0, |o| o.sim_time),
+    }
+}
+
+/// The object's row of the report from its trials.
+fn object_result(name: &str, prepared: &Prepared, trials: &[Trial]) -> ObjectResult {
+    let count = |m: Method| {
+        trials
+            .iter()
+            .filter(|t| t.object == name && t.method == m && t.success)
+            .count()
+    };
+    ObjectResult {
+        object: name.to_string(),
+        model: count(Method::Model),
+        naive: count(Method::Naive),
+        appearance: prepared.percept.as_ref().map(|p| p.appearance),
+        top_prototype: prepared.top_prototype.map(|j| j + 1),
+        model_rejected: prepared.rejected[0],
+        naive_rejected: prepared.rejected[1],
+    }
+}
+
+/// The catalog presentations in the experiment's seeded order (the test split takes them in this order).
+fn shuffled_presentations(presenter: &Presenter, seed: u64) -> Vec<String> {
+    let mut all = presenter.presentations();
+    all.shuffle(&mut crate::rng::stream(seed, 1));
+    all
+}
+
+/// The test presentations [`run`] uses with a model trained on `known` objects (`args.objects`, or the
+/// first `args.test` catalog presentations in the seed's order that are not in `known`): the objects
+/// of [`object_trial`] by index.
+pub fn test_presentations(args: &EvalOptions, known: &[String]) -> Result<Vec<String>> {
+    let presenter = Presenter::new(&args.present)?;
+    Ok(test_split(&shuffled_presentations(&presenter, args.seed), known, args))
+}
+
+/// [`test_presentations`] from the shuffled list.
+fn test_split(all: &[String], known: &[String], args: &EvalOptions) -> Vec<String> {
+    if args.objects.is_empty() {
+        all.iter()
+            .filter(|o| !known.contains(o))
+            .take(args.test)
+            .cloned()
+            .collect()
+    } else {
+        args.objects.clone()
+    }
+}
+
+/// One test presentation of the experiment: the object's report row and its trials.
+#[derive(Debug, Clone, Serialize)]
+pub struct ObjectTrial {
+    /// Successes per method, appearance, top prototype, rejected candidates.
+    pub object: ObjectResult,
+    /// Every candidate of both methods, executed in the sim.
+    pub trials: Vec<Trial>,
+}
+
+/// Test presentation `index` (`object`) of the §6.5 experiment with a given prototype model, as a
+/// pure function of its arguments: perceive it, choose `args.candidates` candidates from the model
+/// and from the naive baseline, execute them. Gives exactly the rows [`run`] gives for the object at
+/// position `index` of its test list (same `args.present`, `args.seed` and `args.candidates`), so
+/// the experiment can be spread over any scheduler one object at a time.
+pub fn object_trial(args: &EvalOptions, model: &GraspModel, index: usize, object: &str) -> Result<ObjectTrial> {
+    let presenter = Presenter::new(&args.present)?;
+    presenter.check(object)?;
+    if args.candidates == 0 {
+        bail!("candidates must be at least 1");
+    }
+    let prepared = prepare(&presenter, model, args.seed, args.candidates, index, object)?;
+    let mut trials = Vec::new();
+    for (m, k, c) in &prepared.jobs {
+        let o = execute_job(&presenter, args.seed, object, index, &prepared, *m, c.as_ref())?;
+        trials.push(to_trial(object, prepared.percept.is_some(), *m, *k, c.as_ref(), o));
+    }
+    Ok(ObjectTrial {
+        object: object_result(object, &prepared, &trials),
+        trials,
+    })
 }

@@ -1,0 +1,159 @@
+//! `pbd.experiment` (compiled part): one trial of an experiment as a pure function of its config and
+//! its index, so that any scheduler (a loop, a process pool, Ray) can run trials and get the same
+//! results trial by trial. The Python package adds `pbd.experiment.run(config, trials, backend=...)`.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use pbd::dexter_sim::experiment::{ExperimentConfig, run_scene, summarize};
+use pbd::dexter_sim::scene::Scene;
+use pbd::grasp::eval::EvalOptions;
+use pbd::grasp_topics::GraspModel;
+use pbd::schema::Library;
+use pyo3::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::errors::{IntoPy, value_error};
+use crate::json::{from_python, to_python};
+use crate::runner;
+
+/// The config of an execute experiment (as `pbd experiment execute`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ExecuteConfig {
+    /// The procedural model (`model.json`).
+    model: PathBuf,
+    /// The base scene (a built-in name or a TOML file) whose catalog and places the scenes use.
+    #[serde(default = "default_scene")]
+    scene: String,
+    /// Objects per random scene.
+    #[serde(default = "default_objects")]
+    objects: usize,
+    /// The intended task: colour class → place (for scoring decisions).
+    #[serde(default)]
+    task: BTreeMap<String, String>,
+    /// The experiment's seed.
+    #[serde(default)]
+    seed: u64,
+}
+
+fn default_scene() -> String {
+    "sorting-new".into()
+}
+
+fn default_objects() -> usize {
+    4
+}
+
+/// One execute trial's result.
+#[derive(Debug, Serialize)]
+struct ExecuteTrial {
+    trial: usize,
+    seed: u64,
+    rows: Vec<pbd::dexter_sim::experiment::ObjectRow>,
+    summary: pbd::dexter_sim::experiment::Summary,
+    report: pbd::dexter_sim::execute::ExecuteReport,
+    /// Wall time of the trial (s): the one field that is not a function of (config, trial).
+    wall_time: f64,
+}
+
+/// One trial of the execute experiment: random scene `trial` of the config (objects drawn from the
+/// base scene's catalog by the seeded stream `(seed, trial)`) and the robot's execution in it — a
+/// pure function of `(config, trial)`. Returns a dict: `trial`, `seed`, `rows` (one per object, as
+/// `objects.csv`), `summary`, `report` (the execute report with its `wall_time` set to 0) and
+/// `wall_time`.
+#[pyfunction]
+#[pyo3(signature = (config, trial))]
+fn execute_trial(py: Python<'_>, config: &Bound<'_, PyAny>, trial: usize) -> PyResult<Py<PyAny>> {
+    let c: ExecuteConfig = from_python(config, "execute experiment config")?;
+    if c.objects == 0 {
+        return Err(value_error("objects must be at least 1"));
+    }
+    let base = Scene::open(&c.scene).py_err()?;
+    for p in c.task.values() {
+        base.place(p).py_err()?;
+    }
+    pbd::schema::procedural::ProceduralModel::load(&c.model).py_err()?;
+    let config = ExperimentConfig {
+        model: c.model.clone(),
+        scenes: trial + 1,
+        objects: c.objects,
+        task: c.task.clone(),
+        seed: c.seed,
+    };
+    let (result, _) = runner::run(py, None, |_| {
+        let start = std::time::Instant::now();
+        let library = Library::builtin();
+        let (scene, mut report) = run_scene(&base, &c.scene, &library, &config, trial)?;
+        let wall_time = start.elapsed().as_secs_f64();
+        report.wall_time = 0.0;
+        let run = [(scene, report)];
+        let (mut rows, summary) = summarize(&config, &run);
+        for r in &mut rows {
+            r.scene = trial;
+        }
+        let [(_, report)] = run;
+        Ok(ExecuteTrial {
+            trial,
+            seed: c.seed,
+            rows,
+            summary,
+            report,
+            wall_time,
+        })
+    })?;
+    to_python(py, &result)
+}
+
+/// The grasp experiment's config: `pbd grasp eval`'s options (`present`, `seed`, `candidates`,
+/// `objects` or `test`) with a required `model` (prototypes JSON).
+fn grasp_options(config: &Bound<'_, PyAny>) -> PyResult<(EvalOptions, GraspModel)> {
+    let options: EvalOptions = from_python(config, "grasp experiment config")?;
+    let Some(path) = &options.model else {
+        return Err(value_error(
+            "the grasp experiment config needs `model` (a prototype model from pbd.grasp.learn)",
+        ));
+    };
+    let model = GraspModel::load(path).py_err()?;
+    Ok((options, model))
+}
+
+/// The test presentations of the grasp experiment, in trial order (`objects`, or the first `test`
+/// of the catalog presentations in the seed's order that the model was not trained on).
+#[pyfunction]
+fn grasp_objects(config: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
+    let (options, model) = grasp_options(config)?;
+    pbd::grasp::eval::test_presentations(&options, &model.objects).py_err()
+}
+
+/// One trial of the grasp experiment (§6.5): test presentation `trial` of [`grasp_objects`],
+/// perceived, with `candidates` pre-grasps from the model and from the naive baseline, each executed
+/// in the sim (reach, close, lift 10 cm, held?). Returns `{trial, object, result: {object row, trials}}`:
+/// the same rows `pbd grasp eval` gives that object.
+#[pyfunction]
+fn grasp_trial(py: Python<'_>, config: &Bound<'_, PyAny>, trial: usize) -> PyResult<Py<PyAny>> {
+    let (options, model) = grasp_options(config)?;
+    let objects = pbd::grasp::eval::test_presentations(&options, &model.objects).py_err()?;
+    let Some(object) = objects.get(trial).cloned() else {
+        return Err(value_error(format!(
+            "trial {trial} is out of range: the experiment has {} test presentations",
+            objects.len()
+        )));
+    };
+    let (result, _) = runner::run(py, None, |_| {
+        pbd::grasp::eval::object_trial(&options, &model, trial, &object)
+    })?;
+    let d = pyo3::types::PyDict::new(py);
+    d.set_item("trial", trial)?;
+    d.set_item("object", object)?;
+    d.set_item("result", to_python(py, &result)?)?;
+    Ok(d.into_any().unbind())
+}
+
+/// Adds the functions to the `pbd._pbd.experiment` module.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(execute_trial, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp_trial, m)?)?;
+    m.add_function(wrap_pyfunction!(grasp_objects, m)?)?;
+    Ok(())
+}

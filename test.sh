@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# The one test command of pbd (README, Quick start; .ci/run runs it): the Rust tests of the workspace,
+# then the Python module built from this checkout and its pytest suite in a virtual environment.
+#
+#   ./test.sh            # both
+#   PBD_TEST=rust ./test.sh   or   PBD_TEST=python ./test.sh   # one of them
+#
+# The venv is $PBD_VENV (default .venv-test in the repository); it is reused between runs.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")"
+what="${PBD_TEST:-all}"
+
+if [ "$what" = all ] || [ "$what" = rust ]; then
+    echo "== Rust tests"
+    cargo test --workspace --release
+fi
+
+if [ "$what" = all ] || [ "$what" = python ]; then
+    echo "== Python module (crates/py) and its tests"
+    python="${PYTHON:-python3}"
+    venv="${PBD_VENV:-.venv-test}"
+    if [ ! -x "$venv/bin/python" ]; then
+        "$python" -m venv "$venv"
+    fi
+    "$venv/bin/python" -m pip install --quiet --upgrade pip
+    "$venv/bin/python" -m pip install --quiet pytest numpy
+    # Ray is large; without it the Ray test skips with a message.
+    "$venv/bin/python" -m pip install --quiet "ray>=2.40" || echo "WARNING: ray did not install; the Ray test will be SKIPPED" >&2
+    "$venv/bin/python" -m pip install --quiet --force-reinstall --no-deps ./crates/py
+    "$venv/bin/python" -m pytest -q -rs crates/py/tests
+fi
