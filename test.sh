@@ -26,6 +26,8 @@ if [ "$what" = all ] || [ "$what" = python ]; then
     "$venv/bin/python" -m pip install --quiet pytest numpy
     # Ray is large; without it the Ray test skips with a message.
     "$venv/bin/python" -m pip install --quiet "ray>=2.40" || echo "WARNING: ray did not install; the Ray test will be SKIPPED" >&2
-    "$venv/bin/python" -m pip install --quiet --force-reinstall --no-deps ./crates/py
+    # The module is built in the repository's target directory, so it reuses what the Rust tests built.
+    CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target}" \
+        "$venv/bin/python" -m pip install --quiet --force-reinstall --no-deps ./crates/py
     "$venv/bin/python" -m pytest -q -rs crates/py/tests
 fi
