@@ -3,6 +3,7 @@
 import json
 import subprocess
 import threading
+import time
 import _thread
 
 import numpy as np
@@ -89,13 +90,26 @@ def test_callback_exception_stops_the_recording(tmp_path):
 
 def test_ctrl_c_interrupts_a_long_call_and_keeps_the_file(tmp_path):
     path = tmp_path / "interrupted.mcap"
-    timer = threading.Timer(1.0, _thread.interrupt_main)
-    timer.start()
+    done = threading.Event()
+
+    def interrupt_once_recording():
+        # Ctrl-C once the recording is under way (its file exists), as a user would: a fixed delay
+        # raced the start of the call on a loaded machine.
+        deadline = time.monotonic() + 60.0
+        while not path.exists() and time.monotonic() < deadline and not done.is_set():
+            time.sleep(0.05)
+        time.sleep(0.5)
+        if not done.is_set():
+            _thread.interrupt_main()
+
+    helper = threading.Thread(target=interrupt_once_recording, daemon=True)
+    helper.start()
     try:
         with pytest.raises(KeyboardInterrupt):
             pbd.record(path, scene="sorting", script="sort")
     finally:
-        timer.cancel()
+        done.set()
+        helper.join()
     assert len(pbd.Demonstration.open(path)) > 0
 
 
