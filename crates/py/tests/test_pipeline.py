@@ -2,6 +2,7 @@
 
 import json
 import subprocess
+import signal
 import threading
 import time
 import _thread
@@ -102,6 +103,9 @@ def test_ctrl_c_interrupts_a_long_call_and_keeps_the_file(tmp_path):
         if not done.is_set():
             _thread.interrupt_main()
 
+    # A process started in the background by a shell (as CI may run this) inherits SIGINT ignored,
+    # and then interrupt_main() does nothing: give SIGINT Python's own handler for this test.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     helper = threading.Thread(target=interrupt_once_recording, daemon=True)
     helper.start()
     try:
@@ -110,6 +114,7 @@ def test_ctrl_c_interrupts_a_long_call_and_keeps_the_file(tmp_path):
     finally:
         done.set()
         helper.join()
+        signal.signal(signal.SIGINT, previous)
     assert len(pbd.Demonstration.open(path)) > 0
 
 
