@@ -73,6 +73,7 @@ pub mod progress;
 pub mod record;
 pub mod robot;
 pub mod sim;
+pub mod skills;
 pub mod table;
 
 pub use bayes::rng;

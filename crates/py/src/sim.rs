@@ -9,11 +9,24 @@ use pbd::dexter_sim::hardware::{CAMERAS, SimCameras, park_robot};
 use pbd::dexter_sim::physics::{DexterSim, SimSettings};
 use pbd::dexter_sim::scene::{BUILTIN_HOUSEHOLD, Catalog, Scene, SceneSpec};
 use pbd::dexter_sim::snapshot::FingertipWrench;
+use pbd::dexter_sim::pick_place::PickPlaceRequest;
+use pbd::sim::ArmChoice;
+use pbd::skills::SkillSession;
 use pyo3::prelude::*;
 
 use crate::errors::{IntoPy, Kind, error, value_error};
 use crate::json::{from_python, to_python};
 use crate::robot::vector;
+use crate::runner;
+
+fn arm_choice(arm: &str) -> PyResult<ArmChoice> {
+    match arm {
+        "auto" => Ok(ArmChoice::Auto),
+        "left" => Ok(ArmChoice::Left),
+        "right" => Ok(ArmChoice::Right),
+        other => Err(value_error(format!("arm: expected \"auto\", \"left\" or \"right\", got {other:?}"))),
+    }
+}
 
 fn iso_array<'py>(py: Python<'py>, pose: &pbd::control_basis::math::Iso3) -> Bound<'py, PyArray2<f64>> {
     let m = pose.to_homogeneous();
@@ -37,6 +50,7 @@ pub struct Sim {
     image: Image,
     mask: Vec<bool>,
     seed: u64,
+    skills: SkillSession,
 }
 
 impl Sim {
@@ -51,6 +65,7 @@ impl Sim {
             image: Image::new(1, 1),
             mask: Vec::new(),
             seed,
+            skills: SkillSession::new(seed),
         })
     }
 
@@ -316,6 +331,106 @@ impl Sim {
             )?;
         }
         Ok(d.into_any().unbind())
+    }
+
+    // ---- The robot's skills, one at a time (robot side: encoders, fingertip F/T, cameras only). ----
+
+    /// One percept of the head's stereo pair (§5.1.2), as the robot builds it from its own senses: a
+    /// dict with `segments` (track id, triangulated centroid, HSV histogram, colour terms, measured
+    /// extent), `hands` (palm, fingertip loads) and `places`.
+    fn perceive(&mut self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let (sim, scene, skills) = (&mut self.sim, &self.scene, &mut self.skills);
+        let (percept, _) = runner::run(py, None, |p| skills.perceive(sim, scene, &|| p.should_stop()))?;
+        to_python(py, &percept)
+    }
+
+    /// Search-Track (§3.3.3): foveate the head near `near` (x, y, z in m, a search hint), triangulate
+    /// the object there and measure its height and footprint (§6.2.1). Returns a report dict (`ok`,
+    /// `outcome`, `centroid`, `extent`, `sim_time`); the robot remembers the object for `grasp`.
+    fn locate(&mut self, py: Python<'_>, near: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
+        let v = vector(near, "near")?;
+        let near: [f64; 3] = v
+            .as_slice()
+            .try_into()
+            .map_err(|_| value_error(format!("near: expected 3 values (x, y, z), got {}", v.len())))?;
+        let (sim, scene, skills) = (&mut self.sim, &self.scene, &mut self.skills);
+        let (r, _) = runner::run(py, None, |p| skills.locate(sim, scene, near, &|| p.should_stop()))?;
+        to_python(py, &r)
+    }
+
+    /// Reach ◁ Grasp (§3.1, §6.5) on the located object: a top grasp planned from what vision
+    /// measured, pre-shape, descend, close until the grasp predicate converges, lift 10 cm and weigh
+    /// it through the fingertips. `arm`: "auto" (the object's side), "left" or "right";
+    /// `then_place`: a place the arm must also reach (the schema's arm choice). Returns a report dict
+    /// (`ok` = lifted and held, `arm`, `rose`, `weighed` in N).
+    #[pyo3(signature = (arm="auto", then_place=None))]
+    fn grasp(&mut self, py: Python<'_>, arm: &str, then_place: Option<String>) -> PyResult<Py<PyAny>> {
+        let arm = arm_choice(arm)?;
+        let (sim, scene, skills) = (&mut self.sim, &self.scene, &mut self.skills);
+        let (r, _) = runner::run(py, None, |p| {
+            skills.grasp(sim, scene, arm, then_place.as_deref(), &|| p.should_stop())
+        })?;
+        to_python(py, &r)
+    }
+
+    /// Carry the held object up to a safe height and over `place` (a place of the scene), watching
+    /// the fingertips. Returns a report dict.
+    fn transport(&mut self, py: Python<'_>, place: &str) -> PyResult<Py<PyAny>> {
+        let (sim, scene, skills) = (&mut self.sim, &self.scene, &mut self.skills);
+        let (r, _) = runner::run(py, None, |p| skills.transport(sim, scene, place, &|| p.should_stop()))?;
+        to_python(py, &r)
+    }
+
+    /// Lower the held object until the support takes its load, open the hand and retreat. Returns a
+    /// report dict.
+    fn place(&mut self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let (sim, scene, skills) = (&mut self.sim, &self.scene, &mut self.skills);
+        let (r, _) = runner::run(py, None, |p| skills.place(sim, scene, &|| p.should_stop()))?;
+        to_python(py, &r)
+    }
+
+    /// The arm holding an object ("left" / "right"), or None — the robot's belief from its skills.
+    #[getter]
+    fn holding(&self) -> Option<String> {
+        self.skills.holding().map(|a| a.to_string())
+    }
+
+    /// The whole pick-place schema (Search-Track → Reach ◁ Grasp → Transport → Place) on this world,
+    /// from where it is now: `object` and `place` default to the scene's first. Returns the report of
+    /// `pbd sim pick-place` (the placement judged by the world's evaluator).
+    #[pyo3(signature = (object=None, place=None, arm="auto"))]
+    fn pick_place(
+        &mut self,
+        py: Python<'_>,
+        object: Option<String>,
+        place: Option<String>,
+        arm: &str,
+    ) -> PyResult<Py<PyAny>> {
+        let arm = arm_choice(arm)?.arm();
+        let object = match object {
+            Some(o) => o,
+            None => self
+                .scene
+                .spec
+                .objects
+                .first()
+                .map(|o| o.presentation.clone())
+                .ok_or_else(|| value_error("the scene has no objects"))?,
+        };
+        let place = match place {
+            Some(p) => p,
+            None => self
+                .scene
+                .spec
+                .places
+                .first()
+                .map(|p| p.name.clone())
+                .ok_or_else(|| value_error("the scene has no places"))?,
+        };
+        let request = PickPlaceRequest { object, place, arm };
+        let (sim, scene, skills) = (&mut self.sim, &self.scene, &mut self.skills);
+        let (r, _) = runner::run(py, None, |p| skills.pick_place(sim, scene, &request, &|| p.should_stop()))?;
+        to_python(py, &r)
     }
 
     fn __repr__(&self) -> String {
