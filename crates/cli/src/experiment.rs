@@ -74,9 +74,13 @@ pub struct SortingArgs {
     /// Print the summary as JSON.
     #[arg(long)]
     json: bool,
-    /// Also write the rendered features to this JSON file.
-    #[arg(long, hide = true)]
+    /// Also write the rendered features to this JSON file (a feature bank).
+    #[arg(long)]
     dump_features: Option<PathBuf>,
+    /// Read the features from this JSON file (from --dump-features) instead of rendering the
+    /// catalog; --catalog and --views are then ignored.
+    #[arg(long, conflicts_with = "dump_features")]
+    features: Option<PathBuf>,
 }
 
 /// `pbd experiment execute` arguments.
@@ -135,10 +139,11 @@ fn sorting(a: SortingArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         seed: a.seed,
         output: a.output,
         dump_features: a.dump_features,
+        features: a.features,
     };
     let summary = pbd::experiment::sorting::run(&options, &Bars::new(a.json, true)?)?;
     for (path, figure) in &summary.figures {
-        crate::plots::draw(path, figure)?;
+        pbd::figure::draw(path, figure)?;
     }
     if a.json {
         let text = serde_json::to_string_pretty(&summary)?;
@@ -183,7 +188,7 @@ fn execute(a: ExecuteExperimentArgs, out: &mut dyn Write) -> anyhow::Result<()> 
         categories,
         groups: vec![("placed".into(), placed), ("failed".into(), failed)],
     };
-    crate::plots::draw(&run.output.join("outcomes.svg"), &figure)?;
+    pbd::figure::draw(&run.output.join("outcomes.svg"), &figure)?;
     if a.json {
         let text = serde_json::to_string_pretty(&run.summary)?;
         writeln!(out, "{text}")?;

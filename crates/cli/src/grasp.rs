@@ -264,7 +264,7 @@ pub fn main(cmd: GraspCommand, out: &mut dyn Write) -> anyhow::Result<()> {
                 output: a.output,
             };
             let summary = pbd::grasp::eval::run(&options, &Bars::new(a.json, true)?)?;
-            crate::plots::draw(
+            pbd::figure::draw(
                 &options.output.join("fig6_7.svg"),
                 &pbd::grasp::report::figure(&summary),
             )?;

@@ -74,9 +74,9 @@ fn explain_model(path: &Path, a: &LearnArgs, out: &mut dyn Write) -> Result<()> 
             .file_stem()
             .map_or("model".into(), |s| s.to_string_lossy().to_string());
         let sw = dir.join(format!("{stem}.swatches.png"));
-        crate::plots::swatches(&sw, &e.samples_by_place)?;
+        pbd::figure::swatches(&sw, &e.samples_by_place)?;
         let sd = dir.join(format!("{stem}.sizes.png"));
-        crate::plots::size_densities(&sd, &e.size_densities, &e.sampled_sizes)?;
+        pbd::figure::size_densities(&sd, &e.size_densities, &e.sampled_sizes)?;
         pictures.push(sw.display().to_string());
         pictures.push(sd.display().to_string());
     }

@@ -20,7 +20,6 @@ mod grasp;
 mod infer;
 mod learn;
 mod output;
-mod plots;
 mod progress;
 mod record;
 mod robot;

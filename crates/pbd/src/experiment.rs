@@ -54,6 +54,9 @@ pub struct SortingOptions {
     pub output: PathBuf,
     /// Also write the rendered features to this JSON file.
     pub dump_features: Option<PathBuf>,
+    /// Read the features from this JSON file (written by `dump_features`) instead of rendering the
+    /// catalog: the trials then run on exactly those features (`catalog` and `views` are ignored).
+    pub features: Option<PathBuf>,
 }
 
 impl Default for SortingOptions {
@@ -69,6 +72,7 @@ impl Default for SortingOptions {
             seed: 1,
             output: PathBuf::from("experiment-sorting"),
             dump_features: None,
+            features: None,
         }
     }
 }

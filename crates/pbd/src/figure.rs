@@ -1,8 +1,13 @@
-//! Figures as data: what an experiment wants drawn, for a front end to draw.
+//! Figures as data, and as SVG files.
 //!
 //! The library computes every figure's numbers and says where it belongs (`success.svg`,
-//! `roc.svg`, …); the CLI draws them with plotters, a notebook with matplotlib. Keeping pixels out of
-//! the library keeps its outputs (CSV, JSON, Markdown) bit-identical across platforms.
+//! `roc.svg`, …); [`draw`] writes one as an SVG file (plotters; a text format, so the same numbers
+//! give the same file on every platform) — the CLI and the Python module call it — and a notebook
+//! can draw the same data with matplotlib instead.
+
+mod svg;
+
+pub use svg::{draw, line_chart, pmf_grid, size_densities, swatches};
 
 use std::path::PathBuf;
 

@@ -133,7 +133,7 @@ impl SkillSession {
     fn hardware<'a>(&mut self, sim: &'a mut DexterSim, scene: &Scene, stop: Stop<'a>) -> anyhow::Result<SimRobot<'a>> {
         self.calls += 1;
         let seed = bayes::rng::split(self.seed ^ 0x5C11, self.calls);
-        Ok(SimRobot::new(sim, scene, seed)?.with_stop(Box::new(move || stop())))
+        Ok(SimRobot::new(sim, scene, seed)?.with_stop(Box::new(stop)))
     }
 
     /// One percept of the head's stereo pair (§5.1.2): the tracked segments (centroid, HSV histogram,

@@ -150,10 +150,104 @@ fn grasp_trial(py: Python<'_>, config: &Bound<'_, PyAny>, trial: usize) -> PyRes
     Ok(d.into_any().unbind())
 }
 
+/// The config of a sorting / relevance trial: the options of `pbd experiment sorting` for one number
+/// of examples per class, and where the features come from.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SortingConfig {
+    #[serde(default)]
+    feature: pbd::experiment::Feature,
+    /// Catalog TOML (default: the built-in household catalog); rendered once per process.
+    #[serde(default)]
+    catalog: Option<PathBuf>,
+    /// Or features already rendered (`pbd experiment sorting --dump-features FILE`).
+    #[serde(default)]
+    features: Option<PathBuf>,
+    #[serde(default)]
+    classes: Vec<String>,
+    #[serde(default)]
+    structure: Option<String>,
+    #[serde(default = "default_views")]
+    views: usize,
+    #[serde(default = "default_sorting_seed")]
+    seed: u64,
+    /// Examples per class.
+    #[serde(default = "default_examples")]
+    examples: usize,
+}
+
+fn default_views() -> usize {
+    4
+}
+fn default_sorting_seed() -> u64 {
+    1
+}
+fn default_examples() -> usize {
+    1
+}
+
+type BankKey = (Option<PathBuf>, Option<PathBuf>, usize, u64);
+
+/// Feature banks rendered or loaded in this process, by (catalog, features file, views, seed): a
+/// trial is a pure function of its config, the bank is only computed once.
+static BANKS: std::sync::Mutex<BTreeMap<BankKey, std::sync::Arc<pbd::experiment::features::FeatureBank>>> =
+    std::sync::Mutex::new(BTreeMap::new());
+
+/// One trial of the sorting (colour / size) or relevance experiment (§5.1–5.3): `examples` examples
+/// per class drawn by the seeded stream of trial `trial`, a procedural model learned from them, the
+/// held-out objects sorted (success rate, χ² against a random sorter — `None` with the reason when it
+/// cannot be computed) or scored for relevance (AUC of ln B10 (5.19), accuracy at the threshold).
+/// The same record as that trial's row of `pbd experiment sorting`'s CSV.
+#[pyfunction]
+#[pyo3(signature = (config, trial))]
+fn sorting_trial(py: Python<'_>, config: &Bound<'_, PyAny>, trial: usize) -> PyResult<Py<PyAny>> {
+    let c: SortingConfig = from_python(config, "sorting experiment config")?;
+    let options = pbd::experiment::SortingOptions {
+        feature: c.feature,
+        catalog: c.catalog.clone(),
+        trials: trial + 1,
+        max_examples: c.examples,
+        classes: c.classes.clone(),
+        structure: c.structure.clone(),
+        views: c.views,
+        seed: c.seed,
+        ..Default::default()
+    };
+    let (result, _) = runner::run(py, None, |progress| {
+        pbd::limits::check_count("views", c.views, pbd::limits::MAX_VIEWS)?;
+        let key: BankKey = (c.catalog.clone(), c.features.clone(), c.views, c.seed);
+        let cached = BANKS.lock().ok().and_then(|b| b.get(&key).cloned());
+        let bank = match cached {
+            Some(b) => b,
+            None => {
+                let bank = match &c.features {
+                    Some(path) => pbd::experiment::features::load_bank(path)?,
+                    None => {
+                        let catalog = match &c.catalog {
+                            Some(p) => pbd::dexter_sim::scene::Catalog::load(p)?,
+                            None => pbd::dexter_sim::scene::Catalog::builtin_household()?,
+                        };
+                        progress.phase("rendering", None);
+                        pbd::experiment::features::render_bank(&catalog, c.views, c.seed, || {})?
+                    }
+                };
+                let bank = std::sync::Arc::new(bank);
+                if let Ok(mut b) = BANKS.lock() {
+                    b.insert(key, bank.clone());
+                }
+                bank
+            }
+        };
+        pbd::experiment::sorting::trial(&options, &bank, c.examples, trial)
+    })?;
+    to_python(py, &result)
+}
+
 /// Adds the functions to the `pbd._pbd.experiment` module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(execute_trial, m)?)?;
     m.add_function(wrap_pyfunction!(grasp_trial, m)?)?;
     m.add_function(wrap_pyfunction!(grasp_objects, m)?)?;
+    m.add_function(wrap_pyfunction!(sorting_trial, m)?)?;
     Ok(())
 }

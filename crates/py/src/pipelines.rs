@@ -105,7 +105,37 @@ pub fn grasp_generate(py: Python<'_>, options: &Bound<'_, PyAny>, progress: Opti
 #[pyfunction]
 #[pyo3(signature = (options, progress=None))]
 pub fn grasp_eval(py: Python<'_>, options: &Bound<'_, PyAny>, progress: Option<Py<PyAny>>) -> PyResult<Outcome> {
-    pipeline(py, options, progress, "grasp eval options", pbd::grasp::eval::run)
+    pipeline(
+        py,
+        options,
+        progress,
+        "grasp eval options",
+        |o: &pbd::grasp::eval::EvalOptions, p| {
+            let summary = pbd::grasp::eval::run(o, p)?;
+            // Fig. 6.7, as `pbd grasp eval` draws it.
+            pbd::figure::draw(&o.output.join("fig6_7.svg"), &pbd::grasp::report::figure(&summary))?;
+            Ok(summary)
+        },
+    )
+}
+
+/// `pbd experiment sorting`: the sorting / relevance / incremental / selection experiments of
+/// §5.1–5.3 on features rendered from a catalog (or read from a feature bank); writes the CSVs,
+/// `summary.md` and the SVG figures into `output`.
+#[pyfunction]
+#[pyo3(signature = (options, progress=None))]
+pub fn experiment_sorting(
+    py: Python<'_>,
+    options: &Bound<'_, PyAny>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Outcome> {
+    pipeline(py, options, progress, "sorting experiment options", |o, p| {
+        let summary = pbd::experiment::sorting::run(o, p)?;
+        for (path, figure) in &summary.figures {
+            pbd::figure::draw(path, figure)?;
+        }
+        Ok(summary)
+    })
 }
 
 /// A recorded demonstration (an MCAP file of `pbd record`): percepts, ground truth, metadata, topics.

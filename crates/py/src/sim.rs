@@ -7,9 +7,9 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
 use pbd::control_basis::Image;
 use pbd::dexter_sim::hardware::{CAMERAS, SimCameras, park_robot};
 use pbd::dexter_sim::physics::{DexterSim, SimSettings};
+use pbd::dexter_sim::pick_place::PickPlaceRequest;
 use pbd::dexter_sim::scene::{BUILTIN_HOUSEHOLD, Catalog, Scene, SceneSpec};
 use pbd::dexter_sim::snapshot::FingertipWrench;
-use pbd::dexter_sim::pick_place::PickPlaceRequest;
 use pbd::sim::ArmChoice;
 use pbd::skills::SkillSession;
 use pyo3::prelude::*;
@@ -24,7 +24,9 @@ fn arm_choice(arm: &str) -> PyResult<ArmChoice> {
         "auto" => Ok(ArmChoice::Auto),
         "left" => Ok(ArmChoice::Left),
         "right" => Ok(ArmChoice::Right),
-        other => Err(value_error(format!("arm: expected \"auto\", \"left\" or \"right\", got {other:?}"))),
+        other => Err(value_error(format!(
+            "arm: expected \"auto\", \"left\" or \"right\", got {other:?}"
+        ))),
     }
 }
 
@@ -429,7 +431,9 @@ impl Sim {
         };
         let request = PickPlaceRequest { object, place, arm };
         let (sim, scene, skills) = (&mut self.sim, &self.scene, &mut self.skills);
-        let (r, _) = runner::run(py, None, |p| skills.pick_place(sim, scene, &request, &|| p.should_stop()))?;
+        let (r, _) = runner::run(py, None, |p| {
+            skills.pick_place(sim, scene, &request, &|| p.should_stop())
+        })?;
         to_python(py, &r)
     }
 

@@ -4,7 +4,7 @@ import pytest
 
 import pbd
 from pbd.experiment import strip_timing
-from conftest import GRASP_MODEL, MODEL
+from conftest import GRASP_MODEL, HERE, MODEL
 
 CONFIG = {
     "model": str(MODEL),
@@ -50,7 +50,36 @@ def test_grasp_trials_give_the_rows_of_pbd_grasp_eval(tmp_path):
     results = pbd.experiment.run(config, None, kind="grasp", progress=False)
     assert [r["object"] for r in results] == objects
     summary = pbd.grasp.eval(tmp_path / "eval", **config)
+    assert (tmp_path / "eval" / "fig6_7.svg").read_text().startswith("<svg")
     assert [r["result"]["object"] for r in results] == summary["objects"]
     assert all(len(r["result"]["trials"]) == 4 for r in results)
     with pytest.raises(pbd.PbdValueError, match="out of range"):
         pbd.experiment.grasp_trial(config, 2)
+
+
+FEATURES = str(HERE.parents[1] / "pbd" / "tests" / "data" / "household_features.json")
+
+
+def test_sorting_trials_are_the_rows_of_the_sorting_experiment(tmp_path):
+    import csv
+
+    config = {"feature": "color", "classes": ["red", "blue", "green"], "features": FEATURES, "seed": 5}
+    summary = pbd.experiment.sorting(tmp_path / "out", trials=3, max_examples=2, **config)
+    assert (tmp_path / "out" / "success.svg").stat().st_size > 0
+    with open(tmp_path / "out" / "success.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 6 and summary["rows"]
+    for row in rows:
+        n, t = int(row["examples_per_class"]), int(row["trial"])
+        r = pbd.experiment.sorting_trial(dict(config, examples=n), t)
+        assert (r["correct"], r["tested"]) == (int(row["correct"]), int(row["tested"]))
+        assert f"{r['success_rate']:.6f}" == row["success_rate"]
+        assert r["map_structure"] == row["map_structure"]
+        p = r["chi2_p_value"]
+        assert (row["chi2_p_value"] == "NA") if p is None else abs(p / float(row["chi2_p_value"]) - 1) < 1e-5
+    local = pbd.experiment.run(dict(config, examples=1), 3, kind="sorting", progress=False)
+    assert [r["trial"] for r in local] == [0, 1, 2]
+    with pytest.raises(pbd.PbdError, match="examples"):
+        pbd.experiment.sorting_trial(dict(config, examples=1000), 0)
+    with pytest.raises(pbd.PbdValueError):
+        pbd.experiment.sorting_trial(dict(config, colour="red"), 0)

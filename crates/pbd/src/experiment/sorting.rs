@@ -97,7 +97,7 @@ fn view<'a>(bank: &'a FeatureBank, rng: &mut Generator, p: usize) -> &'a Feature
 struct TrialResult {
     correct: usize,
     total: usize,
-    p_value: f64,
+    p_value: Result<f64, String>,
     model: ProceduralModel,
     /// (score ln B10, is_task_object) for the relevance test set.
     scores: Vec<(f64, bool)>,
@@ -148,7 +148,7 @@ fn sorting_trial(
         scores.push((model.predict(f)?.relevance.bayes_factor.log_b10, false));
     }
     // χ² against a random sorter: is the predicted bin independent of the true class?
-    let p_value = chi2_contingency(&confusion, false).map_or(1.0, |t| t.p_value);
+    let p_value = chi2_against_random(&confusion);
     Ok(TrialResult {
         correct,
         total: test.len(),
@@ -156,6 +156,160 @@ fn sorting_trial(
         model,
         scores,
     })
+}
+
+/// Pearson's χ² test of independence of a confusion table (rows: true class, columns: predicted
+/// place) — does the sorter do better than one that ignores the object? A place never predicted (an
+/// all-zero column) carries no count and makes the expected table singular (scipy refuses such a
+/// table), so it is left out; the test cannot be computed when fewer than two true classes or two
+/// predicted places remain (e.g. every object put in one place). `Err` says why — never p = 1.
+pub fn chi2_against_random(confusion: &[Vec<f64>]) -> Result<f64, String> {
+    let rows: Vec<usize> = (0..confusion.len())
+        .filter(|&i| confusion[i].iter().sum::<f64>() > 0.0)
+        .collect();
+    let cols = confusion.first().map_or(0, Vec::len);
+    let cols: Vec<usize> = (0..cols)
+        .filter(|&j| confusion.iter().map(|r| r[j]).sum::<f64>() > 0.0)
+        .collect();
+    if rows.len() < 2 {
+        return Err("fewer than two classes among the tested objects".into());
+    }
+    if cols.len() < 2 {
+        return Err("every tested object was put in one place".into());
+    }
+    let table: Vec<Vec<f64>> = rows
+        .iter()
+        .map(|&i| cols.iter().map(|&j| confusion[i][j]).collect())
+        .collect();
+    chi2_contingency(&table, false)
+        .map(|t| t.p_value)
+        .map_err(|e| format!("χ² test: {e}"))
+}
+
+/// One trial of the colour / size sorting or the relevance experiment, as a pure function of the
+/// options, the rendered features, the number of examples per class and the trial index: the same
+/// record the CSVs hold, identical to that trial of [`run`] / [`run_on_bank`] (each trial draws from
+/// its own seeded stream), so any scheduler (Ray, a cluster, a notebook) can run trials one by one.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct TrialRecord {
+    /// `color`, `size` or `relevance`.
+    pub experiment: String,
+    /// Examples per class the model learned from.
+    pub examples_per_class: usize,
+    /// Trial index.
+    pub trial: usize,
+    /// Test objects put in their class's place.
+    pub correct: usize,
+    /// Test objects.
+    pub tested: usize,
+    /// correct / tested.
+    pub success_rate: f64,
+    /// χ² p-value against a random sorter, when it can be computed.
+    pub chi2_p_value: Option<f64>,
+    /// Why the χ² test could not be computed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chi2_not_computed: Option<String>,
+    /// MAP connectivity structure of the learned model (§5.3).
+    pub map_structure: String,
+    /// Its posterior probability.
+    pub map_structure_probability: f64,
+    /// Relevance: ROC AUC of ln B10 (task objects against all others).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auc: Option<f64>,
+    /// Relevance: fraction of objects the decision ln B10 > threshold gets right.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub accuracy_at_threshold: Option<f64>,
+}
+
+/// The fixed parts of a run: classes, pools, negatives.
+struct Setup {
+    classes: Vec<String>,
+    hyper: Hyper,
+    pools: Vec<Vec<usize>>,
+    negatives: Vec<usize>,
+    max_n: usize,
+}
+
+fn setup(args: &SortingOptions, bank: &FeatureBank) -> anyhow::Result<Setup> {
+    let (classes, label, hyper) = plan(args)?;
+    if !matches!(args.feature, Feature::Color | Feature::Size | Feature::Relevance) {
+        bail!(
+            "feature {:?}: trials one by one exist for color, size and relevance",
+            format!("{:?}", args.feature).to_lowercase()
+        );
+    }
+    let pools = class_pools(bank, label, &classes, 2)?;
+    let negatives = if args.feature == Feature::Relevance {
+        let l = labels(bank, label);
+        let n: Vec<usize> = (0..l.len())
+            .filter(|&i| !l[i].is_some_and(|c| classes.iter().any(|k| k == c)))
+            .collect();
+        if n.is_empty() {
+            bail!("every presentation belongs to the task's classes: nothing to reject");
+        }
+        n
+    } else {
+        Vec::new()
+    };
+    let max_n = pools.iter().map(Vec::len).min().unwrap_or(1) - 1;
+    let max_n = args.max_examples.min(max_n).max(1);
+    Ok(Setup {
+        classes,
+        hyper,
+        pools,
+        negatives,
+        max_n,
+    })
+}
+
+/// One trial and its (ln B10, is-a-task-object) scores (for the pooled ROC curve).
+fn run_trial(
+    args: &SortingOptions,
+    bank: &FeatureBank,
+    s: &Setup,
+    n: usize,
+    t: usize,
+) -> anyhow::Result<(TrialRecord, Vec<(f64, bool)>)> {
+    let salt = if args.feature == Feature::Relevance { 2 } else { 1 };
+    let mut rng = trial_rng(args.seed, salt, n, t);
+    let r = sorting_trial(bank, &s.pools, &s.classes, &s.hyper, n, &mut rng, &s.negatives)?;
+    let sp = r.model.structure_posterior()?;
+    let (auc_value, accuracy) = if args.feature == Feature::Relevance {
+        let th = s.hyper.relevance_log_threshold;
+        let right = r.scores.iter().filter(|(x, pos)| (*x > th) == *pos).count();
+        (Some(auc(&r.scores)), Some(right as f64 / r.scores.len().max(1) as f64))
+    } else {
+        (None, None)
+    };
+    let record = TrialRecord {
+        experiment: format!("{:?}", args.feature).to_lowercase(),
+        examples_per_class: n,
+        trial: t,
+        correct: r.correct,
+        tested: r.total,
+        success_rate: r.correct as f64 / r.total.max(1) as f64,
+        chi2_p_value: r.p_value.as_ref().ok().copied(),
+        chi2_not_computed: r.p_value.err(),
+        map_structure: sp.map().name().to_string(),
+        map_structure_probability: sp.map_probability(),
+        auc: auc_value,
+        accuracy_at_threshold: accuracy,
+    };
+    Ok((record, r.scores))
+}
+
+/// Trial `trial` with `examples` examples per class of the experiment `args` on `bank` (see
+/// [`TrialRecord`]). `examples` must lie in 1..=the largest the classes allow.
+pub fn trial(args: &SortingOptions, bank: &FeatureBank, examples: usize, trial: usize) -> anyhow::Result<TrialRecord> {
+    let s = setup(args, bank)?;
+    if examples == 0 || examples > s.max_n {
+        bail!(
+            "examples = {examples}: this experiment runs 1..={} examples per class (the smallest class has {} presentations, one is kept for testing)",
+            s.max_n,
+            s.max_n + 1
+        );
+    }
+    Ok(run_trial(args, bank, &s, examples, trial)?.0)
 }
 
 fn mean_sd(xs: &[f64]) -> (f64, f64) {
@@ -198,6 +352,9 @@ pub struct Row {
     /// Maximum χ² p-value.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_p: Option<f64>,
+    /// Trials whose χ² test could be computed (the p-value columns summarise these).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub p_computed: Option<usize>,
 }
 
 /// The JSON summary.
@@ -236,6 +393,13 @@ pub struct Summary {
 /// `pbd experiment sorting`: renders the catalog's features, runs the trials, writes the CSVs and
 /// `summary.md`; the figures are returned in [`Summary::figures`] for the caller to draw.
 pub fn run(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Summary> {
+    if let Some(path) = &args.features {
+        if args.dump_features.is_some() {
+            bail!("features and dump_features: give one (features are read, not rendered)");
+        }
+        let bank = super::features::load_bank(path)?;
+        return run_on_bank(args, &bank, progress);
+    }
     let catalog = match &args.catalog {
         Some(p) => Catalog::load(p)?,
         None => Catalog::builtin_household()?,
@@ -343,8 +507,8 @@ fn run_with(
         markdown: String::new(),
     };
     match args.feature {
-        Feature::Color | Feature::Size => sorting(args, progress, bank, &hyper, label, &classes, &mut summary)?,
-        Feature::Relevance => relevance(args, progress, bank, &hyper, label, &classes, &mut summary)?,
+        Feature::Color | Feature::Size => sorting(args, progress, bank, &classes, &mut summary)?,
+        Feature::Relevance => relevance(args, progress, bank, &classes, &mut summary)?,
         Feature::Incremental => incremental(args, progress, bank, &hyper, label, &classes, &mut summary)?,
         Feature::Selection => selection(args, progress, bank, &hyper, &mut summary)?,
     }
@@ -393,35 +557,37 @@ fn sorting(
     args: &SortingOptions,
     progress: &dyn Progress,
     bank: &FeatureBank,
-    hyper: &Hyper,
-    label: Label,
     classes: &[String],
     summary: &mut Summary,
 ) -> anyhow::Result<()> {
-    let pools = class_pools(bank, label, classes, 2)?;
-    let max_n = pools.iter().map(Vec::len).min().unwrap_or(1) - 1;
-    let max_n = args.max_examples.min(max_n).max(1);
+    let setup = setup(args, bank)?;
+    let max_n = setup.max_n;
     progress.phase("trials", Some((max_n * args.trials) as u64));
     let mut csv = Vec::new();
     let mut rows = Vec::new();
+    let mut not_computed = Vec::new();
     for n in 1..=max_n {
         let mut rates = Vec::new();
         let mut ps = Vec::new();
         for t in 0..args.trials {
-            let mut rng = trial_rng(args.seed, 1, n, t);
-            let r = sorting_trial(bank, &pools, classes, hyper, n, &mut rng, &[])?;
-            let rate = r.correct as f64 / r.total.max(1) as f64;
-            let sp = r.model.structure_posterior()?;
+            let (r, _) = run_trial(args, bank, &setup, n, t)?;
             csv.push(format!(
-                "{n},{t},{},{},{rate:.6},{:.6e},{},{:.6}",
+                "{n},{t},{},{},{:.6},{},{},{:.6}",
                 r.correct,
-                r.total,
-                r.p_value,
-                sp.map().name(),
-                sp.map_probability()
+                r.tested,
+                r.success_rate,
+                r.chi2_p_value.map_or("NA".to_string(), |p| format!("{p:.6e}")),
+                r.map_structure,
+                r.map_structure_probability
             ));
-            rates.push(rate);
-            ps.push(r.p_value);
+            rates.push(r.success_rate);
+            match (r.chi2_p_value, r.chi2_not_computed) {
+                (Some(p), _) => ps.push(p),
+                (None, why) => not_computed.push(format!(
+                    "{n} example(s), trial {t}: χ² not computed ({})",
+                    why.unwrap_or_default()
+                )),
+            }
             progress.advance(1);
         }
         let (mean, sd) = mean_sd(&rates);
@@ -429,9 +595,17 @@ fn sorting(
             examples: n,
             mean,
             sd,
-            median_p: Some(median(&ps)),
-            max_p: Some(ps.iter().copied().fold(0.0, f64::max)),
+            median_p: (!ps.is_empty()).then(|| median(&ps)),
+            max_p: (!ps.is_empty()).then(|| ps.iter().copied().fold(0.0, f64::max)),
+            p_computed: Some(ps.len()),
         });
+    }
+    if !not_computed.is_empty() {
+        summary.notes.push(format!(
+            "the χ² test could not be computed in {} trial(s) (NA in success.csv; the p-value columns summarise the others): {}",
+            not_computed.len(),
+            not_computed.iter().take(5).cloned().collect::<Vec<_>>().join("; ")
+        ));
     }
     progress.finish();
     let dir = &args.output;
@@ -477,7 +651,7 @@ fn sorting(
                     label: "maximum".into(),
                     points: rows
                         .iter()
-                        .map(|r| (r.examples as f64, r.max_p.unwrap_or(1.0).max(floor)))
+                        .filter_map(|r| Some((r.examples as f64, r.max_p?.max(floor))))
                         .collect(),
                     errors: vec![],
                 },
@@ -485,7 +659,7 @@ fn sorting(
                     label: "median".into(),
                     points: rows
                         .iter()
-                        .map(|r| (r.examples as f64, r.median_p.unwrap_or(1.0).max(floor)))
+                        .filter_map(|r| Some((r.examples as f64, r.median_p?.max(floor))))
                         .collect(),
                     errors: vec![],
                 },
@@ -505,21 +679,11 @@ fn relevance(
     args: &SortingOptions,
     progress: &dyn Progress,
     bank: &FeatureBank,
-    hyper: &Hyper,
-    label: Label,
     classes: &[String],
     summary: &mut Summary,
 ) -> anyhow::Result<()> {
-    let pools = class_pools(bank, label, classes, 2)?;
-    let l = labels(bank, label);
-    let negatives: Vec<usize> = (0..l.len())
-        .filter(|&i| !l[i].is_some_and(|c| classes.iter().any(|k| k == c)))
-        .collect();
-    if negatives.is_empty() {
-        bail!("every presentation belongs to the task's classes: nothing to reject");
-    }
-    let max_n = pools.iter().map(Vec::len).min().unwrap_or(1) - 1;
-    let max_n = args.max_examples.min(max_n).max(1);
+    let setup = setup(args, bank)?;
+    let max_n = setup.max_n;
     progress.phase("trials", Some((max_n * args.trials) as u64));
     let mut csv = Vec::new();
     let mut rows = Vec::new();
@@ -530,15 +694,12 @@ fn relevance(
         let mut pooled = Vec::new();
         let mut acc = Vec::new();
         for t in 0..args.trials {
-            let mut rng = trial_rng(args.seed, 2, n, t);
-            let r = sorting_trial(bank, &pools, classes, hyper, n, &mut rng, &negatives)?;
-            let a = auc(&r.scores);
-            let th = hyper.relevance_log_threshold;
-            let right = r.scores.iter().filter(|(s, pos)| (*s > th) == *pos).count();
-            acc.push(right as f64 / r.scores.len().max(1) as f64);
-            csv.push(format!("{n},{t},{a:.6},{:.6}", acc[acc.len() - 1]));
+            let (r, scores) = run_trial(args, bank, &setup, n, t)?;
+            let (a, right) = (r.auc.unwrap_or(f64::NAN), r.accuracy_at_threshold.unwrap_or(f64::NAN));
+            acc.push(right);
+            csv.push(format!("{n},{t},{a:.6},{right:.6}"));
             aucs.push(a);
-            pooled.extend(r.scores);
+            pooled.extend(scores);
             progress.advance(1);
         }
         let (mean, sd) = mean_sd(&aucs);
@@ -548,11 +709,12 @@ fn relevance(
             sd,
             median_p: None,
             max_p: None,
+            p_computed: None,
         });
         let (am, asd) = mean_sd(&acc);
         accuracy_notes.push(format!(
             "{n} example(s) per class: decision ln B10 > {} is right for {:.3} ± {:.3} of the objects",
-            hyper.relevance_log_threshold, am, asd
+            setup.hyper.relevance_log_threshold, am, asd
         ));
         curves.push(Series {
             label: format!("{n} per class"),
@@ -812,6 +974,7 @@ fn selection(
                 sd,
                 median_p: None,
                 max_p: None,
+                p_computed: None,
             });
         }
         series.push(Series {
@@ -849,6 +1012,12 @@ fn selection(
     Ok(())
 }
 
+impl std::fmt::Display for Summary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&markdown(self))
+    }
+}
+
 fn markdown(s: &Summary) -> String {
     let mut md = format!(
         "# pbd experiment sorting --feature {}\n\ncatalog `{}`, classes {}, structure `{}`, {} trials, seed {}; \
@@ -865,19 +1034,24 @@ fn markdown(s: &Summary) -> String {
     );
     for (name, rows) in &s.rows {
         md.push_str(&format!("\n## {name}\n\n"));
-        let with_p = rows.iter().any(|r| r.median_p.is_some());
+        let with_p = rows.iter().any(|r| r.p_computed.is_some());
         if with_p {
-            md.push_str("| examples per class | mean | sd | median χ² p | max χ² p |\n|---:|---:|---:|---:|---:|\n");
+            md.push_str(
+                "| examples per class | mean | sd | median χ² p | max χ² p | χ² computed in |\n|---:|---:|---:|---:|---:|---:|\n",
+            );
         } else {
             md.push_str("| examples per class | mean | sd |\n|---:|---:|---:|\n");
         }
         for r in rows {
             md.push_str(&format!("| {} | {:.3} | {:.3} |", r.examples, r.mean, r.sd));
             if with_p {
+                let p = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.2e}"));
                 md.push_str(&format!(
-                    " {:.2e} | {:.2e} |",
-                    r.median_p.unwrap_or(f64::NAN),
-                    r.max_p.unwrap_or(f64::NAN)
+                    " {} | {} | {}/{} trials |",
+                    p(r.median_p),
+                    p(r.max_p),
+                    r.p_computed.unwrap_or(0),
+                    s.trials
                 ));
             }
             md.push('\n');

@@ -18,6 +18,9 @@ Kinds of trial (``kind=``):
 - ``"grasp"`` (:func:`grasp_trial`): test object ``trial`` of the grasp evaluation (§6.5), every
   candidate of the prototype model and of the naive baseline executed (``pbd grasp eval``, one
   object); ``trials=None`` runs every test object.
+- ``"sorting"`` (:func:`sorting_trial`): trial ``trial`` of the sorting or relevance experiment of
+  §5.1–5.3 (``pbd experiment sorting``): a procedural model learned from ``examples`` examples per
+  class, the held-out objects sorted (or scored by ln B₁₀ (5.19) for relevance).
 """
 
 from __future__ import annotations
@@ -28,8 +31,9 @@ import tempfile
 from typing import Any, Callable, Dict, Iterable, List, Optional, Union
 
 from . import _pbd
+from ._util import Report, _options, _progress, _report
 
-__all__ = ["execute_trial", "grasp_trial", "grasp_objects", "run", "trial", "strip_timing", "KINDS"]
+__all__ = ["execute_trial", "grasp_trial", "sorting_trial", "sorting", "grasp_objects", "run", "trial", "strip_timing", "KINDS"]
 
 
 def _materialize(config: Dict[str, Any], tmp: str) -> Dict[str, Any]:
@@ -83,6 +87,39 @@ def grasp_trial(config: Dict[str, Any], trial: int) -> Dict[str, Any]:
         return _pbd.experiment.grasp_trial(_materialize(_inline_model(config), tmp), int(trial))
 
 
+def sorting_trial(config: Dict[str, Any], trial: int) -> Dict[str, Any]:
+    """One trial of the sorting or relevance experiment (§5.1–5.3), a pure function of
+    ``(config, trial)``: ``examples`` examples per class drawn by the seeded stream of the trial, a
+    procedural model learned from them (Eqs. 5.1–5.18), the held-out objects sorted by the MAP place,
+    or scored by the Bayes factor ln B₁₀ (5.19) against the other objects for ``relevance``.
+
+    ``config``: ``feature`` (``color`` | ``size`` | ``relevance``), ``classes`` (default red, blue /
+    small, large), ``examples`` (per class, 1), ``seed`` (1), ``views`` (4), ``structure``, and
+    ``catalog`` (TOML path; default the built-in household catalog — rendered once per process) or
+    ``features`` (a bank written by ``pbd experiment sorting --dump-features``). Returns the trial's
+    row of the experiment's CSV: ``correct``, ``tested``, ``success_rate``, ``chi2_p_value`` (``None``
+    with ``chi2_not_computed`` saying why when the test cannot be computed), ``map_structure``,
+    ``map_structure_probability``, and for relevance ``auc`` and ``accuracy_at_threshold``.
+    """
+    config = dict(config)
+    if config.get("features") is not None:
+        config["features"] = os.fspath(config["features"])
+    if config.get("catalog") is not None:
+        config["catalog"] = os.fspath(config["catalog"])
+    return _pbd.experiment.sorting_trial(config, int(trial))
+
+
+def sorting(output: "os.PathLike[str] | str" = "experiment-sorting", *, progress: Any = None,
+            **options: Any) -> Report:
+    """The whole sorting experiment (``pbd experiment sorting``): ``feature`` (``color`` | ``size`` |
+    ``relevance`` | ``incremental`` | ``selection``), ``classes``, ``trials``, ``max_examples``,
+    ``structure``, ``views``, ``seed``, ``catalog`` or ``features`` (a feature bank), ``dump_features``.
+    Writes the CSVs, ``summary.md`` and the SVG figures into ``output``; returns the summary
+    (``rows`` per class set and number of examples, ``notes``, ``files``). One trial of it:
+    :func:`sorting_trial`."""
+    return _report(_pbd.experiment_sorting(_options(output=output, **options), _progress(progress)))
+
+
 def _inline_model(config: Dict[str, Any]) -> Dict[str, Any]:
     config = dict(config)
     model = config.get("model")
@@ -95,6 +132,7 @@ def _inline_model(config: Dict[str, Any]) -> Dict[str, Any]:
 KINDS: Dict[str, Callable[[Dict[str, Any], int], Dict[str, Any]]] = {
     "execute": execute_trial,
     "grasp": grasp_trial,
+    "sorting": sorting_trial,
 }
 
 

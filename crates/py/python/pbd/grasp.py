@@ -41,7 +41,6 @@ def generate(model: "os.PathLike[str] | str", object: str, *, progress: Any = No
 
 def eval(output: "os.PathLike[str] | str" = "grasp-eval", *, progress: Any = None, **options: Any) -> Report:  # noqa: A001
     """The §6.5 experiment (``pbd grasp eval``): ``model`` or ``corpus`` (else record and learn here),
-    ``test`` / ``objects``, ``candidates``, ``seed``; writes the report files into ``output``. The Fig. 6.7
-    plot (``fig6_7.svg``, listed in ``files``) is drawn by the ``pbd`` command only: from Python, plot
-    ``report["objects"]`` (successes per object and method) with your own tools."""
+    ``test`` / ``objects``, ``candidates``, ``seed``; writes the report files into ``output``, with the
+    Fig. 6.7 plot ``fig6_7.svg`` (successes per test object, model against naive)."""
     return _report(_pbd.grasp_eval(_options(output=output, **options), _progress(progress)))

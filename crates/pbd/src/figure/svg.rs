@@ -4,11 +4,11 @@
 
 use std::path::Path;
 
-use pbd::bayes::univariate::StudentT;
-use pbd::dexter::vision::color::hsv_to_rgb;
-use pbd::figure::{Figure, LineChart, Series};
-use pbd::schema::procedural::{COLORS, Features, term_hsv};
+use super::{Figure, LineChart, Series};
+use bayes::univariate::StudentT;
+use dexter::vision::color::hsv_to_rgb;
 use plotters::prelude::*;
+use schema::procedural::{COLORS, Features, term_hsv};
 
 const PALETTE: [RGBColor; 6] = [
     RGBColor(31, 119, 180),
