@@ -218,3 +218,97 @@ fn execute_stops_on_sigint_with_a_complete_log() {
     assert!(o.status.success(), "the log is complete: {}", stderr(&o));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Files that contradict themselves are refused, naming the file and the field: an inference with
+/// posteriors outside [0, 1], an instance that ends before it starts, a name with a control
+/// character, the same demonstration twice; a procedural model with a share above 1; a grasp model
+/// whose prototype counts disagree with its assignments.
+#[test]
+fn self_contradicting_files_are_refused() {
+    let d = dir("contradict");
+    let demo = d.join("touch.mcap");
+    let o = pbd(&["record", "--script", "touch", "--seed", "2", "-o", &s(&demo)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let inf = d.join("touch.infer.json");
+    let o = pbd(&["infer", &s(&demo), "-o", &s(&inf)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let good: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&inf).unwrap()).unwrap();
+    assert!(
+        !good["inference"]["instances"].as_array().unwrap().is_empty(),
+        "the touch demo has an instance"
+    );
+    let model = s(&d.join("m.json"));
+    let bad = |name: &str, edit: &dyn Fn(&mut serde_json::Value), needles: &[&str]| {
+        let mut v = good.clone();
+        edit(&mut v);
+        let p = d.join(name);
+        std::fs::write(&p, v.to_string()).unwrap();
+        let mut all = vec![s(&p)];
+        all.extend(needles.iter().map(|n| n.to_string()));
+        refused(
+            &["learn", &s(&p), "-o", &model],
+            &all.iter().map(String::as_str).collect::<Vec<_>>(),
+        );
+    };
+    bad(
+        "p.json",
+        &|v| v["inference"]["posterior"]["hypotheses"][0]["posterior"] = 1.5.into(),
+        &["inference.posterior.hypotheses[0].posterior", "[0, 1]"],
+    );
+    bad(
+        "sum.json",
+        &|v| {
+            let h = &mut v["inference"]["posterior"]["hypotheses"];
+            let n = h.as_array().unwrap().len();
+            for i in 0..n {
+                h[i]["posterior"] = 0.5.into();
+            }
+        },
+        &["sum to 1"],
+    );
+    bad(
+        "t.json",
+        &|v| {
+            let i = &mut v["inference"]["instances"][0];
+            let end = i["t_end"].as_f64().unwrap();
+            i["t_start"] = (end + 1.0).into();
+        },
+        &["inference.instances[0]", "t_start"],
+    );
+    bad(
+        "ctl.json",
+        &|v| v["inference"]["instances"][0]["schema"] = "touch\u{1b}[31m".into(),
+        &["inference.instances[0].schema", "control character"],
+    );
+    // The same demonstration twice (by another path): refused, not counted twice.
+    let o = pbd(&["learn", &s(&inf), &format!("{}/./touch.infer.json", d.display()), "-o", &model]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("given twice"), "{}", stderr(&o));
+    assert!(!d.join("m.json").exists(), "nothing written");
+
+    // A procedural model whose colour share is above 1.
+    let m: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("crates/py/tests/data/sorting-model.json")).unwrap(),
+    )
+    .unwrap();
+    let mut m2 = m.clone();
+    m2["hyper"]["color"]["chromatic_share"] = 2.0.into();
+    let p = d.join("share.json");
+    std::fs::write(&p, m2.to_string()).unwrap();
+    refused(&["learn", "--explain", &s(&p)], &["share.json", "chromatic_share", "[0, 1]"]);
+
+    // A grasp model whose prototype count disagrees with its assignments.
+    let g: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("crates/py/tests/data/grasp-prototypes.json")).unwrap(),
+    )
+    .unwrap();
+    let mut g2 = g.clone();
+    let c = g2["prototypes"][0]["count"].as_u64().unwrap();
+    g2["prototypes"][0]["count"] = (c + 5).into();
+    let p = d.join("grasp.json");
+    std::fs::write(&p, g2.to_string()).unwrap();
+    refused(
+        &["grasp", "generate", "--model", &s(&p), "--object", "jif-1"],
+        &["grasp.json", "prototypes[0].count", "assignments"],
+    );
+}

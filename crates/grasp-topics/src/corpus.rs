@@ -336,7 +336,10 @@ impl Corpus {
             path: path.display().to_string(),
             source,
         })?;
-        Self::from_json_str(&text)
+        Self::from_json_str(&text).map_err(|e| GraspError::InFile {
+            path: path.display().to_string(),
+            error: Box::new(e),
+        })
     }
 
     /// Writes the corpus as JSON.

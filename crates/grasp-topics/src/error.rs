@@ -61,6 +61,14 @@ pub enum GraspError {
         /// The name asked for.
         name: String,
     },
+    /// A file's content is wrong (the error says what and where in it).
+    #[error("{path}: {error}")]
+    InFile {
+        /// The file.
+        path: String,
+        /// What is wrong in it.
+        error: Box<GraspError>,
+    },
     /// The file could not be read or written.
     #[error("cannot read or write {path}")]
     Io {

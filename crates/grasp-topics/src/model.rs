@@ -701,11 +701,58 @@ impl GraspModel {
                 return Err(invalid(format!("{f}.appearance.dof"), "must be > 1"));
             }
         }
+        let mut assigned = vec![0usize; self.prototypes.len()];
         for (m, row) in self.assignments.iter().enumerate() {
             if let Some(&j) = row.iter().find(|&&j| j >= self.prototypes.len()) {
                 return Err(invalid(
                     format!("assignments[{m}]"),
                     format!("prototype {j} does not exist"),
+                ));
+            }
+            for &j in row {
+                assigned[j] += 1;
+            }
+        }
+        for (i, name) in self.objects.iter().enumerate() {
+            if name.is_empty() || name.chars().any(char::is_control) {
+                return Err(invalid(
+                    format!("objects[{i}]"),
+                    format!("{name:?}: names must be non-empty, without control characters"),
+                ));
+            }
+        }
+        // The summaries must agree with the data they summarise.
+        for (j, p) in self.prototypes.iter().enumerate() {
+            let f = format!("prototypes[{j}]");
+            if p.count != assigned[j] {
+                return Err(invalid(
+                    format!("{f}.count"),
+                    format!("{} grasps, but the assignments give it {}", p.count, assigned[j]),
+                ));
+            }
+            if p.orientation_counts.len() != q {
+                return Err(GraspError::DimensionMismatch {
+                    field: format!("{f}.orientation_counts"),
+                    expected: q,
+                    got: p.orientation_counts.len(),
+                });
+            }
+            let n: usize = p.orientation_counts.iter().sum();
+            if n != p.count {
+                return Err(invalid(
+                    format!("{f}.orientation_counts"),
+                    format!("sum to {n}, the prototype has {} grasps", p.count),
+                ));
+            }
+            let s: f64 = p.orientation_probabilities.iter().sum();
+            if p.orientation_probabilities
+                .iter()
+                .any(|v| !(v.is_finite() && (0.0..=1.0).contains(v)))
+                || (s - 1.0).abs() > 1e-6
+            {
+                return Err(invalid(
+                    format!("{f}.orientation_probabilities"),
+                    format!("must be probabilities summing to 1 (sum {s})"),
                 ));
             }
         }
@@ -737,7 +784,10 @@ impl GraspModel {
             path: path.display().to_string(),
             source,
         })?;
-        Self::from_json_str(&text)
+        Self::from_json_str(&text).map_err(|e| GraspError::InFile {
+            path: path.display().to_string(),
+            error: Box::new(e),
+        })
     }
 
     /// Writes the model as JSON.

@@ -117,6 +117,7 @@ pub fn examples_from(path: &Path, progress: &dyn Progress) -> Result<Vec<Example
                 crate::infer::INFER_VERSION
             );
         }
+        file.inference.check(&path.display().to_string())?;
         file
     };
     let mut out = Vec::new();
@@ -158,6 +159,16 @@ pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport
         .chain(args.update.as_deref())
         .collect();
     crate::files::refuse_inputs_as_outputs(&inputs, &[output.as_path()])?;
+    // A demonstration given twice would count twice.
+    for (i, a) in args.demos.iter().enumerate() {
+        if let Some(b) = args.demos[..i].iter().find(|b| crate::files::same_file(a, b)) {
+            bail!(
+                "{} is given twice (also as {}): each demonstration counts once",
+                a.display(),
+                b.display()
+            );
+        }
+    }
     let mut examples = Vec::new();
     let mut listing = Vec::new();
     for d in &args.demos {

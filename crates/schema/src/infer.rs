@@ -683,3 +683,139 @@ fn composite(library: &Library, schemas: &[usize], p_stay: f64, p_idle: f64) -> 
         accept: accept_base.iter().flat_map(|&a| [a, a]).collect(),
     })
 }
+
+/// A name read from a file: not empty, no control characters (they would corrupt tables, CSV and
+/// terminals downstream).
+fn check_name(path: &str, field: &str, name: &str) -> Result<(), SchemaError> {
+    if name.is_empty() {
+        return Err(SchemaError::invalid(path, field, "must not be empty"));
+    }
+    if let Some(c) = name.chars().find(|c| c.is_control()) {
+        return Err(SchemaError::invalid(
+            path,
+            field,
+            format!("{name:?} contains the control character U+{:04X}", u32::from(c)),
+        ));
+    }
+    Ok(())
+}
+
+fn check_probability(path: &str, field: &str, p: f64) -> Result<(), SchemaError> {
+    if !(p.is_finite() && (0.0..=1.0).contains(&p)) {
+        return Err(SchemaError::invalid(
+            path,
+            field,
+            format!("must be a probability in [0, 1], got {p}"),
+        ));
+    }
+    Ok(())
+}
+
+fn check_interval(path: &str, field: &str, t_start: f64, t_end: f64) -> Result<(), SchemaError> {
+    if !(t_start.is_finite() && t_end.is_finite()) {
+        return Err(SchemaError::invalid(path, field, "times must be finite numbers"));
+    }
+    if t_start > t_end {
+        return Err(SchemaError::invalid(
+            path,
+            field,
+            format!("starts after it ends (t_start {t_start} > t_end {t_end})"),
+        ));
+    }
+    Ok(())
+}
+
+impl Posterior {
+    /// Checks a posterior read from a file: probabilities in [0, 1] summing to 1 (within 1e-6), the
+    /// MAP one of the hypotheses with its probability, names without control characters. `path` and
+    /// `field` name the place in the file for the message.
+    pub fn check(&self, path: &str, field: &str) -> Result<(), SchemaError> {
+        let mut sum = 0.0;
+        for (i, h) in self.hypotheses.iter().enumerate() {
+            let f = format!("{field}.hypotheses[{i}]");
+            check_name(path, &format!("{f}.schema"), &h.schema)?;
+            check_probability(path, &format!("{f}.posterior"), h.posterior)?;
+            if h.log_evidence.is_some_and(|l| l.is_nan() || l == f64::INFINITY) {
+                return Err(SchemaError::invalid(
+                    path,
+                    format!("{f}.log_evidence"),
+                    "must be a finite log-likelihood or null",
+                ));
+            }
+            sum += h.posterior;
+        }
+        if !self.hypotheses.is_empty() && (sum - 1.0).abs() > 1e-6 {
+            return Err(SchemaError::invalid(
+                path,
+                format!("{field}.hypotheses"),
+                format!("posteriors must sum to 1, they sum to {sum}"),
+            ));
+        }
+        check_probability(path, &format!("{field}.map_posterior"), self.map_posterior)?;
+        if !self.hypotheses.is_empty() {
+            match self.hypotheses.iter().find(|h| h.schema == self.map) {
+                None => {
+                    return Err(SchemaError::invalid(
+                        path,
+                        format!("{field}.map"),
+                        format!("`{}` is not one of the hypotheses", self.map),
+                    ));
+                }
+                Some(h) if (h.posterior - self.map_posterior).abs() > 1e-9 => {
+                    return Err(SchemaError::invalid(
+                        path,
+                        format!("{field}.map_posterior"),
+                        format!(
+                            "{} disagrees with the posterior of `{}` ({})",
+                            self.map_posterior, self.map, h.posterior
+                        ),
+                    ));
+                }
+                Some(_) => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Inference {
+    /// Checks an inference read from a file (`path` names it in messages): posteriors (see
+    /// [`Posterior::check`]), time intervals in order, names without control characters, the object
+    /// features well formed ([`SegmentPercept::check`]).
+    pub fn check(&self, path: &str) -> Result<(), SchemaError> {
+        self.posterior.check(path, "inference.posterior")?;
+        if !(self.duration.is_finite() && self.duration >= 0.0) {
+            return Err(SchemaError::invalid(
+                path,
+                "inference.duration",
+                format!("must be a non-negative number, got {}", self.duration),
+            ));
+        }
+        for (i, v) in self.state_path.iter().enumerate() {
+            let f = format!("inference.state_path[{i}]");
+            check_name(path, &format!("{f}.schema"), &v.schema)?;
+            check_name(path, &format!("{f}.state"), &v.state)?;
+            check_interval(path, &f, v.t_start, v.t_end)?;
+        }
+        for (i, inst) in self.instances.iter().enumerate() {
+            let f = format!("inference.instances[{i}]");
+            check_name(path, &format!("{f}.schema"), &inst.schema)?;
+            check_interval(path, &f, inst.t_start, inst.t_end)?;
+            inst.posterior.check(path, &format!("{f}.posterior"))?;
+            for (name, value) in [("place", &inst.place), ("arm", &inst.arm)] {
+                if let Some(v) = value {
+                    check_name(path, &format!("{f}.{name}"), v)?;
+                }
+            }
+            for (j, fact) in inst.facts.iter().enumerate() {
+                let ff = format!("{f}.facts[{j}]");
+                check_name(path, &format!("{ff}.action"), &fact.action)?;
+                check_interval(path, &ff, fact.first, fact.last)?;
+            }
+            if let Some(seg) = &inst.features {
+                seg.check(path, &format!("{f}.features"))?;
+            }
+        }
+        Ok(())
+    }
+}

@@ -203,3 +203,49 @@ pub fn validate_stream(percepts: &[Percept], origin: &str) -> Result<(), SchemaE
     }
     Ok(())
 }
+
+impl SegmentPercept {
+    /// Checks a segment read from the file `path` (`field` names it): finite centroid and
+    /// covariance, histogram and colour terms well formed
+    /// ([`crate::procedural::Features::validate_in`]), a finite extent.
+    pub fn check(&self, path: &str, field: &str) -> Result<(), SchemaError> {
+        if self.centroid.iter().chain(&self.covariance).any(|v| !v.is_finite()) {
+            return Err(SchemaError::invalid(
+                path,
+                format!("{field}.centroid"),
+                "centroid and covariance must be finite numbers",
+            ));
+        }
+        crate::procedural::Features::from(self).validate_in(path, &format!("{field}."))?;
+        // The pipeline writes shares of the segment's pixels: each list sums to 1.
+        for (name, list) in [("histogram", &self.histogram), ("colors", &self.colors)] {
+            let sum: f64 = list.iter().map(|c| c.1).sum();
+            if sum > 1.0 + 1e-6 {
+                return Err(SchemaError::invalid(
+                    path,
+                    format!("{field}.{name}"),
+                    format!("shares sum to {sum}; they are fractions of the segment's pixels (at most 1)"),
+                ));
+            }
+        }
+        if let Some(e) = &self.extent {
+            let v = [
+                e.height,
+                e.center[0],
+                e.center[1],
+                e.major_axis[0],
+                e.major_axis[1],
+                e.half_major,
+                e.half_minor,
+            ];
+            if v.iter().any(|x| !x.is_finite()) || e.height < 0.0 || e.half_major < 0.0 || e.half_minor < 0.0 {
+                return Err(SchemaError::invalid(
+                    path,
+                    format!("{field}.extent"),
+                    "must be finite, with non-negative height and half extents",
+                ));
+            }
+        }
+        Ok(())
+    }
+}

@@ -159,6 +159,19 @@ const ACHROMATIC_TERMS: u8 = 3;
 /// Where errors about in-memory input are reported (no file).
 const INPUT: &str = "<input>";
 
+/// What every prediction of one model shares ([`ProceduralModel::predictor`]).
+#[derive(Debug, Clone)]
+pub struct Predictor {
+    structures: StructurePosterior,
+    log_psi: Vec<f64>,
+    z: Vec<Vec<f64>>,
+}
+
+/// The most places a model file may hold: a sorting task with a hundred bins is far beyond any
+/// demonstration, and a prediction scores every place with the exact colour evidence (P5), so the
+/// bound keeps a hostile file from costing hours in `explain` or `predict`.
+pub const MAX_PLACES: usize = 100;
+
 // ---------------------------------------------------------------------------------------------
 // Input
 // ---------------------------------------------------------------------------------------------
@@ -193,18 +206,23 @@ impl Features {
     /// Checks bins (< 64, no duplicates), terms (< 10, no duplicates) and weights (finite, ≥ 0);
     /// `field` prefixes error fields.
     pub fn validate(&self, field: &str) -> Result<(), SchemaError> {
+        self.validate_in(INPUT, field)
+    }
+
+    /// [`Features::validate`] for features read from the file `path` (named in the message).
+    pub fn validate_in(&self, path: &str, field: &str) -> Result<(), SchemaError> {
         let mut seen = 0u64;
         for (i, &(bin, w)) in self.histogram.iter().enumerate() {
             if usize::from(bin) >= COLOR_BINS {
                 return Err(SchemaError::invalid(
-                    INPUT,
+                    path,
                     format!("{field}histogram[{i}]"),
                     format!("bin {bin} out of range 0..{COLOR_BINS}"),
                 ));
             }
             if seen & (1u64 << bin) != 0 {
                 return Err(SchemaError::invalid(
-                    INPUT,
+                    path,
                     format!("{field}histogram[{i}]"),
                     format!("bin {bin} appears twice"),
                 ));
@@ -212,7 +230,7 @@ impl Features {
             seen |= 1u64 << bin;
             if !(w.is_finite() && w >= 0.0) {
                 return Err(SchemaError::invalid(
-                    INPUT,
+                    path,
                     format!("{field}histogram[{i}]"),
                     format!("weight {w} is not a finite number >= 0"),
                 ));
@@ -221,14 +239,14 @@ impl Features {
         for (i, &(term, w)) in self.colors.iter().enumerate() {
             if self.colors[..i].iter().any(|c| c.0 == term) {
                 return Err(SchemaError::invalid(
-                    INPUT,
+                    path,
                     format!("{field}colors[{i}]"),
                     format!("term {term} appears twice"),
                 ));
             }
             if usize::from(term) >= COLOR_TERMS.len() || !(w.is_finite() && w >= 0.0) {
                 return Err(SchemaError::invalid(
-                    INPUT,
+                    path,
                     format!("{field}colors[{i}]"),
                     format!(
                         "({term}, {w}): the term must be < {} and the share a finite number >= 0",
@@ -248,7 +266,8 @@ impl Features {
     /// highlights, labels, lids — so when the chromatic terms cover at least `chromatic_share` of
     /// the object's kept pixels, only they are drawn from: a red mug with a white rim is *red*. An
     /// object with less colour than that (a white box with a small red print) keeps all its terms.
-    /// `chromatic_share` > 1 turns the rule off. Empty when the object has no colour terms.
+    /// `chromatic_share` = 1 turns the rule off (only an all-chromatic object then qualifies, and
+    /// for it the rule changes nothing). Empty when the object has no colour terms.
     pub fn color_draws(&self, draws_per_object: u32, chromatic_share: f64) -> Vec<(usize, u64)> {
         let total: f64 = self.colors.iter().map(|c| c.1).sum();
         let chromatic: f64 = self
@@ -612,10 +631,13 @@ impl Hyper {
                 ),
             );
         }
-        if !(self.color_chromatic_share.is_finite() && self.color_chromatic_share >= 0.0) {
+        if !(self.color_chromatic_share.is_finite() && (0.0..=1.0).contains(&self.color_chromatic_share)) {
             return bad(
                 "color.chromatic_share",
-                format!("{} must be finite and >= 0", self.color_chromatic_share),
+                format!(
+                    "{} must be a share in [0, 1] (1 turns the chromatic rule off)",
+                    self.color_chromatic_share
+                ),
             );
         }
         for (i, &p) in self.structure_prior.iter().enumerate() {
@@ -1133,6 +1155,17 @@ impl ProceduralModel {
                 "empty place name",
             ));
         }
+        if !self.places.contains_key(&e.reference) && self.places.len() >= MAX_PLACES {
+            return Err(SchemaError::invalid(
+                INPUT,
+                format!("{field}reference"),
+                format!(
+                    "place `{}` would be place {} of a model; the limit is {MAX_PLACES}",
+                    e.reference,
+                    MAX_PLACES + 1
+                ),
+            ));
+        }
         e.features.validate(&format!("{field}features."))?;
         let draws = self.hyper.draws(&e.features);
         if draws.is_empty() {
@@ -1276,7 +1309,7 @@ impl ProceduralModel {
     }
 
     /// ln ψ(k) for the places in order.
-    fn log_place_prior(&self) -> Result<Vec<f64>, SchemaError> {
+    pub(crate) fn log_place_prior(&self) -> Result<Vec<f64>, SchemaError> {
         let k = self.places.len();
         match self.hyper.place_prior {
             PlacePrior::Uniform => Ok(vec![-(k as f64).ln(); k]),
@@ -1296,13 +1329,12 @@ impl ProceduralModel {
     /// Per feature type, ln p(õ_f | place k) for every place and the background ln p₀(õ_f):
     /// `(color_per_place, color_background, size_per_place, size_background)`; a missing feature
     /// scores 0.
-    fn feature_scores(&self, f: &Features) -> Result<(Vec<f64>, f64, Vec<f64>, f64), SchemaError> {
+    fn feature_scores(&self, f: &Features, z: &[Vec<f64>]) -> Result<(Vec<f64>, f64, Vec<f64>, f64), SchemaError> {
         let unit = self.hyper.color_unit();
         let draws = self.hyper.draws(f);
         let size = f.deci_pixels();
         let groups: Vec<Vec<&ObjectDraws>> = self.places.values().map(|p| p.objects.iter().collect()).collect();
-        let z: Vec<Vec<f64>> = groups.iter().map(|g| unit.log_z_grid(g)).collect();
-        let color_k = unit.log_scores(&groups, &z, &draws);
+        let color_k = unit.log_scores(&groups, z, &draws);
         let color_bg = unit.log_background(&draws);
         let size_k = self
             .places
@@ -1317,8 +1349,38 @@ impl ProceduralModel {
     /// features of a new object, averaged over structures (module docs). Errors: an empty model,
     /// invalid features, or an object with neither feature.
     pub fn predict(&self, features: &Features) -> Result<Prediction, SchemaError> {
+        self.predict_with(features, &self.predictor()?)
+    }
+
+    /// The model-wide terms every prediction shares — the structure posterior p(S | D), the log
+    /// place prior and each place's colour normaliser grid — computed once, for many
+    /// [`ProceduralModel::predict_with`] calls in a row (an experiment's test objects, `explain`).
+    pub fn predictor(&self) -> Result<Predictor, SchemaError> {
         self.check_nonempty()?;
-        features.validate("features.")?;
+        let unit = self.hyper.color_unit();
+        let z = self
+            .places
+            .values()
+            .map(|p| unit.log_z_grid(&p.objects.iter().collect::<Vec<_>>()))
+            .collect();
+        Ok(Predictor {
+            structures: self.structure_posterior()?,
+            log_psi: self.log_place_prior()?,
+            z,
+        })
+    }
+
+    /// [`ProceduralModel::predict`] with the shared terms from [`ProceduralModel::predictor`] (of
+    /// this model, unchanged since).
+    pub fn predict_with(&self, features: &Features, predictor: &Predictor) -> Result<Prediction, SchemaError> {
+        let Predictor { structures, log_psi, z } = predictor;
+        if log_psi.len() != self.places.len() || z.len() != self.places.len() {
+            return Err(SchemaError::invalid(
+                INPUT,
+                "predictor",
+                "was computed for another model (the number of places differs)",
+            ));
+        }
         let draws = self.hyper.draws(features);
         let size = features.deci_pixels();
         if draws.is_empty() && size.is_none() {
@@ -1328,9 +1390,7 @@ impl ProceduralModel {
                 "no colour terms and no pixels: nothing to predict from",
             ));
         }
-        let structures = self.structure_posterior()?;
-        let log_psi = self.log_place_prior()?;
-        let (color_k, color_bg, size_k, size_bg) = self.feature_scores(features)?;
+        let (color_k, color_bg, size_k, size_bg) = self.feature_scores(features, z)?;
         let k = log_psi.len();
         // Joint log weights over (structure, place).
         let mut log_place = vec![Vec::with_capacity(structures.structures.len()); k];
@@ -1344,7 +1404,7 @@ impl ProceduralModel {
                 .map(|i| (if c.color { color_k[i] } else { color_bg }) + (if c.size { size_k[i] } else { size_bg }))
                 .collect();
             let log_ps = s.probability.ln();
-            let marg = log_mixture_marginal(&log_psi, &lik)?;
+            let marg = log_mixture_marginal(log_psi, &lik)?;
             log_task_terms.push(log_ps + marg);
             for i in 0..k {
                 log_place[i].push(log_ps + log_psi[i] + lik[i]);

@@ -227,3 +227,39 @@ fn fixed_structure_ignores_the_other_feature() {
     };
     assert_eq!(m.predict(&f).unwrap().map_place, "blue_bin");
 }
+
+/// Explaining a model with many places stays cheap: the consistency draws are shared out over the
+/// places (400 in all, 10 to 200 each) and the model-wide terms are computed once.
+#[test]
+fn explain_handles_many_places_and_the_place_limit_holds() {
+    let examples: Vec<Example> = (0..40)
+        .map(|i| Example {
+            features: Features {
+                histogram: Vec::new(),
+                pixels: [1000 + 10 * i, 1000 + 10 * i],
+                colors: vec![((i % 10) as u8, 1.0)],
+            },
+            reference: format!("place_{i:03}"),
+        })
+        .collect();
+    let m = ProceduralModel::learn(Hyper::default(), &examples).unwrap();
+    let e = m.explain().unwrap();
+    assert_eq!(e.places.len(), 40);
+    assert!(e.places.iter().all(|p| (0.0..=1.0).contains(&p.consistency)));
+    // A model file above the place limit is refused, naming the field.
+    let many: Vec<Example> = (0..=schema::procedural::MAX_PLACES)
+        .map(|i| Example {
+            reference: format!("p{i}"),
+            ..examples[0].clone()
+        })
+        .collect();
+    let err = ProceduralModel::learn(Hyper::default(), &many).unwrap_err().to_string();
+    assert!(err.contains("limit"), "{err}");
+    let mut v: serde_json::Value = serde_json::from_str(&m.to_json()).unwrap();
+    let place = v["places"][0].clone();
+    v["places"] = serde_json::Value::Array(vec![place; schema::procedural::MAX_PLACES + 1]);
+    let err = ProceduralModel::from_json(&v.to_string(), "big.json")
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("places") && err.contains("limit"), "{err}");
+}

@@ -6,7 +6,7 @@ use rand::Rng;
 
 use serde::Serialize;
 
-use super::{COLORS, Connectivity, FeatureType, Features, PlacePrior, ProceduralModel, StructurePosterior};
+use super::{COLORS, Connectivity, FeatureType, Features, PlacePrior, PlaceStats, ProceduralModel, StructurePosterior};
 use crate::error::SchemaError;
 use crate::percept::{COLOR_TERM_HSV, COLOR_TERMS};
 
@@ -90,6 +90,27 @@ pub struct SyntheticInstance {
 /// Monte-Carlo draws per place for the consistency figure.
 const CONSISTENCY_DRAWS: usize = 200;
 
+/// See [`ProceduralModel::sampler`].
+struct Sampler<'a> {
+    structures: StructurePosterior,
+    pooled: PlaceStats,
+    theta_pooled: Vec<f64>,
+    places: Vec<(&'a str, &'a PlaceStats)>,
+    theta: Vec<Vec<f64>>,
+}
+
+/// Synthetic objects drawn over all places for the consistency figures: each place gets
+/// `CONSISTENCY_TOTAL / places` of them (at most [`CONSISTENCY_DRAWS`], at least
+/// [`CONSISTENCY_MIN_DRAWS`]). A prediction scores the object against every place with the exact
+/// colour evidence (P5), so it costs O(places); with the draws shared out, explaining costs
+/// O(places) predictions' worth up to 40 places and O(places²) beyond (measured: 8 places 1.2 s,
+/// 100 places ~40 s, the limit [`super::MAX_PLACES`]), instead of 200 predictions per place, each
+/// re-deriving the model-wide posterior (8 places took 23 s).
+const CONSISTENCY_TOTAL: usize = 400;
+
+/// The fewest synthetic objects per place.
+const CONSISTENCY_MIN_DRAWS: usize = 10;
+
 fn sureness(p: f64) -> &'static str {
     if p >= 0.95 {
         "very sure"
@@ -126,39 +147,58 @@ impl ProceduralModel {
         rng: &mut R,
         n: usize,
     ) -> Result<Vec<SyntheticInstance>, SchemaError> {
-        let structures = self.structure_posterior()?;
+        let sampler = self.sampler(self.structure_posterior()?)?;
         let psi: Vec<f64> = self.log_place_prior()?.iter().map(|l| l.exp()).collect();
-        let names: Vec<&String> = self.places.keys().collect();
         let mut out = Vec::with_capacity(n);
         for _ in 0..n {
             let k = categorical(rng, &psi);
-            out.push(self.sample_instance_at(rng, names[k], &structures)?);
+            out.push(self.sample_instance_at(rng, k, &sampler)?);
         }
         Ok(out)
+    }
+
+    /// What every synthetic instance shares: the structure posterior, the pooled statistics and the
+    /// colour predictives (5.18) of each place and of all places pooled — each an exact but costly
+    /// sum over the concentration grid, so computed once.
+    fn sampler(&self, structures: StructurePosterior) -> Result<Sampler<'_>, SchemaError> {
+        let unit = self.hyper.color_unit();
+        let pooled = self.pooled()?;
+        Ok(Sampler {
+            structures,
+            theta_pooled: unit.predictive(&pooled.objects),
+            pooled,
+            places: self.places.iter().map(|(n, p)| (n.as_str(), p)).collect(),
+            theta: self.places.values().map(|p| unit.predictive(&p.objects)).collect(),
+        })
     }
 
     fn sample_instance_at<R: Rng + ?Sized>(
         &self,
         rng: &mut R,
-        place: &str,
-        structures: &StructurePosterior,
+        k: usize,
+        sampler: &Sampler<'_>,
     ) -> Result<SyntheticInstance, SchemaError> {
+        let structures = &sampler.structures;
         let probs: Vec<f64> = structures.structures.iter().map(|s| s.probability).collect();
         let structure = structures.structures[categorical(rng, &probs)].connectivity;
-        let own = self.place_or_err(place)?;
-        let pooled = self.pooled()?;
-        let color_src = if structure.color { own } else { &pooled };
-        let size_src = if structure.size { own } else { &pooled };
+        let (place, own) = sampler.places[k];
+        let pooled = &sampler.pooled;
+        let color_src = if structure.color { own } else { pooled };
+        let size_src = if structure.size { own } else { pooled };
         // The colour pmf of the synthetic object: the place's predictive (5.18) (the posterior mean
         // of its colour distribution).
-        let theta = self.hyper.color_unit().predictive(&color_src.objects);
+        let theta = if structure.color {
+            &sampler.theta[k]
+        } else {
+            &sampler.theta_pooled
+        };
         // As many draws as a demonstrated object gives, with replacement; the histogram is their
         // shares (the kept bins of a synthetic object).
         let per_demo = color_src.color.total() as f64 / color_src.demonstrations.max(1) as f64;
         let m = (per_demo.round() as usize).clamp(1, 1000);
         let mut counts = [0u32; COLORS];
         for _ in 0..m {
-            counts[categorical(rng, &theta)] += 1;
+            counts[categorical(rng, theta)] += 1;
         }
         let colors: Vec<(u8, f64)> = counts
             .iter()
@@ -193,7 +233,10 @@ impl ProceduralModel {
         let size_matters = structure.feature_probability(FeatureType::Size);
         let mut rng = bayes::rng::seeded(0x05EE_D512);
         let mut places = Vec::new();
-        for (name, p) in &self.places {
+        let predictor = self.predictor()?;
+        let sampler = self.sampler(structure.clone())?;
+        let draws = (CONSISTENCY_TOTAL / self.places.len().max(1)).clamp(CONSISTENCY_MIN_DRAWS, CONSISTENCY_DRAWS);
+        for (k, (name, p)) in self.places.iter().enumerate() {
             let pmf = self.color_pmf(name)?;
             let mut order: Vec<usize> = (0..COLORS).collect();
             order.sort_by(|&a, &b| pmf[b].total_cmp(&pmf[a]).then(a.cmp(&b)));
@@ -215,13 +258,13 @@ impl ProceduralModel {
                 t.scale()
             };
             let mut hits = 0usize;
-            for _ in 0..CONSISTENCY_DRAWS {
-                let inst = self.sample_instance_at(&mut rng, name, &structure)?;
-                if self.predict(&inst.features)?.map_place == *name {
+            for _ in 0..draws {
+                let inst = self.sample_instance_at(&mut rng, k, &sampler)?;
+                if self.predict_with(&inst.features, &predictor)?.map_place == *name {
                     hits += 1;
                 }
             }
-            let consistency = hits as f64 / CONSISTENCY_DRAWS as f64;
+            let consistency = hits as f64 / draws as f64;
             let colors = if top_colors.is_empty() {
                 "no particular colour".to_string()
             } else {

@@ -259,12 +259,24 @@ impl ProceduralModel {
         let Value::Array(places_v) = places_v else {
             return Err(invalid("places", "must be an array".into()));
         };
+        if places_v.len() > super::MAX_PLACES {
+            return Err(invalid(
+                "places",
+                format!("{} places is above the limit of {}", places_v.len(), super::MAX_PLACES),
+            ));
+        }
         let mut model = ProceduralModel::new(hyper)?;
         for (i, pv) in places_v.iter().enumerate() {
             let field = format!("places[{i}]");
             let pf: PlaceFile = serde_json::from_value(pv.clone()).map_err(|e| invalid(&field, e.to_string()))?;
             if pf.name.trim().is_empty() {
                 return Err(invalid(&format!("{field}.name"), "empty place name".into()));
+            }
+            if let Some(c) = pf.name.chars().find(|c| c.is_control()) {
+                return Err(invalid(
+                    &format!("{field}.name"),
+                    format!("{:?} contains the control character U+{:04X}", pf.name, u32::from(c)),
+                ));
             }
             if model.places.contains_key(&pf.name) {
                 return Err(invalid(
