@@ -49,7 +49,10 @@ pub fn main(a: LearnArgs, out: &mut dyn Write) -> Result<()> {
         return explain_model(model, &a, out);
     }
     if !a.relevance_threshold.is_finite() {
-        bail!("--relevance-threshold must be a number");
+        bail!(
+                "--relevance-threshold must be a finite number (a log Bayes factor), got {}",
+                a.relevance_threshold
+            );
     }
     let options = LearnOptions {
         demos: a.demos,

@@ -312,3 +312,33 @@ fn self_contradicting_files_are_refused() {
         &["grasp.json", "prototypes[0].count", "assignments"],
     );
 }
+
+/// Messages point the right way: teleop errors name the file's line (blank lines and the header
+/// counted), a version of the wrong type says so, an infinite threshold is not "not a number".
+#[test]
+fn messages_name_the_right_line_and_say_what_is_wrong() {
+    let d = dir("messages");
+    let csv = d.join("t.csv");
+    std::fs::write(
+        &csv,
+        "t,hand,x,y,z,qx,qy,qz,qw,flexion\n0.0,right,0.5,-0.2,1.0,0,0,0,1,0.0\n\n0.1,right,0.5,-0.2,1.0,0,0,0,1,9.0\n",
+    )
+    .unwrap();
+    refused(
+        &["record", "--teleop", &s(&csv), "-o", &s(&d.join("x.mcap"))],
+        &["t.csv", "line 4", "flexion"],
+    );
+    assert!(!d.join("x.mcap").exists());
+    let mut m: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo().join("crates/py/tests/data/sorting-model.json")).unwrap(),
+    )
+    .unwrap();
+    let v = m["version"].as_u64().unwrap();
+    m["version"] = v.to_string().into();
+    let p = d.join("v.json");
+    std::fs::write(&p, m.to_string()).unwrap();
+    refused(&["learn", "--explain", &s(&p)], &["must be the integer", "string"]);
+    let o = pbd(&["learn", "x.infer.json", "--relevance-threshold", "inf", "-o", &s(&d.join("m.json"))]);
+    assert_ne!(o.status.code(), Some(0));
+    assert!(stderr(&o).contains("finite number"), "{}", stderr(&o));
+}

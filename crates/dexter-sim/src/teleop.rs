@@ -106,16 +106,17 @@ impl TeleopStream {
             source: e,
         })?;
         let csv = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
-        let stream = if csv {
+        let (stream, lines) = if csv {
             Self::parse_csv(&text, path)?
         } else {
             Self::parse_jsonl(&text, path)?
         };
-        stream.validate(path)?;
+        stream.validate_lines(path, &lines)?;
         Ok(stream)
     }
 
-    fn parse_csv(text: &str, path: &Path) -> Result<TeleopStream, SimError> {
+    /// The samples and the file line (1-based) of each.
+    fn parse_csv(text: &str, path: &Path) -> Result<(TeleopStream, Vec<usize>), SimError> {
         let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
         let Some((_, header)) = lines.next() else {
             return Err(bad(
@@ -124,13 +125,16 @@ impl TeleopStream {
                 "empty file (expected the header `t,hand,x,y,z,qx,qy,qz,qw,flexion`)",
             ));
         };
+        let header_line = text.lines().position(|l| !l.trim().is_empty()).unwrap_or(0) + 1;
         let header: String = header.chars().filter(|c| !c.is_whitespace()).collect();
         if header != CSV_HEADER {
-            return Err(bad(path, 1, format!("header `{header}` is not `{CSV_HEADER}`")));
+            return Err(bad(path, header_line, format!("header `{header}` is not `{CSV_HEADER}`")));
         }
         let mut samples = Vec::new();
+        let mut numbers = Vec::new();
         for (i, line) in lines {
             let n = i + 1;
+            numbers.push(n);
             let cols: Vec<&str> = line.split(',').map(str::trim).collect();
             if cols.len() != 10 {
                 return Err(bad(
@@ -159,11 +163,12 @@ impl TeleopStream {
                 flexion: v[8],
             });
         }
-        Ok(TeleopStream { samples })
+        Ok((TeleopStream { samples }, numbers))
     }
 
-    fn parse_jsonl(text: &str, path: &Path) -> Result<TeleopStream, SimError> {
+    fn parse_jsonl(text: &str, path: &Path) -> Result<(TeleopStream, Vec<usize>), SimError> {
         let mut samples = Vec::new();
+        let mut numbers = Vec::new();
         for (i, line) in text.lines().enumerate() {
             if line.trim().is_empty() {
                 continue;
@@ -171,35 +176,50 @@ impl TeleopStream {
             let s: HandCommand =
                 serde_json::from_str(line).map_err(|e| bad(path, i + 1, format!("not a teleop sample: {e}")))?;
             samples.push(s);
+            numbers.push(i + 1);
         }
-        Ok(TeleopStream { samples })
+        Ok((TeleopStream { samples }, numbers))
     }
 
     /// Checks: at least one sample, finite numbers, unit quaternions (within 1e-3; renormalised),
-    /// time non-decreasing per hand, flexion within [0, 2.4].
+    /// time non-decreasing per hand, flexion within [0, 2.4]. Errors name the sample (1-based).
     pub fn validate(&self, path: &Path) -> Result<(), SimError> {
+        self.check(path, &|i| format!("sample {}", i + 1))
+    }
+
+    /// [`TeleopStream::validate`] naming the file line of each sample.
+    fn validate_lines(&self, path: &Path, lines: &[usize]) -> Result<(), SimError> {
+        self.check(path, &|i| format!("line {}", lines.get(i).copied().unwrap_or(i + 1)))
+    }
+
+    fn check(&self, path: &Path, at: &dyn Fn(usize) -> String) -> Result<(), SimError> {
+        let bad = |_: &Path, n: String, message: String| SimError::Invalid {
+            path: path.to_path_buf(),
+            field: n,
+            message,
+        };
         if self.samples.is_empty() {
-            return Err(bad(path, 1, "no samples"));
+            return Err(bad(path, "samples".into(), "no samples".into()));
         }
         let mut last = [f64::NEG_INFINITY; 2];
         for (i, s) in self.samples.iter().enumerate() {
-            let n = i + 1;
+            let n = at(i);
             let nums = [s.t, s.flexion].into_iter().chain(s.position).chain(s.orientation);
             if nums.into_iter().any(|v| !v.is_finite()) {
-                return Err(bad(path, n, "a value is not a finite number"));
+                return Err(bad(path, n, "a value is not a finite number".into()));
             }
             let norm = s.orientation.iter().map(|v| v * v).sum::<f64>().sqrt();
             if (norm - 1.0).abs() > 1e-3 {
                 return Err(bad(
                     path,
-                    n,
+                    n.clone(),
                     format!("orientation is not a unit quaternion (norm {norm:.4})"),
                 ));
             }
             if !(0.0..=FLEX_CLOSED + 1e-9).contains(&s.flexion) {
                 return Err(bad(
                     path,
-                    n,
+                    n.clone(),
                     format!("flexion {} outside [0, {FLEX_CLOSED}] rad", s.flexion),
                 ));
             }
@@ -207,7 +227,7 @@ impl TeleopStream {
             if s.t < last[k] {
                 return Err(bad(
                     path,
-                    n,
+                    n.clone(),
                     format!(
                         "time {} goes backwards for the {} hand (previous {})",
                         s.t, s.hand, last[k]

@@ -196,10 +196,16 @@ impl ProceduralModel {
                     ),
                 ));
             }
-            Some(other) => {
+            Some(other) if other.is_u64() => {
                 return Err(invalid(
                     "version",
                     format!("model version {other} is not supported (this build reads version {MODEL_VERSION})"),
+                ));
+            }
+            Some(other) => {
+                return Err(invalid(
+                    "version",
+                    format!("must be the integer {MODEL_VERSION}, got {other} (a JSON {})", json_kind(other)),
                 ));
             }
             None => return Err(invalid("version", "missing".into())),
@@ -336,5 +342,17 @@ impl ProceduralModel {
             model.places.insert(pf.name, stats);
         }
         Ok(model)
+    }
+}
+
+/// What kind of JSON value `v` is, for messages.
+fn json_kind(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "boolean",
+        Value::Number(_) => "number",
+        Value::String(_) => "string",
+        Value::Array(_) => "array",
+        Value::Object(_) => "object",
     }
 }
