@@ -89,7 +89,7 @@ impl fmt::Display for DoctorReport {
             report.file,
             match (report.complete, report.skipped_chunks.is_empty()) {
                 (true, true) => "complete".to_string(),
-                (true, false) => format!("full length, {} DAMAGED chunk(s) skipped", report.skipped_chunks.len()),
+                (true, false) => format!("full length, {} DAMAGED part(s) skipped", report.skipped_chunks.len()),
                 (false, _) => "CUT SHORT".to_string(),
             },
             report.bytes as f64 / 1e6,

@@ -104,6 +104,9 @@ pub fn read_percepts(path: &Path) -> Result<Demonstration> {
     for c in &rec.skipped_chunks {
         warnings.push(format!("{}: damaged {c}", path.display()));
     }
+    for c in &rec.foreign_channels {
+        warnings.push(format!("{}: {c}", path.display()));
+    }
     let metadata = rec.metadata.get("pbd").cloned().unwrap_or_default();
     if let Some(v) = metadata.get("percept_version")
         && v != &schema::percept::PERCEPT_VERSION.to_string()
@@ -121,8 +124,14 @@ pub fn read_percepts(path: &Path) -> Result<Demonstration> {
         percepts.push(p);
     }
     if percepts.is_empty() {
+        let foreign = rec
+            .foreign_channels
+            .iter()
+            .find(|c| c.contains(TOPIC_PERCEPT))
+            .map(|c| format!("; {c}"))
+            .unwrap_or_default();
         bail!(
-            "{}: empty demonstration: no {TOPIC_PERCEPT} messages (was it recorded by `pbd record`?)",
+            "{}: empty demonstration: no {TOPIC_PERCEPT} messages pbd can read (was it recorded by `pbd record`?){foreign}",
             path.display()
         );
     }

@@ -754,6 +754,20 @@ fn scan(path: &Path, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStat
     {
         return Err(anyhow::anyhow!("{e}")).with_context(|| format!("{} is not an MCAP file", path.display()));
     }
+    // A complete file ends with the magic right after its footer: bytes after it are not MCAP
+    // (an append, a concatenation) and are reported, never read.
+    if stop.is_none() && file_bytes >= 8 {
+        use std::io::{Seek, SeekFrom};
+        let mut tail = [0u8; 8];
+        file.seek(SeekFrom::End(-8)).with_context(context)?;
+        file.read_exact(&mut tail).with_context(context)?;
+        if tail != *mcap::MAGIC {
+            skipped.push(format!(
+                "data after the footer: the file does not end with the MCAP magic ({} bytes in all); the trailing bytes were ignored",
+                file_bytes
+            ));
+        }
+    }
     let status = match stop {
         None => FileStatus::Complete,
         Some(e) => FileStatus::Recovered {
@@ -923,6 +937,9 @@ pub struct Recording {
     pub status: Option<FileStatus>,
     /// Damaged chunks that were skipped (see [`Summary::skipped_chunks`]).
     pub skipped_chunks: Vec<String>,
+    /// Channels on a wanted topic that were skipped because pbd did not write them: a message
+    /// encoding other than JSON, or a schema other than JSON Schema (protobuf, ROS 2 messages…).
+    pub foreign_channels: Vec<String>,
 }
 
 impl Recording {
@@ -941,10 +958,33 @@ impl Recording {
 pub fn read_recording(path: impl AsRef<Path>, topics: &[&str]) -> Result<Recording> {
     let path = path.as_ref();
     let mut wanted: HashMap<u16, String> = HashMap::new();
+    let mut schemas: HashMap<u16, (String, String)> = HashMap::new();
     let mut rec = Recording::default();
     let (_, status, skipped) = scan(path, &mut |record| match record {
+        Record::Schema { header, .. } => {
+            schemas.insert(header.id, (header.name, header.encoding));
+        }
         Record::Channel(c) if topics.is_empty() || topics.contains(&c.topic.as_str()) => {
-            wanted.insert(c.id, c.topic);
+            // pbd writes JSON messages with a JSON Schema (or none); anything else is not ours to
+            // JSON-parse.
+            let schema = schemas.get(&c.schema_id);
+            let foreign_schema = c.schema_id != 0 && schema.is_none_or(|(_, enc)| enc != "jsonschema");
+            if c.message_encoding != "json" || foreign_schema {
+                let what = match schema {
+                    Some((name, enc)) => format!("schema `{name}` ({enc})"),
+                    None if c.schema_id != 0 => format!("unknown schema id {}", c.schema_id),
+                    None => "no schema".into(),
+                };
+                let note = format!(
+                    "channel {} on {} has message encoding `{}` and {what}; pbd reads JSON channels it wrote — skipped",
+                    c.id, c.topic, c.message_encoding
+                );
+                if !rec.foreign_channels.contains(&note) {
+                    rec.foreign_channels.push(note);
+                }
+            } else {
+                wanted.insert(c.id, c.topic);
+            }
         }
         Record::Message { header, data } => {
             if let Some(topic) = wanted.get(&header.channel_id) {

@@ -666,3 +666,52 @@ fn throughput() {
         stats.bytes / 400
     );
 }
+
+/// Channels pbd did not write (protobuf messages, a ROS 2 schema) are skipped with a note, never
+/// JSON-parsed; bytes after the footer are reported.
+#[test]
+fn foreign_channels_are_skipped_and_trailing_bytes_reported() {
+    let tmp = TempFile::new("foreign");
+    {
+        let mut w = mcap::Writer::new(std::io::BufWriter::new(File::create(&tmp.0).unwrap())).unwrap();
+        let ros = w
+            .add_schema("sensor_msgs/msg/PointCloud2", "ros2msg", b"uint32 height")
+            .unwrap();
+        let cloud = w
+            .add_channel(ros, "/pbd/percept", "cdr", &BTreeMap::new())
+            .unwrap();
+        let json = w.add_channel(0, "/pbd/percept", "json", &BTreeMap::new()).unwrap();
+        let proto = w.add_channel(0, "/other", "protobuf", &BTreeMap::new()).unwrap();
+        for (channel, data) in [(cloud, &b"\x00\x01binary"[..]), (json, b"{\"t\":0}"), (proto, b"\x08\x01")] {
+            w.write_to_known_channel(
+                &mcap::records::MessageHeader {
+                    channel_id: channel,
+                    sequence: 0,
+                    log_time: 1,
+                    publish_time: 1,
+                },
+                data,
+            )
+            .unwrap();
+        }
+        w.finish().unwrap();
+    }
+    let rec = read_recording(&tmp.0, &["/pbd/percept"]).unwrap();
+    assert_eq!(rec.messages.len(), 1, "only the JSON channel is read");
+    assert_eq!(rec.messages[0].2, b"{\"t\":0}".to_vec());
+    assert_eq!(rec.foreign_channels.len(), 1, "{:?}", rec.foreign_channels);
+    assert!(rec.foreign_channels[0].contains("PointCloud2"), "{:?}", rec.foreign_channels);
+    let all = read_recording(&tmp.0, &[]).unwrap();
+    assert!(all.foreign_channels.iter().any(|c| c.contains("protobuf")));
+    assert!(read_summary(&tmp.0).unwrap().skipped_chunks.is_empty());
+    // Data appended after the footer.
+    let mut bytes = std::fs::read(&tmp.0).unwrap();
+    bytes.extend_from_slice(b"trailing garbage");
+    std::fs::write(&tmp.0, &bytes).unwrap();
+    let s = read_summary(&tmp.0).unwrap();
+    assert!(
+        s.skipped_chunks.iter().any(|c| c.contains("after the footer")),
+        "{:?}",
+        s.skipped_chunks
+    );
+}
