@@ -50,9 +50,9 @@ pub fn main(a: LearnArgs, out: &mut dyn Write) -> Result<()> {
     }
     if !a.relevance_threshold.is_finite() {
         bail!(
-                "--relevance-threshold must be a finite number (a log Bayes factor), got {}",
-                a.relevance_threshold
-            );
+            "--relevance-threshold must be a finite number (a log Bayes factor), got {}",
+            a.relevance_threshold
+        );
     }
     let options = LearnOptions {
         demos: a.demos,
@@ -65,6 +65,7 @@ pub fn main(a: LearnArgs, out: &mut dyn Write) -> Result<()> {
 }
 
 fn explain_model(path: &Path, a: &LearnArgs, out: &mut dyn Write) -> Result<()> {
+    crate::progress::exit_on_interrupt()?;
     let e = explain(path, a.samples, a.seed)?;
     let mut pictures = Vec::new();
     if a.samples > 0 {

@@ -16,6 +16,17 @@ pub fn interrupted() -> bool {
     STOP.get().is_some_and(|s| s.load(Ordering::SeqCst))
 }
 
+/// For a command with no safe point to stop at (it writes its files only at the end): the first
+/// Ctrl-C or SIGTERM ends the process at once with status 130 — also when the shell started it
+/// with SIGINT ignored (a script's background job), where the default action would never come.
+pub fn exit_on_interrupt() -> anyhow::Result<()> {
+    let armed = Arc::new(AtomicBool::new(true));
+    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register_conditional_shutdown(sig, 130, Arc::clone(&armed))?;
+    }
+    Ok(())
+}
+
 /// Progress bars for one command.
 #[derive(Debug)]
 pub struct Bars {

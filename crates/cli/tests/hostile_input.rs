@@ -281,21 +281,29 @@ fn self_contradicting_files_are_refused() {
         &["inference.instances[0].schema", "control character"],
     );
     // The same demonstration twice (by another path): refused, not counted twice.
-    let o = pbd(&["learn", &s(&inf), &format!("{}/./touch.infer.json", d.display()), "-o", &model]);
+    let o = pbd(&[
+        "learn",
+        &s(&inf),
+        &format!("{}/./touch.infer.json", d.display()),
+        "-o",
+        &model,
+    ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("given twice"), "{}", stderr(&o));
     assert!(!d.join("m.json").exists(), "nothing written");
 
     // A procedural model whose colour share is above 1.
-    let m: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(repo().join("crates/py/tests/data/sorting-model.json")).unwrap(),
-    )
-    .unwrap();
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(repo().join("crates/py/tests/data/sorting-model.json")).unwrap())
+            .unwrap();
     let mut m2 = m.clone();
     m2["hyper"]["color"]["chromatic_share"] = 2.0.into();
     let p = d.join("share.json");
     std::fs::write(&p, m2.to_string()).unwrap();
-    refused(&["learn", "--explain", &s(&p)], &["share.json", "chromatic_share", "[0, 1]"]);
+    refused(
+        &["learn", "--explain", &s(&p)],
+        &["share.json", "chromatic_share", "[0, 1]"],
+    );
 
     // A grasp model whose prototype count disagrees with its assignments.
     let g: serde_json::Value = serde_json::from_str(
@@ -329,16 +337,69 @@ fn messages_name_the_right_line_and_say_what_is_wrong() {
         &["t.csv", "line 4", "flexion"],
     );
     assert!(!d.join("x.mcap").exists());
-    let mut m: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(repo().join("crates/py/tests/data/sorting-model.json")).unwrap(),
-    )
-    .unwrap();
+    let mut m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(repo().join("crates/py/tests/data/sorting-model.json")).unwrap())
+            .unwrap();
     let v = m["version"].as_u64().unwrap();
     m["version"] = v.to_string().into();
     let p = d.join("v.json");
     std::fs::write(&p, m.to_string()).unwrap();
     refused(&["learn", "--explain", &s(&p)], &["must be the integer", "string"]);
-    let o = pbd(&["learn", "x.infer.json", "--relevance-threshold", "inf", "-o", &s(&d.join("m.json"))]);
+    let o = pbd(&[
+        "learn",
+        "x.infer.json",
+        "--relevance-threshold",
+        "inf",
+        "-o",
+        &s(&d.join("m.json")),
+    ]);
     assert_ne!(o.status.code(), Some(0));
     assert!(stderr(&o).contains("finite number"), "{}", stderr(&o));
+}
+
+/// `experiment sorting` on Ctrl-C: stops between trials, writes the finished trials marked
+/// PARTIAL, exits 130.
+#[test]
+fn sorting_experiment_stops_on_sigint_with_partial_results() {
+    let d = dir("sort-sigint");
+    let out = d.join("out");
+    let features = repo().join("crates/pbd/tests/data/household_features.json");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_pbd"))
+        .args([
+            "experiment",
+            "sorting",
+            "--feature",
+            "color",
+            "--classes",
+            "red,blue,green",
+            "--features",
+            &s(&features),
+            "--trials",
+            "100",
+            "--max-examples",
+            "3",
+            "-o",
+            &s(&out),
+        ])
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_secs(3));
+    let ok = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(ok.success());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(md.starts_with("**PARTIAL: interrupted after"), "{md}");
+    let rows = std::fs::read_to_string(out.join("success.csv"))
+        .unwrap()
+        .lines()
+        .count()
+        - 1;
+    assert!(rows > 0 && rows < 300, "{rows} trials written");
+    let _ = std::fs::remove_dir_all(&d);
 }

@@ -128,7 +128,11 @@ impl TeleopStream {
         let header_line = text.lines().position(|l| !l.trim().is_empty()).unwrap_or(0) + 1;
         let header: String = header.chars().filter(|c| !c.is_whitespace()).collect();
         if header != CSV_HEADER {
-            return Err(bad(path, header_line, format!("header `{header}` is not `{CSV_HEADER}`")));
+            return Err(bad(
+                path,
+                header_line,
+                format!("header `{header}` is not `{CSV_HEADER}`"),
+            ));
         }
         let mut samples = Vec::new();
         let mut numbers = Vec::new();

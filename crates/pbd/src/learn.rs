@@ -203,9 +203,9 @@ pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport
         None => {
             if !args.relevance_threshold.is_finite() {
                 bail!(
-                "--relevance-threshold must be a finite number (a log Bayes factor), got {}",
-                args.relevance_threshold
-            );
+                    "--relevance-threshold must be a finite number (a log Bayes factor), got {}",
+                    args.relevance_threshold
+                );
             }
             let hyper = Hyper {
                 relevance_log_threshold: args.relevance_threshold,

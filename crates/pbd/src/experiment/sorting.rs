@@ -388,6 +388,9 @@ pub struct Summary {
     /// `summary.md`.
     #[serde(skip)]
     pub markdown: String,
+    /// Set when the run was interrupted: what was finished.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub partial: Option<String>,
 }
 
 /// `pbd experiment sorting`: renders the catalog's features, runs the trials, writes the CSVs and
@@ -505,6 +508,7 @@ fn run_with(
         figures: vec![],
         seconds: [render_secs, 0.0],
         markdown: String::new(),
+        partial: None,
     };
     match args.feature {
         Feature::Color | Feature::Size => sorting(args, progress, bank, &classes, &mut summary)?,
@@ -513,11 +517,20 @@ fn run_with(
         Feature::Selection => selection(args, progress, bank, &hyper, &mut summary)?,
     }
     summary.seconds[1] = t1.elapsed().as_secs_f64();
-    let md = markdown(&summary);
+    let mut md = markdown(&summary);
+    if let Some(p) = &summary.partial {
+        md = format!("**PARTIAL: {p}**; the tables and figures are over those trials.\n\n{md}");
+    }
     let md_path = args.output.join("summary.md");
     crate::files::write_atomic(&md_path, md.as_bytes())?;
     summary.files.push(md_path.display().to_string());
     summary.markdown = md;
+    if let Some(p) = &summary.partial {
+        bail!(
+            "{p}; the partial results are in {} (marked PARTIAL)",
+            args.output.display()
+        );
+    }
     Ok(summary)
 }
 
@@ -566,10 +579,15 @@ fn sorting(
     let mut csv = Vec::new();
     let mut rows = Vec::new();
     let mut not_computed = Vec::new();
+    let mut done = 0;
     for n in 1..=max_n {
         let mut rates = Vec::new();
         let mut ps = Vec::new();
         for t in 0..args.trials {
+            if progress.should_stop() {
+                break;
+            }
+            done += 1;
             let (r, _) = run_trial(args, bank, &setup, n, t)?;
             csv.push(format!(
                 "{n},{t},{},{},{:.6},{},{},{:.6}",
@@ -590,6 +608,9 @@ fn sorting(
             }
             progress.advance(1);
         }
+        if rates.is_empty() {
+            break;
+        }
         let (mean, sd) = mean_sd(&rates);
         rows.push(Row {
             examples: n,
@@ -599,6 +620,9 @@ fn sorting(
             max_p: (!ps.is_empty()).then(|| ps.iter().copied().fold(0.0, f64::max)),
             p_computed: Some(ps.len()),
         });
+    }
+    if done < max_n * args.trials {
+        summary.partial = Some(format!("interrupted after {done} of {} trials", max_n * args.trials));
     }
     if !not_computed.is_empty() {
         summary.notes.push(format!(
@@ -694,6 +718,9 @@ fn relevance(
         let mut pooled = Vec::new();
         let mut acc = Vec::new();
         for t in 0..args.trials {
+            if progress.should_stop() {
+                break;
+            }
             let (r, scores) = run_trial(args, bank, &setup, n, t)?;
             let (a, right) = (r.auc.unwrap_or(f64::NAN), r.accuracy_at_threshold.unwrap_or(f64::NAN));
             acc.push(right);
@@ -701,6 +728,9 @@ fn relevance(
             aucs.push(a);
             pooled.extend(scores);
             progress.advance(1);
+        }
+        if aucs.is_empty() {
+            break;
         }
         let (mean, sd) = mean_sd(&aucs);
         rows.push(Row {
@@ -723,6 +753,13 @@ fn relevance(
         });
     }
     progress.finish();
+    if csv.len() < max_n * args.trials {
+        summary.partial = Some(format!(
+            "interrupted after {} of {} trials",
+            csv.len(),
+            max_n * args.trials
+        ));
+    }
     let dir = &args.output;
     let csv_path = dir.join("relevance.csv");
     write_csv(&csv_path, "examples_per_class,trial,auc,accuracy_at_threshold", &csv)?;

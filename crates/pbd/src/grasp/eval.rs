@@ -195,21 +195,42 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
         }
     }
     progress.phase("grasp", Some(jobs.len() as u64));
-    let outcomes = crate::parallel::map(&jobs, progress, |(i, m, _k, c)| {
+    // On Ctrl-C, candidates not yet started are skipped: the objects whose every candidate ran are
+    // written, marked partial.
+    let outcomes = crate::parallel::map_until_stopped(&jobs, progress, |(i, m, _k, c)| {
         execute_job(&presenter, args.seed, &test[*i], *i, &prepared[*i], *m, c.as_ref())
     })?;
     progress.finish();
+    let complete: Vec<bool> = (0..test.len())
+        .map(|i| jobs.iter().zip(&outcomes).all(|(j, o)| j.0 != i || o.is_some()))
+        .collect();
     let trials: Vec<Trial> = jobs
         .iter()
         .zip(outcomes)
-        .map(|((i, m, k, c), o)| to_trial(&test[*i], prepared[*i].percept.is_some(), *m, *k, c.as_ref(), o))
+        .filter(|((i, ..), _)| complete[*i])
+        .filter_map(|((i, m, k, c), o)| {
+            Some(to_trial(
+                &test[*i],
+                prepared[*i].percept.is_some(),
+                *m,
+                *k,
+                c.as_ref(),
+                o?,
+            ))
+        })
         .collect();
+    let done = complete.iter().filter(|c| **c).count();
+    let partial = (done < test.len()).then(|| format!("interrupted after {done} of {} test objects", test.len()));
     let objects: Vec<ObjectResult> = test
         .iter()
         .enumerate()
+        .filter(|(i, _)| complete[*i])
         .map(|(i, name)| object_result(name, &prepared[i], &trials))
         .collect();
-    let attempts = test.len() * n;
+    if done == 0 && partial.is_some() {
+        bail!("interrupted before any test object finished: nothing to write");
+    }
+    let attempts = done * n;
     let ms: usize = objects.iter().map(|o| o.model).sum();
     let ns: usize = objects.iter().map(|o| o.naive).sum();
     let significance = super::report::significance(ms, ns, attempts)?;
@@ -227,12 +248,19 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
         significance,
         wall_time: 0.0,
         files,
+        partial: partial.clone(),
     };
     summary.wall_time = wall.elapsed().as_secs_f64();
     super::report::write_files(&args.output, &mut summary, &trials, &model)?;
     let p = args.output.join("summary.json");
     crate::files::write_atomic(&p, serde_json::to_string_pretty(&summary)?.as_bytes())?;
     summary.files.push(path_str(&p));
+    if let Some(why) = partial {
+        bail!(
+            "{why}; the partial results are in {} (marked PARTIAL)",
+            args.output.display()
+        );
+    }
     Ok(summary)
 }
 

@@ -96,6 +96,9 @@ pub struct EvalSummary {
     pub wall_time: f64,
     /// Files written.
     pub files: Vec<String>,
+    /// Set when the run was interrupted: what was finished (the figures are over that).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub partial: Option<String>,
 }
 
 /// Fisher (one-sided) and χ² with Yates' correction on model vs naive successes of `n` each.
@@ -219,6 +222,9 @@ fn pct(a: usize, n: usize) -> f64 {
 fn markdown(s: &EvalSummary, model: &GraspModel) -> String {
     let mut m = String::new();
     let _ = writeln!(m, "# Grasp evaluation (§6.5)\n");
+    if let Some(p) = &s.partial {
+        let _ = writeln!(m, "**PARTIAL: {p}**; the figures below are over those objects.\n");
+    }
     let _ = writeln!(
         m,
         "Seed {}; {} training presentations, {} test presentations, {} candidates per object and method.\n",

@@ -677,12 +677,14 @@ fn foreign_channels_are_skipped_and_trailing_bytes_reported() {
         let ros = w
             .add_schema("sensor_msgs/msg/PointCloud2", "ros2msg", b"uint32 height")
             .unwrap();
-        let cloud = w
-            .add_channel(ros, "/pbd/percept", "cdr", &BTreeMap::new())
-            .unwrap();
+        let cloud = w.add_channel(ros, "/pbd/percept", "cdr", &BTreeMap::new()).unwrap();
         let json = w.add_channel(0, "/pbd/percept", "json", &BTreeMap::new()).unwrap();
         let proto = w.add_channel(0, "/other", "protobuf", &BTreeMap::new()).unwrap();
-        for (channel, data) in [(cloud, &b"\x00\x01binary"[..]), (json, b"{\"t\":0}"), (proto, b"\x08\x01")] {
+        for (channel, data) in [
+            (cloud, &b"\x00\x01binary"[..]),
+            (json, b"{\"t\":0}"),
+            (proto, b"\x08\x01"),
+        ] {
             w.write_to_known_channel(
                 &mcap::records::MessageHeader {
                     channel_id: channel,
@@ -700,7 +702,11 @@ fn foreign_channels_are_skipped_and_trailing_bytes_reported() {
     assert_eq!(rec.messages.len(), 1, "only the JSON channel is read");
     assert_eq!(rec.messages[0].2, b"{\"t\":0}".to_vec());
     assert_eq!(rec.foreign_channels.len(), 1, "{:?}", rec.foreign_channels);
-    assert!(rec.foreign_channels[0].contains("PointCloud2"), "{:?}", rec.foreign_channels);
+    assert!(
+        rec.foreign_channels[0].contains("PointCloud2"),
+        "{:?}",
+        rec.foreign_channels
+    );
     let all = read_recording(&tmp.0, &[]).unwrap();
     assert!(all.foreign_channels.iter().any(|c| c.contains("protobuf")));
     assert!(read_summary(&tmp.0).unwrap().skipped_chunks.is_empty());

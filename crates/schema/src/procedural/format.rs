@@ -205,7 +205,10 @@ impl ProceduralModel {
             Some(other) => {
                 return Err(invalid(
                     "version",
-                    format!("must be the integer {MODEL_VERSION}, got {other} (a JSON {})", json_kind(other)),
+                    format!(
+                        "must be the integer {MODEL_VERSION}, got {other} (a JSON {})",
+                        json_kind(other)
+                    ),
                 ));
             }
             None => return Err(invalid("version", "missing".into())),
