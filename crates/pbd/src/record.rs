@@ -187,11 +187,12 @@ fn choose_arm(sim: &DexterSim, scene: &Scene, object: &str, place: Option<&str>,
 
 fn tasks(args: &RecordOptions, sim: &DexterSim, scene: &Scene) -> Result<Vec<TeachTask>> {
     let first_object = || {
-        scene
-            .resolved
-            .first()
-            .map(|o| o.label.clone())
-            .context("the scene has no objects; pass --object")
+        scene.resolved.first().map(|o| o.label.clone()).with_context(|| {
+            format!(
+                "scene {} has no objects to demonstrate with (add [[objects]] to it)",
+                scene.path.display()
+            )
+        })
     };
     let want = args.arm.arm();
     let object = match &args.object {
@@ -217,7 +218,21 @@ fn tasks(args: &RecordOptions, sim: &DexterSim, scene: &Scene) -> Result<Vec<Tea
                             break;
                         }
                     }
-                    found.with_context(|| format!("no place is reachable with `{object}`; pass --place"))?
+                    found.with_context(|| {
+                        if scene.spec.places.is_empty() {
+                            format!("scene {} has no places (add [[places]] to it)", scene.path.display())
+                        } else {
+                            let arm = match want {
+                                Some(a) => format!("the {a} arm"),
+                                None => "either arm".to_string(),
+                            };
+                            format!(
+                                "{arm} cannot pick `{object}` and reach any place of the scene ({}); move the object or the places{}",
+                                scene.spec.places.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", "),
+                                if want.is_some() { ", or try --arm auto" } else { "" }
+                            )
+                        }
+                    })?
                 }
             };
             let arm = choose_arm(sim, scene, &object, Some(&place), want)?;

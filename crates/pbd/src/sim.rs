@@ -97,16 +97,16 @@ pub fn pick_place(args: &PickPlaceOptions, progress: &dyn Progress) -> anyhow::R
             .objects
             .first()
             .map(|o| o.presentation.clone())
-            .ok_or_else(|| anyhow::anyhow!("scene `{}` has no objects; pass --object", args.scene))?,
+            .ok_or_else(|| anyhow::anyhow!("scene `{}` has no objects to pick (add [[objects]] to it)", args.scene))?,
     };
     let place = match &args.place {
         Some(p) => p.clone(),
-        None => scene
-            .spec
-            .places
-            .first()
-            .map(|p| p.name.clone())
-            .ok_or_else(|| anyhow::anyhow!("scene `{}` has no places; pass --place", args.scene))?,
+        None => scene.spec.places.first().map(|p| p.name.clone()).ok_or_else(|| {
+            anyhow::anyhow!(
+                "scene `{}` has no places to put an object (add [[places]] to it)",
+                args.scene
+            )
+        })?,
     };
     scene.place(&place)?;
     if !(args.log_hz.is_finite() && args.log_hz > 0.0) {
