@@ -403,3 +403,70 @@ fn sorting_experiment_stops_on_sigint_with_partial_results() {
     assert!(rows > 0 && rows < 300, "{rows} trials written");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// MCAP that is not what pbd wrote: bytes after the footer make `doctor` exit non-zero and say so;
+/// a percept channel in another encoding is skipped with a note, never JSON-parsed.
+#[test]
+fn foreign_and_appended_mcap_are_reported() {
+    let d = dir("foreign-mcap");
+    let rec = d.join("x.mcap");
+    let o = pbd(&["record", "--script", "touch", "--max-seconds", "10", "-o", &s(&rec)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut bytes = std::fs::read(&rec).unwrap();
+    bytes.extend_from_slice(b"appended by another tool");
+    let appended = d.join("appended.mcap");
+    std::fs::write(&appended, &bytes).unwrap();
+    let o = pbd(&["doctor", &s(&appended)]);
+    assert_eq!(o.status.code(), Some(1), "{}", stdout_and_err(&o));
+    assert!(stdout_and_err(&o).contains("after the footer"), "{}", stdout_and_err(&o));
+    // Percepts as ROS 2 CDR messages only: refused with the channel's encoding named.
+    let foreign = d.join("foreign.mcap");
+    {
+        let mut w = mcap::Writer::new(std::io::BufWriter::new(std::fs::File::create(&foreign).unwrap())).unwrap();
+        let schema = w.add_schema("sensor_msgs/msg/PointCloud2", "ros2msg", b"uint32 height").unwrap();
+        let c = w
+            .add_channel(schema, "/pbd/percept", "cdr", &std::collections::BTreeMap::new())
+            .unwrap();
+        w.write_to_known_channel(
+            &mcap::records::MessageHeader {
+                channel_id: c,
+                sequence: 0,
+                log_time: 1,
+                publish_time: 1,
+            },
+            b"\x00\x01\x02",
+        )
+        .unwrap();
+        w.finish().unwrap();
+    }
+    refused(&["infer", &s(&foreign)], &["foreign.mcap", "cdr", "PointCloud2"]);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+fn stdout_and_err(o: &std::process::Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(o))
+}
+
+/// `pbd sim pick-place --mcap` stops on SIGINT with a complete log and exits 130.
+#[test]
+fn sim_pick_place_stops_on_sigint_with_a_complete_log() {
+    let d = dir("pp-sigint");
+    let log = d.join("pp.mcap");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_pbd"))
+        .args(["sim", "pick-place", "--mcap", &s(&log)])
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_secs(3));
+    let ok = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(ok.success());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(130), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = pbd(&["doctor", &s(&log), "--json"]);
+    assert!(o.status.success(), "the log is complete: {}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&d);
+}
