@@ -45,8 +45,9 @@ pub struct SortingArgs {
     /// The experiment.
     #[arg(long, value_enum)]
     feature: FeatureArg,
-    /// Object catalog (TOML); default: the built-in household catalog.
-    #[arg(long)]
+    /// Object catalog (TOML) the examples (and, without --test-catalog, the test objects) come
+    /// from; default: the built-in household catalog.
+    #[arg(long, visible_alias = "train-catalog")]
     catalog: Option<PathBuf>,
     /// Trials per number of examples.
     #[arg(long, default_value_t = 10)]
@@ -81,6 +82,13 @@ pub struct SortingArgs {
     /// catalog; --catalog and --views are then ignored.
     #[arg(long, conflicts_with = "dump_features")]
     features: Option<PathBuf>,
+    /// A held-out catalog to test on: examples come from --catalog (the training catalog), the test
+    /// objects (and relevance negatives) are every presentation of this one.
+    #[arg(long)]
+    test_catalog: Option<PathBuf>,
+    /// Or the held-out catalog's features (from --dump-features).
+    #[arg(long, conflicts_with = "test_catalog")]
+    test_features: Option<PathBuf>,
 }
 
 /// `pbd experiment execute` arguments.
@@ -140,6 +148,8 @@ fn sorting(a: SortingArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         output: a.output,
         dump_features: a.dump_features,
         features: a.features,
+        test_catalog: a.test_catalog,
+        test_features: a.test_features,
     };
     let summary = pbd::experiment::sorting::run(&options, &Bars::new(a.json, true)?)?;
     for (path, figure) in &summary.figures {

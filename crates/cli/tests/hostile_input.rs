@@ -418,12 +418,18 @@ fn foreign_and_appended_mcap_are_reported() {
     std::fs::write(&appended, &bytes).unwrap();
     let o = pbd(&["doctor", &s(&appended)]);
     assert_eq!(o.status.code(), Some(1), "{}", stdout_and_err(&o));
-    assert!(stdout_and_err(&o).contains("after the footer"), "{}", stdout_and_err(&o));
+    assert!(
+        stdout_and_err(&o).contains("after the footer"),
+        "{}",
+        stdout_and_err(&o)
+    );
     // Percepts as ROS 2 CDR messages only: refused with the channel's encoding named.
     let foreign = d.join("foreign.mcap");
     {
         let mut w = mcap::Writer::new(std::io::BufWriter::new(std::fs::File::create(&foreign).unwrap())).unwrap();
-        let schema = w.add_schema("sensor_msgs/msg/PointCloud2", "ros2msg", b"uint32 height").unwrap();
+        let schema = w
+            .add_schema("sensor_msgs/msg/PointCloud2", "ros2msg", b"uint32 height")
+            .unwrap();
         let c = w
             .add_channel(schema, "/pbd/percept", "cdr", &std::collections::BTreeMap::new())
             .unwrap();

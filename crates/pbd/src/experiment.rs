@@ -57,6 +57,12 @@ pub struct SortingOptions {
     /// Read the features from this JSON file (written by `dump_features`) instead of rendering the
     /// catalog: the trials then run on exactly those features (`catalog` and `views` are ignored).
     pub features: Option<PathBuf>,
+    /// A held-out catalog to test on (TOML): the examples come from `catalog` (the training
+    /// catalog), the test objects are every presentation of this one. Default: test objects held
+    /// out from the training catalog.
+    pub test_catalog: Option<PathBuf>,
+    /// Or the held-out catalog's features already rendered (a feature bank).
+    pub test_features: Option<PathBuf>,
 }
 
 impl Default for SortingOptions {
@@ -73,6 +79,8 @@ impl Default for SortingOptions {
             output: PathBuf::from("experiment-sorting"),
             dump_features: None,
             features: None,
+            test_catalog: None,
+            test_features: None,
         }
     }
 }

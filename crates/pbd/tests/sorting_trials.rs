@@ -88,3 +88,26 @@ fn chi2_that_cannot_be_computed_is_not_reported_as_p_one() {
     let p = chi2_against_random(&[vec![5.0, 0.0, 0.0], vec![0.0, 4.0, 0.0], vec![0.0, 0.0, 0.0]]).unwrap();
     assert!((p - 0.002_699_8).abs() < 1e-6, "{p}");
 }
+
+#[test]
+fn a_held_out_catalog_tests_every_presentation_of_it() {
+    let bank = bank();
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/household_features.json");
+    let o = SortingOptions {
+        test_features: Some(fixture),
+        ..options(Feature::Color, &["red", "blue"], "held-out")
+    };
+    let classes = |c: &str| {
+        bank.presentations
+            .iter()
+            .filter(|p| p.color_class.as_deref() == Some(c))
+            .count()
+    };
+    let r = pbd::experiment::sorting::trial_held_out(&o, &bank, Some(&bank), 1, 0).unwrap();
+    assert_eq!(r.tested, classes("red") + classes("blue"));
+    assert!(r.success_rate > 0.5, "{r:?}");
+    // The whole run reads the held-out bank and says so.
+    let s = run_on_bank(&o, &bank, &Quiet).unwrap();
+    assert!(s.catalog.contains("held-out"), "{}", s.catalog);
+    let _ = std::fs::remove_dir_all(&o.output);
+}

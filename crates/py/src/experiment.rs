@@ -163,6 +163,11 @@ struct SortingConfig {
     /// Or features already rendered (`pbd experiment sorting --dump-features FILE`).
     #[serde(default)]
     features: Option<PathBuf>,
+    /// A held-out catalog to test on (rendered once per process), or its feature bank.
+    #[serde(default)]
+    test_catalog: Option<PathBuf>,
+    #[serde(default)]
+    test_features: Option<PathBuf>,
     #[serde(default)]
     classes: Vec<String>,
     #[serde(default)]
@@ -211,6 +216,8 @@ fn sorting_trial(py: Python<'_>, config: &Bound<'_, PyAny>, trial: usize) -> PyR
         structure: c.structure.clone(),
         views: c.views,
         seed: c.seed,
+        test_catalog: c.test_catalog.clone(),
+        test_features: c.test_features.clone(),
         ..Default::default()
     };
     let (result, _) = runner::run(py, None, |progress| {
@@ -238,7 +245,31 @@ fn sorting_trial(py: Python<'_>, config: &Bound<'_, PyAny>, trial: usize) -> PyR
                 bank
             }
         };
-        pbd::experiment::sorting::trial(&options, &bank, c.examples, trial)
+        let test = if c.test_catalog.is_some() || c.test_features.is_some() {
+            let key: BankKey = (
+                c.test_catalog.clone(),
+                c.test_features.clone(),
+                c.views,
+                c.seed ^ 0x7E57,
+            );
+            let cached = BANKS.lock().ok().and_then(|b| b.get(&key).cloned());
+            Some(match cached {
+                Some(b) => b,
+                None => {
+                    let b = std::sync::Arc::new(
+                        pbd::experiment::sorting::test_bank(&options, progress)?
+                            .ok_or_else(|| anyhow::anyhow!("no test catalog or bank"))?,
+                    );
+                    if let Ok(mut m) = BANKS.lock() {
+                        m.insert(key, b.clone());
+                    }
+                    b
+                }
+            })
+        } else {
+            None
+        };
+        pbd::experiment::sorting::trial_held_out(&options, &bank, test.as_deref(), c.examples, trial)
     })?;
     to_python(py, &result)
 }

@@ -111,6 +111,7 @@ fn sorting_trial(
     n: usize,
     rng: &mut Generator,
     negatives: &[usize],
+    held_out: Option<(&FeatureBank, &[Vec<usize>])>,
 ) -> anyhow::Result<TrialResult> {
     let mut train = Vec::new();
     let mut test = Vec::new();
@@ -118,6 +119,9 @@ fn sorting_trial(
         let mut pool = pool.clone();
         pool.shuffle(rng);
         for (i, &p) in pool.iter().enumerate() {
+            if held_out.is_some() && i >= n {
+                break;
+            }
             let f = view(bank, rng, p).clone();
             if i < n {
                 train.push(Example {
@@ -129,6 +133,18 @@ fn sorting_trial(
             }
         }
     }
+    // A held-out catalog: every presentation of each class is a test object; the negatives are its.
+    let bank = match held_out {
+        Some((test_bank, test_pools)) => {
+            for (k, pool) in test_pools.iter().enumerate() {
+                for &p in pool {
+                    test.push((k, view(test_bank, rng, p).clone()));
+                }
+            }
+            test_bank
+        }
+        None => bank,
+    };
     let model = ProceduralModel::learn(hyper.clone(), &train)?;
     let order: Vec<&str> = model.place_names();
     let index: BTreeMap<&str, usize> = names.iter().enumerate().map(|(i, s)| (s.as_str(), i)).collect();
@@ -222,15 +238,18 @@ pub struct TrialRecord {
 }
 
 /// The fixed parts of a run: classes, pools, negatives.
-struct Setup {
+struct Setup<'a> {
     classes: Vec<String>,
     hyper: Hyper,
     pools: Vec<Vec<usize>>,
+    /// Indices into the test bank (the held-out one when there is one).
     negatives: Vec<usize>,
     max_n: usize,
+    /// The held-out bank and its class pools.
+    test: Option<(&'a FeatureBank, Vec<Vec<usize>>)>,
 }
 
-fn setup(args: &SortingOptions, bank: &FeatureBank) -> anyhow::Result<Setup> {
+fn setup<'a>(args: &SortingOptions, bank: &FeatureBank, test: Option<&'a FeatureBank>) -> anyhow::Result<Setup<'a>> {
     let (classes, label, hyper) = plan(args)?;
     if !matches!(args.feature, Feature::Color | Feature::Size | Feature::Relevance) {
         bail!(
@@ -238,9 +257,13 @@ fn setup(args: &SortingOptions, bank: &FeatureBank) -> anyhow::Result<Setup> {
             format!("{:?}", args.feature).to_lowercase()
         );
     }
-    let pools = class_pools(bank, label, &classes, 2)?;
+    let pools = class_pools(bank, label, &classes, if test.is_some() { 1 } else { 2 })?;
+    let test = match test {
+        Some(t) => Some((t, class_pools(t, label, &classes, 1)?)),
+        None => None,
+    };
     let negatives = if args.feature == Feature::Relevance {
-        let l = labels(bank, label);
+        let l = labels(test.as_ref().map_or(bank, |t| t.0), label);
         let n: Vec<usize> = (0..l.len())
             .filter(|&i| !l[i].is_some_and(|c| classes.iter().any(|k| k == c)))
             .collect();
@@ -251,7 +274,10 @@ fn setup(args: &SortingOptions, bank: &FeatureBank) -> anyhow::Result<Setup> {
     } else {
         Vec::new()
     };
-    let max_n = pools.iter().map(Vec::len).min().unwrap_or(1) - 1;
+    // With a held-out catalog every training presentation may be an example; else one per class
+    // stays out for testing.
+    let held = usize::from(test.is_none());
+    let max_n = pools.iter().map(Vec::len).min().unwrap_or(1) - held;
     let max_n = args.max_examples.min(max_n).max(1);
     Ok(Setup {
         classes,
@@ -259,6 +285,7 @@ fn setup(args: &SortingOptions, bank: &FeatureBank) -> anyhow::Result<Setup> {
         pools,
         negatives,
         max_n,
+        test,
     })
 }
 
@@ -272,7 +299,17 @@ fn run_trial(
 ) -> anyhow::Result<(TrialRecord, Vec<(f64, bool)>)> {
     let salt = if args.feature == Feature::Relevance { 2 } else { 1 };
     let mut rng = trial_rng(args.seed, salt, n, t);
-    let r = sorting_trial(bank, &s.pools, &s.classes, &s.hyper, n, &mut rng, &s.negatives)?;
+    let held_out = s.test.as_ref().map(|(b, p)| (*b, p.as_slice()));
+    let r = sorting_trial(
+        bank,
+        &s.pools,
+        &s.classes,
+        &s.hyper,
+        n,
+        &mut rng,
+        &s.negatives,
+        held_out,
+    )?;
     let sp = r.model.structure_posterior()?;
     let (auc_value, accuracy) = if args.feature == Feature::Relevance {
         let th = s.hyper.relevance_log_threshold;
@@ -301,15 +338,49 @@ fn run_trial(
 /// Trial `trial` with `examples` examples per class of the experiment `args` on `bank` (see
 /// [`TrialRecord`]). `examples` must lie in 1..=the largest the classes allow.
 pub fn trial(args: &SortingOptions, bank: &FeatureBank, examples: usize, trial: usize) -> anyhow::Result<TrialRecord> {
-    let s = setup(args, bank)?;
+    trial_held_out(args, bank, None, examples, trial)
+}
+
+/// [`trial`] with the examples drawn from `train` and, when `test` is given (a held-out catalog's
+/// features), every presentation of `test` of the task's classes as the test objects (and its other
+/// presentations as the negatives of the relevance experiment).
+pub fn trial_held_out(
+    args: &SortingOptions,
+    train: &FeatureBank,
+    test: Option<&FeatureBank>,
+    examples: usize,
+    trial: usize,
+) -> anyhow::Result<TrialRecord> {
+    let s = setup(args, train, test)?;
     if examples == 0 || examples > s.max_n {
         bail!(
-            "examples = {examples}: this experiment runs 1..={} examples per class (the smallest class has {} presentations, one is kept for testing)",
+            "examples = {examples}: this experiment runs 1..={} examples per class (the smallest class's presentations{})",
             s.max_n,
-            s.max_n + 1
+            if test.is_none() { ", one kept for testing" } else { "" }
         );
     }
-    Ok(run_trial(args, bank, &s, examples, trial)?.0)
+    Ok(run_trial(args, train, &s, examples, trial)?.0)
+}
+
+/// The held-out test features of a run: `test_features` read, or `test_catalog` rendered (its own
+/// noise stream), or none (test objects are held out from the training catalog).
+pub fn test_bank(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Option<FeatureBank>> {
+    if let Some(path) = &args.test_features {
+        return Ok(Some(super::features::load_bank(path)?));
+    }
+    let Some(path) = &args.test_catalog else {
+        return Ok(None);
+    };
+    let catalog = Catalog::load(path)?;
+    progress.phase(
+        "rendering the test catalog",
+        Some((catalog.presentation_names().len() * args.views) as u64),
+    );
+    let bank = render_bank(&catalog, args.views, crate::rng::split(args.seed, 0x7E57), || {
+        progress.advance(1)
+    })?;
+    progress.finish();
+    Ok(Some(bank))
 }
 
 fn mean_sd(xs: &[f64]) -> (f64, f64) {
@@ -403,6 +474,7 @@ pub fn run(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Sum
         let bank = super::features::load_bank(path)?;
         return run_on_bank(args, &bank, progress);
     }
+    let test = test_bank(args, progress)?;
     let catalog = match &args.catalog {
         Some(p) => Catalog::load(p)?,
         None => Catalog::builtin_household()?,
@@ -420,7 +492,7 @@ pub fn run(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Sum
     if let Some(p) = &args.dump_features {
         crate::files::write_atomic(p, serde_json::to_string(&bank)?.as_bytes())?;
     }
-    run_with(args, &bank, render_secs, progress)
+    run_with(args, &bank, test.as_ref(), render_secs, progress)
 }
 
 /// The experiment on features already rendered (a bank from [`super::features::render_bank`], or a
@@ -429,7 +501,8 @@ pub fn run(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Sum
 pub fn run_on_bank(args: &SortingOptions, bank: &FeatureBank, progress: &dyn Progress) -> anyhow::Result<Summary> {
     plan(args)?;
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
-    run_with(args, bank, 0.0, progress)
+    let test = test_bank(args, progress)?;
+    run_with(args, bank, test.as_ref(), 0.0, progress)
 }
 
 /// The classes, the kind of label and the hyperparameters of a run, validated.
@@ -489,14 +562,21 @@ fn plan(args: &SortingOptions) -> anyhow::Result<(Vec<String>, Label, Hyper)> {
 fn run_with(
     args: &SortingOptions,
     bank: &FeatureBank,
+    test: Option<&FeatureBank>,
     render_secs: f64,
     progress: &dyn Progress,
 ) -> anyhow::Result<Summary> {
     let (classes, label, hyper) = plan(args)?;
+    if test.is_some() && !matches!(args.feature, Feature::Color | Feature::Size | Feature::Relevance) {
+        bail!("a held-out test catalog goes with --feature color, size or relevance");
+    }
     let t1 = Instant::now();
     let mut summary = Summary {
         experiment: format!("{:?}", args.feature).to_lowercase(),
-        catalog: bank.catalog.clone(),
+        catalog: match test {
+            Some(t) => format!("{} (examples) → {} (held-out test objects)", bank.catalog, t.catalog),
+            None => bank.catalog.clone(),
+        },
         classes: classes.clone(),
         structure: hyper.structure.name().into(),
         trials: args.trials,
@@ -511,8 +591,8 @@ fn run_with(
         partial: None,
     };
     match args.feature {
-        Feature::Color | Feature::Size => sorting(args, progress, bank, &classes, &mut summary)?,
-        Feature::Relevance => relevance(args, progress, bank, &classes, &mut summary)?,
+        Feature::Color | Feature::Size => sorting(args, progress, bank, test, &classes, &mut summary)?,
+        Feature::Relevance => relevance(args, progress, bank, test, &classes, &mut summary)?,
         Feature::Incremental => incremental(args, progress, bank, &hyper, label, &classes, &mut summary)?,
         Feature::Selection => selection(args, progress, bank, &hyper, &mut summary)?,
     }
@@ -570,10 +650,11 @@ fn sorting(
     args: &SortingOptions,
     progress: &dyn Progress,
     bank: &FeatureBank,
+    test: Option<&FeatureBank>,
     classes: &[String],
     summary: &mut Summary,
 ) -> anyhow::Result<()> {
-    let setup = setup(args, bank)?;
+    let setup = setup(args, bank, test)?;
     let max_n = setup.max_n;
     progress.phase("trials", Some((max_n * args.trials) as u64));
     let mut csv = Vec::new();
@@ -703,10 +784,11 @@ fn relevance(
     args: &SortingOptions,
     progress: &dyn Progress,
     bank: &FeatureBank,
+    test: Option<&FeatureBank>,
     classes: &[String],
     summary: &mut Summary,
 ) -> anyhow::Result<()> {
-    let setup = setup(args, bank)?;
+    let setup = setup(args, bank, test)?;
     let max_n = setup.max_n;
     progress.phase("trials", Some((max_n * args.trials) as u64));
     let mut csv = Vec::new();
