@@ -364,7 +364,7 @@ fn sorting_experiment_stops_on_sigint_with_partial_results() {
     let d = dir("sort-sigint");
     let out = d.join("out");
     let features = repo().join("crates/pbd/tests/data/household_features.json");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_pbd"))
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_pbd"))
         .args([
             "experiment",
             "sorting",
@@ -458,7 +458,7 @@ fn stdout_and_err(o: &std::process::Output) -> String {
 fn sim_pick_place_stops_on_sigint_with_a_complete_log() {
     let d = dir("pp-sigint");
     let log = d.join("pp.mcap");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_pbd"))
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_pbd"))
         .args(["sim", "pick-place", "--mcap", &s(&log)])
         .stderr(std::process::Stdio::piped())
         .stdout(std::process::Stdio::piped())

@@ -103,6 +103,7 @@ struct TrialResult {
     scores: Vec<(f64, bool)>,
 }
 
+#[allow(clippy::too_many_arguments)]
 fn sorting_trial(
     bank: &FeatureBank,
     pools: &[Vec<usize>],
