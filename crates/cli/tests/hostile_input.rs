@@ -24,6 +24,31 @@ fn refused(args: &[&str], needles: &[&str]) {
     }
 }
 
+/// Runs `pbd args`, sends SIGINT after `seconds`, and returns its output once it exited; the exit
+/// must follow within 10 s.
+fn interrupted_after(args: &[&str], seconds: u64) -> std::process::Output {
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_pbd"))
+        .args(args)
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_secs(seconds));
+    let ok = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(ok.success());
+    let start = std::time::Instant::now();
+    let o = child.wait_with_output().unwrap();
+    assert!(
+        start.elapsed().as_secs_f64() < 10.0,
+        "took {:?} to stop",
+        start.elapsed()
+    );
+    o
+}
+
 fn s(p: &Path) -> String {
     p.display().to_string()
 }
@@ -187,33 +212,12 @@ fn execute_stops_on_sigint_with_a_complete_log() {
     let o = pbd(&["demo", "--out", &s(&demo), "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let log = d.join("run.mcap");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_pbd"))
-        .args([
-            "execute",
-            "--model",
-            &s(&demo.join("model.json")),
-            "--scene",
-            "sorting-demo",
-            "-o",
-            &s(&log),
-        ])
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(std::time::Duration::from_secs(4));
-    let ok = std::process::Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(ok.success());
-    let start = std::time::Instant::now();
-    let status = child.wait().unwrap();
-    assert!(
-        start.elapsed().as_secs_f64() < 10.0,
-        "took {:?} to stop",
-        start.elapsed()
+    let model = s(&demo.join("model.json"));
+    let o = interrupted_after(
+        &["execute", "--model", &model, "--scene", "sorting-demo", "-o", &s(&log)],
+        4,
     );
-    assert_eq!(status.code(), Some(130));
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
     let o = pbd(&["doctor", &s(&log), "--json"]);
     assert!(o.status.success(), "the log is complete: {}", stderr(&o));
     let _ = std::fs::remove_dir_all(&d);
@@ -364,8 +368,10 @@ fn sorting_experiment_stops_on_sigint_with_partial_results() {
     let d = dir("sort-sigint");
     let out = d.join("out");
     let features = repo().join("crates/pbd/tests/data/household_features.json");
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_pbd"))
-        .args([
+    let features = s(&features);
+    let out_s = s(&out);
+    let o = interrupted_after(
+        &[
             "experiment",
             "sorting",
             "--feature",
@@ -373,25 +379,16 @@ fn sorting_experiment_stops_on_sigint_with_partial_results() {
             "--classes",
             "red,blue,green",
             "--features",
-            &s(&features),
+            &features,
             "--trials",
             "100",
             "--max-examples",
             "3",
             "-o",
-            &s(&out),
-        ])
-        .stderr(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(std::time::Duration::from_secs(3));
-    let ok = std::process::Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(ok.success());
-    let o = child.wait_with_output().unwrap();
+            &out_s,
+        ],
+        3,
+    );
     assert_eq!(o.status.code(), Some(130), "{}", String::from_utf8_lossy(&o.stderr));
     let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
     assert!(md.starts_with("**PARTIAL: interrupted after"), "{md}");
@@ -458,19 +455,7 @@ fn stdout_and_err(o: &std::process::Output) -> String {
 fn sim_pick_place_stops_on_sigint_with_a_complete_log() {
     let d = dir("pp-sigint");
     let log = d.join("pp.mcap");
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_pbd"))
-        .args(["sim", "pick-place", "--mcap", &s(&log)])
-        .stderr(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(std::time::Duration::from_secs(3));
-    let ok = std::process::Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(ok.success());
-    let o = child.wait_with_output().unwrap();
+    let o = interrupted_after(&["sim", "pick-place", "--mcap", &s(&log)], 3);
     assert_eq!(o.status.code(), Some(130), "{}", String::from_utf8_lossy(&o.stderr));
     let o = pbd(&["doctor", &s(&log), "--json"]);
     assert!(o.status.success(), "the log is complete: {}", stderr(&o));
