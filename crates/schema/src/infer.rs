@@ -781,7 +781,7 @@ impl Posterior {
 impl Inference {
     /// Checks an inference read from a file (`path` names it in messages): posteriors (see
     /// [`Posterior::check`]), time intervals in order, names without control characters, the object
-    /// features well formed ([`SegmentPercept::check`]).
+    /// features well formed ([`check_segment`]).
     pub fn check(&self, path: &str) -> Result<(), SchemaError> {
         self.posterior.check(path, "inference.posterior")?;
         if !(self.duration.is_finite() && self.duration >= 0.0) {
@@ -813,9 +813,53 @@ impl Inference {
                 check_interval(path, &ff, fact.first, fact.last)?;
             }
             if let Some(seg) = &inst.features {
-                seg.check(path, &format!("{f}.features"))?;
+                check_segment(seg, path, &format!("{f}.features"))?;
             }
         }
         Ok(())
     }
+}
+
+/// Checks a segment read from the file `path` (`field` names it): finite centroid and covariance,
+/// histogram and colour terms well formed ([`crate::procedural::Features::validate_in`]), shares
+/// summing to at most 1, a finite extent.
+pub fn check_segment(seg: &SegmentPercept, path: &str, field: &str) -> Result<(), SchemaError> {
+    if seg.centroid.iter().chain(&seg.covariance).any(|v| !v.is_finite()) {
+        return Err(SchemaError::invalid(
+            path,
+            format!("{field}.centroid"),
+            "centroid and covariance must be finite numbers",
+        ));
+    }
+    crate::procedural::Features::from(seg).validate_in(path, &format!("{field}."))?;
+    // The pipeline writes shares of the segment's pixels: each list sums to 1.
+    for (name, list) in [("histogram", &seg.histogram), ("colors", &seg.colors)] {
+        let sum: f64 = list.iter().map(|c| c.1).sum();
+        if sum > 1.0 + 1e-6 {
+            return Err(SchemaError::invalid(
+                path,
+                format!("{field}.{name}"),
+                format!("shares sum to {sum}; they are fractions of the segment's pixels (at most 1)"),
+            ));
+        }
+    }
+    if let Some(e) = &seg.extent {
+        let v = [
+            e.height,
+            e.center[0],
+            e.center[1],
+            e.major_axis[0],
+            e.major_axis[1],
+            e.half_major,
+            e.half_minor,
+        ];
+        if v.iter().any(|x| !x.is_finite()) || e.height < 0.0 || e.half_major < 0.0 || e.half_minor < 0.0 {
+            return Err(SchemaError::invalid(
+                path,
+                format!("{field}.extent"),
+                "must be finite, with non-negative height and half extents",
+            ));
+        }
+    }
+    Ok(())
 }
