@@ -427,6 +427,10 @@ pub struct Row {
     /// Trials whose χ² test could be computed (the p-value columns summarise these).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub p_computed: Option<usize>,
+    /// Sorting: the success rate pooled over the trials (correct / tested) with its 95 % Wilson
+    /// interval.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pooled: Option<(f64, (f64, f64))>,
 }
 
 /// The JSON summary.
@@ -665,12 +669,15 @@ fn sorting(
     for n in 1..=max_n {
         let mut rates = Vec::new();
         let mut ps = Vec::new();
+        let (mut hits, mut tested) = (0, 0);
         for t in 0..args.trials {
             if progress.should_stop() {
                 break;
             }
             done += 1;
             let (r, _) = run_trial(args, bank, &setup, n, t)?;
+            hits += r.correct;
+            tested += r.tested;
             csv.push(format!(
                 "{n},{t},{},{},{:.6},{},{},{:.6}",
                 r.correct,
@@ -701,6 +708,10 @@ fn sorting(
             median_p: (!ps.is_empty()).then(|| median(&ps)),
             max_p: (!ps.is_empty()).then(|| ps.iter().copied().fold(0.0, f64::max)),
             p_computed: Some(ps.len()),
+            pooled: Some((
+                hits as f64 / tested.max(1) as f64,
+                dexter_sim::experiment::wilson(hits, tested),
+            )),
         });
     }
     if done < max_n * args.trials {
@@ -823,11 +834,17 @@ fn relevance(
             median_p: None,
             max_p: None,
             p_computed: None,
+            pooled: None,
         });
         let (am, asd) = mean_sd(&acc);
+        let th = setup.hyper.relevance_log_threshold;
+        let right = pooled.iter().filter(|(x, pos)| (*x > th) == *pos).count();
+        let (lo, hi) = dexter_sim::experiment::wilson(right, pooled.len());
         accuracy_notes.push(format!(
-            "{n} example(s) per class: decision ln B10 > {} is right for {:.3} ± {:.3} of the objects",
-            setup.hyper.relevance_log_threshold, am, asd
+            "{n} example(s) per class: decision ln B10 > {th} is right for {am:.3} ± {asd:.3} of the objects \
+             (pooled {right}/{} = {:.3}, 95 % CI {lo:.3}–{hi:.3})",
+            pooled.len(),
+            right as f64 / pooled.len().max(1) as f64
         ));
         curves.push(Series {
             label: format!("{n} per class"),
@@ -1095,6 +1112,7 @@ fn selection(
                 median_p: None,
                 max_p: None,
                 p_computed: None,
+                pooled: None,
             });
         }
         series.push(Series {
@@ -1157,7 +1175,7 @@ fn markdown(s: &Summary) -> String {
         let with_p = rows.iter().any(|r| r.p_computed.is_some());
         if with_p {
             md.push_str(
-                "| examples per class | mean | sd | median χ² p | max χ² p | χ² computed in |\n|---:|---:|---:|---:|---:|---:|\n",
+                "| examples per class | mean | sd | pooled (95 % CI) | median χ² p | max χ² p | χ² computed in |\n|---:|---:|---:|---:|---:|---:|---:|\n",
             );
         } else {
             md.push_str("| examples per class | mean | sd |\n|---:|---:|---:|\n");
@@ -1166,8 +1184,11 @@ fn markdown(s: &Summary) -> String {
             md.push_str(&format!("| {} | {:.3} | {:.3} |", r.examples, r.mean, r.sd));
             if with_p {
                 let p = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.2e}"));
+                let pooled = r
+                    .pooled
+                    .map_or("n/a".to_string(), |(m, (lo, hi))| format!("{m:.3} ({lo:.3}–{hi:.3})"));
                 md.push_str(&format!(
-                    " {} | {} | {}/{} trials |",
+                    " {pooled} | {} | {} | {}/{} trials |",
                     p(r.median_p),
                     p(r.max_p),
                     r.p_computed.unwrap_or(0),
