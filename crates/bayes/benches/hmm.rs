@@ -1,8 +1,20 @@
 //! HMM throughput in observation-steps per second: N = 16 states, T = 100 000 steps
-//! (dense and left-to-right transition matrices). Compare hmmlearn 0.3.3 (log mode, same
-//! machine): 0.8 M obs-steps/s for the dense forward pass.
+//! (dense and left-to-right transition matrices).
+//!
+//! - `forward_scaled`: the scaled linear-domain forward pass on a precomputed *linear* emission
+//!   lattice — the same input, work and flushing as hmmlearn's compiled `_hmmc.forward_scaling`
+//!   (hmmlearn 0.3.3 `implementation="scaling"`), the figure to compare with it;
+//! - `forward_linear`: the same with the exactness guarantee (reruns in log space when the flush
+//!   bound exceeds 1e-13: the left-to-right model with its absorbing last state does);
+//! - `forward`: log emissions in (one `exp` per lattice entry, then the scaled pass);
+//! - `forward_exact`: the exact log-space recursion (pbd's forward pass before the scaled kernels;
+//!   compare hmmlearn's `forward_log`);
+//! - filters, Viterbi, forward–backward.
+//!
+//! `benches/peers/hmm.sh` runs hmmlearn (both modes) beside this bench, pinned to one core, and
+//! prints the ratios.
 
-use bayes::hmm::{ForwardFilter, Hmm};
+use bayes::hmm::{ForwardFilter, Hmm, ScaledFilter};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 
@@ -50,6 +62,7 @@ fn bench(c: &mut Criterion) {
     let mut rng = Uniform(bayes::rng::seeded(20110201));
     // Emissions favour the early states a little so the left-to-right model moves along slowly.
     let log_e: Vec<f64> = (0..T * N).map(|_| rng.next().ln()).collect();
+    let lin_e: Vec<f64> = log_e.iter().map(|l| l.exp()).collect();
     let models = [("dense", dense(&mut rng)), ("left_to_right", left_to_right(&mut rng))];
     let mut g = c.benchmark_group("hmm_n16_t100k");
     g.throughput(Throughput::Elements(T as u64));
@@ -57,6 +70,25 @@ fn bench(c: &mut Criterion) {
     for (name, hmm) in &models {
         g.bench_with_input(BenchmarkId::new("forward", name), hmm, |b, hmm| {
             b.iter(|| black_box(hmm.forward(black_box(&log_e)).unwrap()))
+        });
+        g.bench_with_input(BenchmarkId::new("forward_linear", name), hmm, |b, hmm| {
+            b.iter(|| black_box(hmm.forward_linear(black_box(&lin_e)).unwrap()))
+        });
+        g.bench_with_input(BenchmarkId::new("forward_scaled", name), hmm, |b, hmm| {
+            b.iter(|| black_box(hmm.forward_scaled(black_box(&lin_e)).unwrap()))
+        });
+        g.bench_with_input(BenchmarkId::new("forward_exact", name), hmm, |b, hmm| {
+            b.iter(|| black_box(hmm.forward_exact(black_box(&log_e)).unwrap()))
+        });
+        g.bench_with_input(BenchmarkId::new("scaled_filter_step", name), hmm, |b, hmm| {
+            let mut f = ScaledFilter::new(hmm);
+            b.iter(|| {
+                f.reset(hmm);
+                for row in lin_e.chunks_exact(N) {
+                    f.step(hmm, row).unwrap();
+                }
+                black_box(f.log_likelihood())
+            })
         });
         g.bench_with_input(BenchmarkId::new("filter_step", name), hmm, |b, hmm| {
             let mut f = ForwardFilter::new(hmm);

@@ -34,7 +34,7 @@
 //! posterior. The monitors that converged inside an instance are its procedural facts (§4.2): which
 //! object, which place, which arm, and the object's features at the grasp.
 
-use bayes::hmm::Hmm;
+use bayes::hmm::{Hmm, SharedModel, forward_shared};
 use bayes::special::log_sum_exp;
 use serde::{Deserialize, Serialize};
 
@@ -84,10 +84,22 @@ struct Composite {
     hmm: Hmm,
     /// The slot of each hidden state; every slot appears twice, as its entry step then its dwell.
     slots: Vec<Slot>,
-    /// Whether each hidden state is the first step in its slot (errors are fresh there).
-    entry: Vec<bool>,
     /// Final-state mask: goal states and the after-gap.
     accept: Vec<bool>,
+    /// The shared emission column of each hidden state (see [`Column`]).
+    columns: Vec<usize>,
+}
+
+/// One distinct emission distribution of the library: the gap (every action not converged), or a
+/// schema state's expectations, on the state's first step (`entry`, errors fresh) or later.
+/// Written as the gap's log-likelihood plus the terms of the actions the state expects converged
+/// (or does not care about), so a step costs one term per such action instead of one per action.
+#[derive(Debug, Clone)]
+struct Column {
+    /// First step in the slot (0) or a dwell step (1): which error terms apply.
+    b: usize,
+    /// (action, table column) of every action whose term differs from "not converged".
+    deltas: Vec<(usize, usize)>,
 }
 
 /// The inference engine for one library (the models are built once).
@@ -101,6 +113,9 @@ pub struct Engine {
     all: Composite,
     /// Per action.
     ln: Vec<Noise>,
+    /// The distinct emission distributions shared by all composites (gap entry, gap dwell, then
+    /// entry and dwell of each schema state in library order).
+    columns: Vec<Column>,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -254,12 +269,37 @@ impl Engine {
             .collect::<Result<Vec<_>, _>>()?;
         let everything: Vec<usize> = (0..library.schemas.len()).collect();
         let all = composite(library, &everything, p_stay, p_idle)?;
+        let mut columns = vec![
+            Column {
+                b: 0,
+                deltas: Vec::new(),
+            },
+            Column {
+                b: 1,
+                deltas: Vec::new(),
+            },
+        ];
+        for sc in &library.schemas {
+            for state in 0..sc.states.len() {
+                for b in 0..2 {
+                    let deltas = (0..library.actions.len())
+                        .filter_map(|a| match sc.expects(state, a) {
+                            Expect::Converged => Some((a, b)),
+                            Expect::Either => Some((a, 4)),
+                            Expect::NotConverged => None,
+                        })
+                        .collect();
+                    columns.push(Column { b, deltas });
+                }
+            }
+        }
         Ok(Engine {
             library: library.clone(),
             config,
             per_schema,
             all,
             ln,
+            columns,
         })
     }
 
@@ -268,9 +308,12 @@ impl Engine {
         &self.library
     }
 
-    /// log p(x_t | slot, x_{t−1}) for every slot of `c`, appended to `out`.
-    fn emissions(&self, c: &Composite, obs: &[Observation], out: &mut Vec<f64>) {
+    /// log p(x_t | column, x_{t−1}) for every shared emission column (T×width, row-major): the
+    /// emission model (4.19)–(4.21) with the monitors' miss/false-alarm and burst terms.
+    fn shared_emissions(&self, obs: &[Observation]) -> Vec<f64> {
         let k = self.library.actions.len();
+        let width = self.columns.len();
+        let mut out = Vec::with_capacity(obs.len() * width);
         // Per step and component: converged (fresh, in a burst), not converged (fresh, in a burst),
         // either. "Fresh" applies on the first step of a state, where an error cannot continue one.
         let mut table = vec![[0.0f64; 5]; k];
@@ -309,60 +352,29 @@ impl Engine {
                 gap[0] += not_fresh;
                 gap[1] += not_burst;
             }
-            for (slot, &entry) in c.slots.iter().zip(&c.entry) {
-                let b = usize::from(!entry);
-                out.push(match *slot {
-                    Slot::GapBefore | Slot::GapAfter => gap[b],
-                    Slot::State { schema, state } => {
-                        let s = &self.library.schemas[schema];
-                        (0..k)
-                            .map(|a| match s.expects(state, a) {
-                                Expect::Converged => table[a][b],
-                                Expect::NotConverged => table[a][2 + b],
-                                Expect::Either => table[a][4],
-                            })
-                            .sum()
-                    }
-                });
-            }
+            out.extend(self.columns.iter().map(|c| {
+                c.deltas
+                    .iter()
+                    .fold(gap[c.b], |acc, &(a, col)| acc + (table[a][col] - table[a][2 + c.b]))
+            }));
+        }
+        out
+    }
+
+    /// log p(x_t | state, x_{t−1}) for every hidden state of `c` (T×n), from the shared columns.
+    fn emissions(&self, c: &Composite, shared: &[f64], out: &mut Vec<f64>) {
+        for row in shared.chunks_exact(self.columns.len()) {
+            out.extend(c.columns.iter().map(|&col| row[col]));
         }
     }
 
-    /// log p(x, final state accepted) under composite `c`, by the forward filter.
-    fn evidence(&self, c: &Composite, obs: &[Observation]) -> Result<f64, SchemaError> {
-        let mut e = Vec::with_capacity(obs.len() * c.slots.len());
-        self.emissions(c, obs, &mut e);
-        let mut filter = bayes::hmm::ForwardFilter::new(&c.hmm);
-        for row in e.chunks_exact(c.slots.len()) {
-            filter.step(&c.hmm, row)?;
-            if filter.is_impossible() {
-                return Ok(f64::NEG_INFINITY);
-            }
-        }
-        let lf = filter.log_filtered();
-        let acc: Vec<f64> = lf.iter().zip(&c.accept).filter(|(_, a)| **a).map(|(l, _)| *l).collect();
-        Ok(filter.log_likelihood() + log_sum_exp(&acc))
-    }
-
-    /// log p(x | none): nothing intended; every convergence is a false alarm.
-    fn none_evidence(&self, obs: &[Observation]) -> f64 {
-        let gap_only = Composite {
-            hmm: Hmm::new(
-                vec![0.0, f64::NEG_INFINITY],
-                vec![f64::NEG_INFINITY, 0.0, f64::NEG_INFINITY, 0.0],
-            )
-            .expect("a two-state chain"),
-            slots: vec![Slot::GapBefore, Slot::GapBefore],
-            entry: vec![true, false],
-            accept: vec![true, true],
-        };
-        let mut e = Vec::with_capacity(2 * obs.len());
-        self.emissions(&gap_only, obs, &mut e);
-        // Entry at the first step, dwell after.
-        e.iter()
+    /// log p(x | none): nothing intended; every convergence is a false alarm (the gap columns:
+    /// entry at the first step, dwell after).
+    fn none_evidence(&self, shared: &[f64]) -> f64 {
+        shared
+            .chunks_exact(self.columns.len())
             .enumerate()
-            .filter(|(i, _)| (*i == 0) || (*i % 2 == 1 && *i > 1))
-            .map(|(_, v)| v)
+            .map(|(t, row)| row[usize::from(t > 0)])
             .sum()
     }
 
@@ -384,11 +396,30 @@ impl Engine {
         }
         let mut names: Vec<String> = self.library.schemas.iter().map(|s| s.name.clone()).collect();
         names.push("none".into());
+        // Every schema's S⁺ model scores the demonstration in one pass over shared emissions;
+        // log p(x, final state accepted) = log p(x) + log Σ_{accepted j} p(z_T = j | x).
+        let shared = self.shared_emissions(obs);
+        let models: Vec<SharedModel<'_>> = self
+            .per_schema
+            .iter()
+            .map(|c| SharedModel {
+                hmm: &c.hmm,
+                columns: &c.columns,
+            })
+            .collect();
+        let forwards = forward_shared(&models, &shared, self.columns.len())?;
         let mut logs = Vec::with_capacity(names.len());
-        for c in &self.per_schema {
-            logs.push(self.evidence(c, obs)?);
+        for (c, f) in self.per_schema.iter().zip(&forwards) {
+            let acc: Vec<f64> = f
+                .log_filtered
+                .iter()
+                .zip(&c.accept)
+                .filter(|(_, a)| **a)
+                .map(|(l, _)| *l)
+                .collect();
+            logs.push(f.log_likelihood + log_sum_exp(&acc));
         }
-        logs.push(self.none_evidence(obs));
+        logs.push(self.none_evidence(&shared));
         let z = log_sum_exp(&logs);
         let hypotheses: Vec<Hypothesis> = names
             .into_iter()
@@ -414,7 +445,7 @@ impl Engine {
     fn viterbi(&self, c: &Composite, obs: &[Observation]) -> Result<Option<Vec<Slot>>, SchemaError> {
         let n = c.slots.len();
         let mut e = Vec::with_capacity((obs.len() + 1) * n);
-        self.emissions(c, obs, &mut e);
+        self.emissions(c, &self.shared_emissions(obs), &mut e);
         // A virtual last step that only accepted states can emit: the path must end in one.
         e.extend(c.accept.iter().map(|&a| if a { 0.0 } else { f64::NEG_INFINITY }));
         Ok(c.hmm.viterbi(&e)?.map(|v| {
@@ -676,11 +707,31 @@ fn composite(library: &Library, schemas: &[usize], p_stay: f64, p_idle: f64) -> 
         start.iter().map(|p| p.ln()).collect(),
         trans.iter().map(|p| p.ln()).collect(),
     )?;
+    // Shared emission columns (Engine::columns): the gap's two, then two per schema state.
+    let first_state: Vec<usize> = library
+        .schemas
+        .iter()
+        .scan(0, |acc, sc| {
+            let first = *acc;
+            *acc += sc.states.len();
+            Some(first)
+        })
+        .collect();
+    let columns = base
+        .iter()
+        .flat_map(|slot| {
+            let first = match *slot {
+                Slot::GapBefore | Slot::GapAfter => 0,
+                Slot::State { schema, state } => 2 + 2 * (first_state[schema] + state),
+            };
+            [first, first + 1]
+        })
+        .collect();
     Ok(Composite {
         hmm,
         slots: base.iter().flat_map(|&b| [b, b]).collect(),
-        entry: (0..n).map(|i| i % 2 == 0).collect(),
         accept: accept_base.iter().flat_map(|&a| [a, a]).collect(),
+        columns,
     })
 }
 

@@ -32,6 +32,9 @@
 
 use crate::error::{BayesError, Result, check_len};
 
+mod scaled;
+use scaled::{BOUND_TOL, Kernel, MIN_LINEAR_PROBABILITY, Scaled};
+
 /// A state prediction below this is recomputed exactly in log space (see the module docs).
 const LINEAR_MIN: f64 = 1e-250;
 /// |log Σ p| allowed for a row that must sum to one.
@@ -59,6 +62,14 @@ pub struct Hmm {
     in_ptr: Vec<usize>,
     in_from: Vec<usize>,
     in_log: Vec<f64>,
+    in_lin: Vec<f64>,
+    /// exp(log_start).
+    start_lin: Vec<f64>,
+    /// The layout of the linear (scaled) prediction step.
+    kernel: Kernel,
+    /// Whether the scaled linear path can represent every non-zero start and transition
+    /// probability (all ≥ 1e-20); if not, every pass takes the exact log-space path.
+    linear_ok: bool,
 }
 
 impl Hmm {
@@ -95,7 +106,7 @@ impl Hmm {
             out_ptr.push(out_to.len());
         }
         let mut in_ptr = Vec::with_capacity(n + 1);
-        let (mut in_from, mut in_log) = (Vec::new(), Vec::new());
+        let (mut in_from, mut in_log, mut in_lin) = (Vec::new(), Vec::new(), Vec::new());
         in_ptr.push(0);
         for j in 0..n {
             for i in 0..n {
@@ -103,12 +114,17 @@ impl Hmm {
                 if l > f64::NEG_INFINITY {
                     in_from.push(i);
                     in_log.push(l);
+                    in_lin.push(l.exp());
                 }
             }
             in_ptr.push(in_from.len());
         }
         // The dense loop vectorises; the sparse one wins once most entries are zero.
         let dense = 2 * out_to.len() > n * n;
+        let start_lin: Vec<f64> = log_start.iter().map(|l| l.exp()).collect();
+        let representable = |l: &f64| *l == f64::NEG_INFINITY || l.exp() >= MIN_LINEAR_PROBABILITY;
+        let linear_ok = log_start.iter().all(representable) && log_trans.iter().all(representable);
+        let kernel = Kernel::choose(n, &trans, out_to.len());
         Ok(Self {
             n,
             log_start,
@@ -122,6 +138,10 @@ impl Hmm {
             in_ptr,
             in_from,
             in_log,
+            in_lin,
+            start_lin,
+            kernel,
+            linear_ok,
         })
     }
 
@@ -167,100 +187,173 @@ impl Hmm {
         self.out_to.len()
     }
 
-    /// log p(o_1..T) by the forward algorithm.
+    /// log p(o_1..T) by the forward algorithm, (4.11)–(4.13).
     ///
     /// `log_emissions` is T×n row-major: entry (t, j) = log p(o_t | z_t = j). Returns `-inf` when
     /// the sequence is impossible. Errors: T = 0, a length not a multiple of n, NaN or `+inf`.
+    ///
+    /// Runs the scaled linear recursion (one `exp` per emission entry, none in the recursion) and
+    /// falls back to the exact log-space recursion when its error bound exceeds 1e-13 (module docs).
     pub fn forward(&self, log_emissions: &[f64]) -> Result<f64> {
         self.check_emissions(log_emissions)?;
-        let mut filter = ForwardFilter::new(self);
-        for row in log_emissions.chunks_exact(self.n) {
-            filter.step_unchecked(self, row);
-            if filter.is_impossible() {
-                break;
+        if self.linear_ok {
+            let mut s = Scaled::new(self);
+            let mut row = vec![0.0; self.n];
+            let mut shift = 0.0;
+            for le in log_emissions.chunks_exact(self.n) {
+                let m = shift_exp(le, &mut row);
+                if m == f64::NEG_INFINITY {
+                    return Ok(f64::NEG_INFINITY);
+                }
+                shift += m;
+                s.step(self, &row);
+                if s.dead {
+                    break;
+                }
+            }
+            if !s.collapsed && s.bound <= BOUND_TOL {
+                return Ok(if s.dead {
+                    f64::NEG_INFINITY
+                } else {
+                    s.log_likelihood() + shift
+                });
             }
         }
-        Ok(filter.log_likelihood())
+        Ok(self.forward_log_unchecked(log_emissions))
     }
 
-    /// Smoothed state posteriors p(z_t | o_1..T) by the scaled forward–backward algorithm.
+    /// log p(o_1..T) from *linear* emission likelihoods: `emissions` is T×n row-major, entry (t, j)
+    /// = p(o_t | z_t = j) (finite, ≥ 0; densities may exceed 1). The scaled forward pass
+    /// ([`Hmm::forward_scaled`]) with no `exp` or `ln` per element; when its error bound exceeds
+    /// 1e-13 the exact log-space recursion reruns, so the result is always the exact one.
+    /// Errors: T = 0, a length not a multiple of n, a negative, NaN or infinite entry.
+    pub fn forward_linear(&self, emissions: &[f64]) -> Result<f64> {
+        let scaled = self.forward_scaled(emissions)?;
+        if scaled.error_bound <= BOUND_TOL {
+            return Ok(scaled.log_likelihood);
+        }
+        let log: Vec<f64> = emissions.iter().map(|e| e.ln()).collect();
+        Ok(self.forward_log_unchecked(&log))
+    }
+
+    /// The scaled forward pass alone, as hmmlearn's `implementation="scaling"` computes it, with a
+    /// certificate: linear emissions in (as [`Hmm::forward_linear`]), log p(o_1..T) and a bound on
+    /// its relative error out.
+    ///
+    /// States whose filtered probability falls below 1e-280 are flushed to zero (every scaled
+    /// implementation loses them; the log-space recursion keeps them). The returned
+    /// `error_bound` is a worst case for what that can have cost — it assumes the flushed mass
+    /// received the best emission of every later step — so it is 0 when nothing was flushed and may
+    /// be pessimistic for long sequences with absorbing states. A step the linear path cannot
+    /// represent at all (every carried state impossible after a flush, c_t < 1e-280, or a model
+    /// with a non-zero probability below 1e-20) is rerun exactly, with bound 0.
+    pub fn forward_scaled(&self, emissions: &[f64]) -> Result<ScaledForward> {
+        self.check_linear_emissions(emissions)?;
+        if self.linear_ok {
+            let mut s = Scaled::new(self);
+            for e in emissions.chunks_exact(self.n) {
+                s.step(self, e);
+                if s.dead {
+                    break;
+                }
+            }
+            if !s.collapsed {
+                return Ok(ScaledForward {
+                    log_likelihood: s.log_likelihood(),
+                    error_bound: s.bound,
+                });
+            }
+        }
+        let log: Vec<f64> = emissions.iter().map(|e| e.ln()).collect();
+        Ok(ScaledForward {
+            log_likelihood: self.forward_log_unchecked(&log),
+            error_bound: 0.0,
+        })
+    }
+
+    /// Smoothed state posteriors p(z_t | o_1..T) by the scaled forward–backward algorithm
+    /// (Rabiner's α̂/β̂ recursions in the linear domain, exact log-space fallback as in
+    /// [`Hmm::forward`]).
     ///
     /// Same input as [`Hmm::forward`]. Returns `None` when the sequence is impossible
     /// (p(o_1..T) = 0), where the posterior is undefined.
     pub fn forward_backward(&self, log_emissions: &[f64]) -> Result<Option<Smoothed>> {
         self.check_emissions(log_emissions)?;
+        if self.linear_ok
+            && let Some(result) = self.forward_backward_scaled(log_emissions)
+        {
+            return Ok(result);
+        }
+        Ok(self.forward_backward_log_unchecked(log_emissions))
+    }
+
+    /// The scaled forward–backward pass; `None` when its bound fails (the caller reruns exactly),
+    /// `Some(None)` for an impossible sequence.
+    fn forward_backward_scaled(&self, log_emissions: &[f64]) -> Option<Option<Smoothed>> {
         let n = self.n;
         let t_len = log_emissions.len() / n;
-        // Forward pass, keeping every normalised log α_t and c_t.
-        let mut filter = ForwardFilter::new(self);
-        let mut log_alpha = vec![0.0; t_len * n];
+        let mut lin = vec![0.0; log_emissions.len()];
+        let mut alphas = vec![0.0; log_emissions.len()];
         let mut c = vec![0.0; t_len];
-        for (t, row) in log_emissions.chunks_exact(n).enumerate() {
-            c[t] = filter.step_unchecked(self, row);
-            if filter.is_impossible() {
-                return Ok(None);
+        let mut s = Scaled::new(self);
+        let mut shift = 0.0;
+        for (t, (le, e)) in log_emissions.chunks_exact(n).zip(lin.chunks_exact_mut(n)).enumerate() {
+            let m = shift_exp(le, e);
+            if m == f64::NEG_INFINITY {
+                return Some(None);
             }
-            log_alpha[t * n..(t + 1) * n].copy_from_slice(&filter.log_alpha);
+            shift += m;
+            c[t] = s.step(self, e);
+            if s.dead {
+                return (!s.collapsed && s.bound <= BOUND_TOL).then_some(None);
+            }
+            alphas[t * n..(t + 1) * n].copy_from_slice(s.alpha());
         }
-        // Backward pass with scaled β̂_t = β_t / p(o_{t+1..T} | o_1..t).
-        let mut log_beta = vec![0.0; n];
-        let mut v = vec![0.0; n];
+        if s.collapsed || s.bound > BOUND_TOL {
+            return None;
+        }
+        let mut posteriors = alphas;
+        let mut beta = vec![1.0; n];
         let mut w = vec![0.0; n];
-        let mut posteriors = vec![0.0; t_len * n];
-        write_posterior(
-            &log_alpha[(t_len - 1) * n..],
-            &log_beta,
-            &mut posteriors[(t_len - 1) * n..],
-        );
+        normalise(&mut posteriors[(t_len - 1) * n..]);
         for t in (0..t_len - 1).rev() {
-            let e_next = &log_emissions[(t + 1) * n..(t + 2) * n];
-            let mut m = f64::NEG_INFINITY;
-            for j in 0..n {
-                v[j] = e_next[j] + log_beta[j];
-                m = m.max(v[j]);
+            for ((w, e), b) in w.iter_mut().zip(&lin[(t + 1) * n..(t + 2) * n]).zip(&beta) {
+                *w = e * b;
             }
-            for j in 0..n {
-                w[j] = (v[j] - m).exp();
+            self.pull_back(&w, &mut beta);
+            let inv = 1.0 / c[t + 1];
+            let mut top = 0.0f64;
+            for b in beta.iter_mut() {
+                *b *= inv;
+                top = top.max(*b);
             }
-            for (i, log_beta_i) in log_beta.iter_mut().enumerate() {
-                let b = if self.dense {
-                    self.trans[i * n..(i + 1) * n]
-                        .iter()
-                        .zip(&w)
-                        .map(|(a, w)| a * w)
-                        .sum::<f64>()
-                } else {
-                    let r = self.out_ptr[i]..self.out_ptr[i + 1];
-                    self.out_to[r.clone()]
-                        .iter()
-                        .zip(&self.out_lin[r])
-                        .map(|(&j, a)| a * w[j])
-                        .sum::<f64>()
-                };
-                let lb = if b >= LINEAR_MIN {
-                    m + b.ln()
-                } else {
-                    let r = self.out_ptr[i]..self.out_ptr[i + 1];
-                    lse_iter(
-                        self.out_to[r.clone()]
-                            .iter()
-                            .zip(&self.out_log[r])
-                            .map(|(&j, l)| l + v[j]),
-                    )
-                };
-                *log_beta_i = lb - c[t + 1];
+            if top.is_nan() || top >= 1e250 {
+                return None;
             }
-            write_posterior(
-                &log_alpha[t * n..(t + 1) * n],
-                &log_beta,
-                &mut posteriors[t * n..(t + 1) * n],
-            );
+            let row = &mut posteriors[t * n..(t + 1) * n];
+            for (p, b) in row.iter_mut().zip(&beta) {
+                *p *= b;
+            }
+            normalise(row);
         }
-        Ok(Some(Smoothed {
+        Some(Some(Smoothed {
             n_states: n,
-            log_likelihood: filter.log_likelihood(),
+            log_likelihood: s.log_likelihood() + shift,
             posteriors,
         }))
+    }
+
+    /// log p(o_1..T) by the exact log-space recursion alone (module docs): the reference the
+    /// scaled paths are checked against, never faster than [`Hmm::forward`]. Same input and errors.
+    pub fn forward_exact(&self, log_emissions: &[f64]) -> Result<f64> {
+        self.check_emissions(log_emissions)?;
+        Ok(self.forward_log_unchecked(log_emissions))
+    }
+
+    /// [`Hmm::forward_backward`] by the exact log-space recursion alone.
+    pub fn forward_backward_exact(&self, log_emissions: &[f64]) -> Result<Option<Smoothed>> {
+        self.check_emissions(log_emissions)?;
+        Ok(self.forward_backward_log_unchecked(log_emissions))
     }
 
     /// The most probable state path and its log joint probability max_z log p(z, o_1..T)
@@ -318,6 +411,94 @@ impl Hmm {
         Ok(Some(ViterbiPath { path, log_prob: best }))
     }
 
+    /// The exact log-space forward pass (see the module docs); input already checked.
+    fn forward_log_unchecked(&self, log_emissions: &[f64]) -> f64 {
+        let mut filter = ForwardFilter::new(self);
+        for row in log_emissions.chunks_exact(self.n) {
+            filter.step_unchecked(self, row);
+            if filter.is_impossible() {
+                break;
+            }
+        }
+        filter.log_likelihood()
+    }
+
+    /// The exact log-space forward–backward pass; input already checked.
+    fn forward_backward_log_unchecked(&self, log_emissions: &[f64]) -> Option<Smoothed> {
+        let n = self.n;
+        let t_len = log_emissions.len() / n;
+        // Forward pass, keeping every normalised log α_t and c_t.
+        let mut filter = ForwardFilter::new(self);
+        let mut log_alpha = vec![0.0; t_len * n];
+        let mut c = vec![0.0; t_len];
+        for (t, row) in log_emissions.chunks_exact(n).enumerate() {
+            c[t] = filter.step_unchecked(self, row);
+            if filter.is_impossible() {
+                return None;
+            }
+            log_alpha[t * n..(t + 1) * n].copy_from_slice(&filter.log_alpha);
+        }
+        // Backward pass with scaled β̂_t = β_t / p(o_{t+1..T} | o_1..t).
+        let mut log_beta = vec![0.0; n];
+        let mut v = vec![0.0; n];
+        let mut w = vec![0.0; n];
+        let mut posteriors = vec![0.0; t_len * n];
+        write_posterior(
+            &log_alpha[(t_len - 1) * n..],
+            &log_beta,
+            &mut posteriors[(t_len - 1) * n..],
+        );
+        for t in (0..t_len - 1).rev() {
+            let e_next = &log_emissions[(t + 1) * n..(t + 2) * n];
+            let mut m = f64::NEG_INFINITY;
+            for j in 0..n {
+                v[j] = e_next[j] + log_beta[j];
+                m = m.max(v[j]);
+            }
+            for j in 0..n {
+                w[j] = (v[j] - m).exp();
+            }
+            for (i, log_beta_i) in log_beta.iter_mut().enumerate() {
+                let b = if self.dense {
+                    self.trans[i * n..(i + 1) * n]
+                        .iter()
+                        .zip(&w)
+                        .map(|(a, w)| a * w)
+                        .sum::<f64>()
+                } else {
+                    let r = self.out_ptr[i]..self.out_ptr[i + 1];
+                    self.out_to[r.clone()]
+                        .iter()
+                        .zip(&self.out_lin[r])
+                        .map(|(&j, a)| a * w[j])
+                        .sum::<f64>()
+                };
+                let lb = if b >= LINEAR_MIN {
+                    m + b.ln()
+                } else {
+                    let r = self.out_ptr[i]..self.out_ptr[i + 1];
+                    lse_iter(
+                        self.out_to[r.clone()]
+                            .iter()
+                            .zip(&self.out_log[r])
+                            .map(|(&j, l)| l + v[j]),
+                    )
+                };
+                *log_beta_i = lb - c[t + 1];
+            }
+            write_posterior(
+                &log_alpha[t * n..(t + 1) * n],
+                &log_beta,
+                &mut posteriors[t * n..(t + 1) * n],
+            );
+        }
+        Some(Smoothed {
+            n_states: n,
+            log_likelihood: filter.log_likelihood(),
+            posteriors,
+        })
+    }
+
     fn check_emissions(&self, log_emissions: &[f64]) -> Result<()> {
         if log_emissions.is_empty() {
             return Err(BayesError::Empty {
@@ -334,6 +515,22 @@ impl Hmm {
         check_log_emission(log_emissions)
     }
 
+    fn check_linear_emissions(&self, emissions: &[f64]) -> Result<()> {
+        if emissions.is_empty() {
+            return Err(BayesError::Empty {
+                what: "emission sequence",
+            });
+        }
+        if !emissions.len().is_multiple_of(self.n) {
+            return Err(BayesError::DimensionMismatch {
+                what: "emission matrix (T×n, a multiple of n)",
+                expected: emissions.len().div_ceil(self.n) * self.n,
+                got: emissions.len(),
+            });
+        }
+        check_linear_emission(emissions)
+    }
+
     /// Exact log Σ_i exp(log_alpha_i + log A_ij) over the incoming transitions of j.
     fn exact_predict(&self, j: usize, log_alpha: &[f64]) -> f64 {
         let r = self.in_ptr[j]..self.in_ptr[j + 1];
@@ -344,6 +541,16 @@ impl Hmm {
                 .map(|(&i, l)| log_alpha[i] + l),
         )
     }
+}
+
+/// The result of [`Hmm::forward_scaled`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScaledForward {
+    /// log p(o_1..T) (`-inf` when impossible).
+    pub log_likelihood: f64,
+    /// Bound on the relative error of p(o_1..T) (≈ the absolute error of its log) from flushed
+    /// probability mass; 0 when no state was flushed.
+    pub error_bound: f64,
 }
 
 /// Smoothed posteriors from [`Hmm::forward_backward`].
@@ -535,6 +742,231 @@ impl ForwardFilter {
     }
 }
 
+/// Streaming scaled forward filter over *linear* emission likelihoods: the allocation-free,
+/// transcendental-free counterpart of [`ForwardFilter`] (one `ln` per step for the returned
+/// log p(o_t | o_<t); none per state).
+///
+/// A state whose filtered probability falls below 1e-280 is flushed to zero and the flushed mass
+/// is carried in [`ScaledFilter::error_bound`], a bound on the relative error of p(o_1..t) (module
+/// docs of `hmm::scaled`). A stream cannot be rerun, so when the bound matters (models with
+/// absorbing states and very long streams) check it, or use [`ForwardFilter`], which is exact. For
+/// a model with a non-zero probability below 1e-20 the bound is infinite from the start.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScaledFilter {
+    inner: Scaled,
+}
+
+impl ScaledFilter {
+    /// A filter at t = 0 for `hmm`.
+    pub fn new(hmm: &Hmm) -> Self {
+        ScaledFilter {
+            inner: Scaled::new(hmm),
+        }
+    }
+
+    /// Back to t = 0.
+    pub fn reset(&mut self, hmm: &Hmm) {
+        self.inner.reset(hmm);
+    }
+
+    /// Absorbs one observation given as its likelihood under each state (length n, finite, ≥ 0)
+    /// and returns log p(o_t | o_1..t−1) (`-inf` once impossible). Allocates nothing.
+    ///
+    /// Errors: wrong length, or a negative, NaN or infinite entry (the filter is then unchanged).
+    pub fn step(&mut self, hmm: &Hmm, emission: &[f64]) -> Result<f64> {
+        let n = self.inner.n();
+        check_len("emission row (one entry per state)", n, emission.len())?;
+        check_len("HMM state count of this filter", n, hmm.n)?;
+        check_linear_emission(emission)?;
+        let c = self.inner.step(hmm, emission);
+        Ok(if self.inner.dead { f64::NEG_INFINITY } else { c.ln() })
+    }
+
+    /// log p(o_1..t) so far (0 before the first step, `-inf` once impossible).
+    pub fn log_likelihood(&self) -> f64 {
+        self.inner.log_likelihood()
+    }
+
+    /// p(z_t = j | o_1..t), length n (the start distribution before the first step; all zeros once
+    /// the stream is impossible).
+    pub fn filtered(&self) -> &[f64] {
+        self.inner.alpha()
+    }
+
+    /// Bound on the relative error of p(o_1..t) (and the absolute error of [`Self::filtered`])
+    /// from flushed probability mass: 0 unless a state fell below 1e-280; infinite once a step
+    /// could not be represented in linear arithmetic at all (see [`Hmm::forward_scaled`]).
+    pub fn error_bound(&self) -> f64 {
+        if self.inner.collapsed {
+            f64::INFINITY
+        } else {
+            self.inner.bound
+        }
+    }
+
+    /// Number of observations absorbed.
+    pub fn steps(&self) -> usize {
+        self.inner.steps
+    }
+
+    /// True once an observation had probability zero.
+    pub fn is_impossible(&self) -> bool {
+        self.inner.dead
+    }
+}
+
+/// One model of a batched forward pass ([`forward_shared`]): an HMM and, for each of its states,
+/// the column of the shared emission row that the state reads.
+#[derive(Debug, Clone, Copy)]
+pub struct SharedModel<'a> {
+    /// The model.
+    pub hmm: &'a Hmm,
+    /// Length n: state j emits with column `columns[j]` of each shared row.
+    pub columns: &'a [usize],
+}
+
+/// The result of one model of [`forward_shared`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SharedForward {
+    /// log p(o_1..T) (`-inf` when impossible).
+    pub log_likelihood: f64,
+    /// log p(z_T = j | o_1..T), length n (all `-inf` when impossible).
+    pub log_filtered: Vec<f64>,
+}
+
+/// The forward pass of several HMMs over one observation sequence whose emissions they share: the
+/// library-wide schema inference of §4.3 (every schema model scores the same demonstration, and
+/// states of different models emit with the same few distributions).
+///
+/// `log_emissions` is T×width row-major: the distinct log emission likelihoods of each step. Each
+/// row is exponentiated once (width `exp`s per step, shifted by its maximum) and every model steps
+/// its scaled filter on the columns it reads; a model whose flush bound exceeds 1e-13 is rerun
+/// exactly in log space, so each result equals [`Hmm::forward`] on that model's own emissions.
+///
+/// Errors: width 0, T = 0, a length not a multiple of width, a column count ≠ n or a column ≥
+/// width, NaN or `+inf` emissions.
+pub fn forward_shared(models: &[SharedModel<'_>], log_emissions: &[f64], width: usize) -> Result<Vec<SharedForward>> {
+    if width == 0 || log_emissions.is_empty() {
+        return Err(BayesError::Empty {
+            what: "shared log emission matrix",
+        });
+    }
+    if !log_emissions.len().is_multiple_of(width) {
+        return Err(BayesError::DimensionMismatch {
+            what: "shared log emission matrix (T×width, a multiple of width)",
+            expected: log_emissions.len().div_ceil(width) * width,
+            got: log_emissions.len(),
+        });
+    }
+    for m in models {
+        check_len(
+            "emission columns of a shared model (one per state)",
+            m.hmm.n,
+            m.columns.len(),
+        )?;
+        if let Some(&index) = m.columns.iter().find(|&&c| c >= width) {
+            return Err(BayesError::IndexOutOfRange {
+                what: "shared emission column",
+                index,
+                len: width,
+            });
+        }
+    }
+    check_log_emission(log_emissions)?;
+    let mut filters: Vec<Scaled> = models.iter().map(|m| Scaled::new(m.hmm)).collect();
+    let mut rows: Vec<Vec<f64>> = models.iter().map(|m| vec![0.0; m.hmm.n]).collect();
+    let mut lin = vec![0.0; width];
+    let mut shift = 0.0;
+    let mut all_impossible = false;
+    for le in log_emissions.chunks_exact(width) {
+        let m = shift_exp(le, &mut lin);
+        if m == f64::NEG_INFINITY {
+            all_impossible = true;
+            break;
+        }
+        shift += m;
+        for ((model, f), row) in models.iter().zip(&mut filters).zip(&mut rows) {
+            if f.dead || f.collapsed {
+                continue;
+            }
+            for (r, &c) in row.iter_mut().zip(model.columns) {
+                *r = lin[c];
+            }
+            f.step(model.hmm, row);
+        }
+    }
+    let t_len = log_emissions.len() / width;
+    Ok(models
+        .iter()
+        .zip(&filters)
+        .map(|(model, f)| {
+            let n = model.hmm.n;
+            let exact_enough = !f.collapsed && f.bound <= BOUND_TOL;
+            if all_impossible || (f.dead && exact_enough) {
+                return SharedForward {
+                    log_likelihood: f64::NEG_INFINITY,
+                    log_filtered: vec![f64::NEG_INFINITY; n],
+                };
+            }
+            if exact_enough {
+                return SharedForward {
+                    log_likelihood: f.log_likelihood() + shift,
+                    log_filtered: f.alpha().iter().map(|a| a.ln()).collect(),
+                };
+            }
+            let mut exact = ForwardFilter::new(model.hmm);
+            let mut row = vec![0.0; n];
+            for t in 0..t_len {
+                let le = &log_emissions[t * width..(t + 1) * width];
+                for (r, &c) in row.iter_mut().zip(model.columns) {
+                    *r = le[c];
+                }
+                exact.step_unchecked(model.hmm, &row);
+                if exact.is_impossible() {
+                    break;
+                }
+            }
+            SharedForward {
+                log_likelihood: exact.log_likelihood(),
+                log_filtered: exact.log_filtered().to_vec(),
+            }
+        })
+        .collect())
+}
+
+/// Emission matrix (T×n row-major) for a categorical emission model, linear:
+/// entry (t, j) = `emission_probs[j * n_symbols + obs[t]]`, for [`Hmm::forward_linear`].
+///
+/// `emission_probs` is n×K row-major (row = state), p(symbol k | state j), each finite and ≥ 0.
+pub fn categorical_emissions(emission_probs: &[f64], n_states: usize, obs: &[usize]) -> Result<Vec<f64>> {
+    if n_states == 0 || emission_probs.is_empty() {
+        return Err(BayesError::Empty {
+            what: "categorical emission model",
+        });
+    }
+    if !emission_probs.len().is_multiple_of(n_states) {
+        return Err(BayesError::DimensionMismatch {
+            what: "categorical emission matrix (n×K)",
+            expected: n_states * emission_probs.len().div_ceil(n_states),
+            got: emission_probs.len(),
+        });
+    }
+    check_linear_emission(emission_probs)?;
+    let k = emission_probs.len() / n_states;
+    let mut out = Vec::with_capacity(obs.len() * n_states);
+    for &o in obs {
+        if o >= k {
+            return Err(BayesError::IndexOutOfRange {
+                what: "observation symbol",
+                index: o,
+                len: k,
+            });
+        }
+        out.extend((0..n_states).map(|j| emission_probs[j * k + o]));
+    }
+    Ok(out)
+}
+
 /// Log emission matrix (T×n row-major) for a categorical emission model:
 /// entry (t, j) = `log_emission_probs[j * n_symbols + obs[t]]`.
 ///
@@ -568,6 +1000,43 @@ pub fn categorical_log_emissions(log_emission_probs: &[f64], n_states: usize, ob
     Ok(out)
 }
 
+/// out_j = exp(l_j − max l); returns max l (`-inf` when every entry is, and out is then all 0).
+#[inline]
+fn shift_exp(l: &[f64], out: &mut [f64]) -> f64 {
+    let m = l.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if m == f64::NEG_INFINITY {
+        out.fill(0.0);
+        return m;
+    }
+    for (o, &x) in out.iter_mut().zip(l) {
+        *o = (x - m).exp();
+    }
+    m
+}
+
+/// Divides a non-negative row by its sum.
+fn normalise(row: &mut [f64]) {
+    let s: f64 = row.iter().sum();
+    let inv = 1.0 / s;
+    row.iter_mut().for_each(|x| *x *= inv);
+}
+
+fn check_linear_emission(xs: &[f64]) -> Result<()> {
+    // A branch-free pass first (it vectorises; NaN fails both comparisons), the search only on error.
+    if xs.iter().fold(true, |ok, &v| ok & (0.0..=f64::MAX).contains(&v)) {
+        return Ok(());
+    }
+    match xs.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
+        None => Ok(()),
+        Some(index) => Err(BayesError::NonFinite {
+            what: "emission likelihood",
+            index,
+            value: xs[index],
+            requirement: "finite and ≥ 0",
+        }),
+    }
+}
+
 /// Posterior row ∝ exp(log α + log β), normalised.
 fn write_posterior(log_alpha: &[f64], log_beta: &[f64], out: &mut [f64]) {
     let m = log_alpha
@@ -595,6 +1064,9 @@ fn lse_iter(it: impl Iterator<Item = f64> + Clone) -> f64 {
 }
 
 fn check_log_emission(xs: &[f64]) -> Result<()> {
+    if xs.iter().fold(true, |ok, &v| ok & (v < f64::INFINITY)) {
+        return Ok(());
+    }
     match xs.iter().position(|v| v.is_nan() || *v == f64::INFINITY) {
         None => Ok(()),
         Some(index) => Err(BayesError::NonFinite {
