@@ -1,7 +1,7 @@
 //! The streaming forward filter allocates nothing per step (counting global allocator). This
 //! file holds a single test so no other test thread allocates while it counts.
 
-use bayes::hmm::{ForwardFilter, Hmm};
+use bayes::hmm::{ForwardFilter, Hmm, ScaledFilter};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -63,5 +63,50 @@ fn forward_filter_step_does_not_allocate() {
         let after = ALLOCATIONS.load(Ordering::SeqCst);
         assert_eq!(after - before, 0, "allocations during {} steps", 2 * rows.len());
         assert!(f.is_impossible());
+    }
+    // The scaled filter, including steps where states fall below 1e-280 and are tracked in log
+    // space (the first state of the left-to-right model decays at e^-1 per step, then e^-40), and
+    // the step where they come back.
+    let ltr = Hmm::new(
+        vec![0.0, ninf, ninf],
+        vec![
+            (0.9f64).ln(),
+            (0.1f64).ln(),
+            ninf,
+            ninf,
+            (0.5f64).ln(),
+            (0.5f64).ln(),
+            ninf,
+            ninf,
+            0.0,
+        ],
+    )
+    .unwrap();
+    let lin: Vec<[f64; 3]> = (0..400)
+        .map(|t| {
+            if t < 300 {
+                [(-40.0f64).exp(), 1.0, 1.0]
+            } else {
+                [1.0, 1e-3, 1e-3]
+            }
+        })
+        .collect();
+    for hmm in [&dense, &sparse, &ltr] {
+        let mut f = ScaledFilter::new(hmm);
+        let before = ALLOCATIONS.load(Ordering::SeqCst);
+        for row in &lin {
+            f.step(hmm, row).unwrap();
+        }
+        f.reset(hmm);
+        for row in &lin {
+            f.step(hmm, row).unwrap();
+        }
+        let after = ALLOCATIONS.load(Ordering::SeqCst);
+        assert_eq!(
+            after - before,
+            0,
+            "scaled filter allocations during {} steps",
+            2 * lin.len()
+        );
     }
 }

@@ -169,40 +169,64 @@ fn scaled_forward_backward_equals_exact_posteriors_on_a_decaying_start_state() {
 }
 
 #[test]
-fn decaying_state_is_flushed_and_bounded() {
-    // State 0 decays by ≥ e^-2 per step relative to the others: after ~300 steps it is below 1e-280
-    // and the scaled filter flushes it. The flushed mass can regain at most max_j e_j / c_t per
-    // step; with emissions this flat the bound stays far below the tolerance over 500 steps.
+fn decaying_state_is_tracked_exactly() {
+    // State 0 decays by ≥ e^-2 per step relative to the others: after ~300 steps it is below
+    // 1e-280. The exact scaled filter carries it in log space (it reads 0 in `filtered`).
     let mut d = Draws(7);
     let n = 6;
     let hmm = model(2, n, &mut d);
-    let log_e: Vec<f64> = (0..500 * n)
-        .map(|k| if k % n == 0 { -2.0 - d.next() } else { -0.3 * d.next() })
-        .collect();
-    let mut filter = ScaledFilter::new(&hmm);
-    for row in log_e.chunks(n) {
-        let e: Vec<f64> = row.iter().map(|l| l.exp()).collect();
-        filter.step(&hmm, &e).unwrap();
+    for t_len in [500, 3000] {
+        let log_e = emissions(n, t_len, &mut d, false);
+        let mut filter = ScaledFilter::new(&hmm);
+        for row in log_e.chunks(n) {
+            let e: Vec<f64> = row.iter().map(|l| l.exp()).collect();
+            filter.step(&hmm, &e).unwrap();
+        }
+        assert_eq!(filter.filtered()[0], 0.0);
+        assert!(filter.error_bound() < 1e-250, "{}", filter.error_bound());
+        let exact = hmm.forward_exact(&log_e).unwrap();
+        assert!(scaled_diff(filter.log_likelihood(), exact) <= 1e-12);
+        assert!(scaled_diff(hmm.forward(&log_e).unwrap(), exact) <= 1e-12);
+        // The flushing pass (hmmlearn's semantics) reports a worst-case bound instead.
+        let lin: Vec<f64> = log_e.iter().map(|l| l.exp()).collect();
+        let flushed = hmm.forward_scaled(&lin).unwrap();
+        assert!(flushed.error_bound > 0.0);
     }
-    assert_eq!(filter.filtered()[0], 0.0);
-    assert!(
-        filter.error_bound() > 0.0 && filter.error_bound() < 1e-100,
-        "{}",
-        filter.error_bound()
-    );
+}
+
+#[test]
+fn a_state_below_the_floor_that_regains_is_not_lost() {
+    // Two independent absorbing states. For 200 steps state 0 explains the data e^4 times worse
+    // per step (it ends ~e^-800 behind, far below 1e-280); for the next 400 steps it explains it e^4
+    // times better and wins: log p = ln 0.5 − 800 exactly (+ e^-800). Flushing loses state 0 and
+    // gets ln 0.5 − 1600; the tracked pass must not.
+    let hmm = Hmm::from_probabilities(&[0.5, 0.5], &[1.0, 0.0, 0.0, 1.0]).unwrap();
+    let mut log_e = Vec::new();
+    for _ in 0..200 {
+        log_e.extend([-4.0, 0.0]);
+    }
+    for _ in 0..400 {
+        log_e.extend([0.0, -4.0]);
+    }
+    let want = 0.5f64.ln() - 800.0;
     let exact = hmm.forward_exact(&log_e).unwrap();
-    assert!(scaled_diff(filter.log_likelihood(), exact) <= 1e-12);
-    assert!(scaled_diff(hmm.forward(&log_e).unwrap(), exact) <= 1e-12);
-    // With sharply varying emissions the bound outgrows the tolerance over a long sequence; the
-    // batch entry points then rerun exactly, so their answer is still the exact one.
-    let rough = emissions(n, 3000, &mut d, false);
+    assert!((exact - want).abs() < 1e-9, "{exact}");
+    assert!((hmm.forward(&log_e).unwrap() - want).abs() < 1e-9);
+    let lin: Vec<f64> = log_e.iter().map(|l| l.exp()).collect();
+    assert!((hmm.forward_linear(&lin).unwrap() - want).abs() < 1e-9);
     let mut filter = ScaledFilter::new(&hmm);
-    for row in rough.chunks(n) {
-        let e: Vec<f64> = row.iter().map(|l| l.exp()).collect();
-        filter.step(&hmm, &e).unwrap();
+    for row in lin.chunks(2) {
+        filter.step(&hmm, row).unwrap();
     }
-    assert!(filter.error_bound() > 1e-13);
-    assert!(scaled_diff(hmm.forward(&rough).unwrap(), hmm.forward_exact(&rough).unwrap()) <= 1e-12);
+    assert!((filter.log_likelihood() - want).abs() < 1e-9);
+    assert!((filter.filtered()[0] - 1.0).abs() < 1e-12);
+    let smoothed = hmm.forward_backward(&log_e).unwrap().unwrap();
+    assert!((smoothed.log_likelihood - want).abs() < 1e-9);
+    assert!((smoothed.at(0)[0] - 1.0).abs() < 1e-12);
+    // hmmlearn-style flushing loses the winning path; its bound says so.
+    let flushed = hmm.forward_scaled(&lin).unwrap();
+    assert!((flushed.log_likelihood - (0.5f64.ln() - 1600.0)).abs() < 1e-6);
+    assert!(flushed.error_bound > 1.0, "{}", flushed.error_bound);
 }
 
 #[test]
@@ -281,4 +305,38 @@ fn linear_inputs_are_checked() {
     assert_eq!(f.steps(), 0);
     assert!(categorical_emissions(&[0.5, 0.5], 2, &[1]).is_err());
     assert!(categorical_emissions(&[0.5, -0.5], 1, &[0]).is_err());
+}
+
+#[test]
+fn many_tiny_states_hand_over_to_log_space_and_come_back() {
+    // A dense model; for 50 steps only state 0 can explain the data (the others at e^-800, so
+    // seven of eight states fall far below 1e-280 and the pass continues in log space), then every
+    // state explains it equally and all come back above the floor (the pass returns to linear).
+    let mut d = Draws(11);
+    let n = 8;
+    let hmm = model(0, n, &mut d);
+    let mut log_e = Vec::new();
+    for t in 0..300 {
+        for j in 0..n {
+            log_e.push(if (50..100).contains(&t) && j > 0 {
+                -800.0
+            } else {
+                -2.0 * d.next()
+            });
+        }
+    }
+    let exact = hmm.forward_exact(&log_e).unwrap();
+    assert!(scaled_diff(hmm.forward(&log_e).unwrap(), exact) <= 1e-12);
+    let mut filter = ScaledFilter::new(&hmm);
+    let mut f = ForwardFilter::new(&hmm);
+    for row in log_e.chunks(n) {
+        let e: Vec<f64> = row.iter().map(|l| l.exp()).collect();
+        let a = filter.step(&hmm, &e).unwrap();
+        let b = f.step(&hmm, row).unwrap();
+        assert!((a - b).abs() <= 1e-9 * b.abs().max(1.0), "{a} vs {b}");
+    }
+    assert!(scaled_diff(filter.log_likelihood(), exact) <= 1e-12);
+    for (a, b) in filter.filtered().iter().zip(f.filtered()) {
+        assert!((a - b).abs() <= 1e-12);
+    }
 }

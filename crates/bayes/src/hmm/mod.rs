@@ -33,7 +33,7 @@
 use crate::error::{BayesError, Result, check_len};
 
 mod scaled;
-use scaled::{BOUND_TOL, Kernel, MIN_LINEAR_PROBABILITY, Scaled};
+use scaled::{BOUND_TOL, Kernel, MIN_LINEAR_PROBABILITY, Scaled, Tiny};
 
 /// A state prediction below this is recomputed exactly in log space (see the module docs).
 const LINEAR_MIN: f64 = 1e-250;
@@ -197,7 +197,7 @@ impl Hmm {
     pub fn forward(&self, log_emissions: &[f64]) -> Result<f64> {
         self.check_emissions(log_emissions)?;
         if self.linear_ok {
-            let mut s = Scaled::new(self);
+            let mut s = Scaled::new(self, Tiny::Track);
             let mut row = vec![0.0; self.n];
             let mut shift = 0.0;
             for le in log_emissions.chunks_exact(self.n) {
@@ -223,14 +223,25 @@ impl Hmm {
     }
 
     /// log p(o_1..T) from *linear* emission likelihoods: `emissions` is T×n row-major, entry (t, j)
-    /// = p(o_t | z_t = j) (finite, ≥ 0; densities may exceed 1). The scaled forward pass
-    /// ([`Hmm::forward_scaled`]) with no `exp` or `ln` per element; when its error bound exceeds
-    /// 1e-13 the exact log-space recursion reruns, so the result is always the exact one.
+    /// = p(o_t | z_t = j) (finite, ≥ 0; densities may exceed 1). The scaled forward pass with no
+    /// `exp` or `ln` per element while every state stays above 1e-280 of the filtered
+    /// distribution; states below that are carried exactly in log space (module docs of
+    /// `hmm::scaled`), so the result is the exact one. A step linear arithmetic cannot represent
+    /// at all (c_t < 1e-280) reruns the log-space recursion.
     /// Errors: T = 0, a length not a multiple of n, a negative, NaN or infinite entry.
     pub fn forward_linear(&self, emissions: &[f64]) -> Result<f64> {
-        let scaled = self.forward_scaled(emissions)?;
-        if scaled.error_bound <= BOUND_TOL {
-            return Ok(scaled.log_likelihood);
+        self.check_linear_emissions(emissions)?;
+        if self.linear_ok {
+            let mut s = Scaled::new(self, Tiny::Track);
+            for e in emissions.chunks_exact(self.n) {
+                s.step(self, e);
+                if s.dead {
+                    break;
+                }
+            }
+            if !s.collapsed && s.bound <= BOUND_TOL {
+                return Ok(s.log_likelihood());
+            }
         }
         let log: Vec<f64> = emissions.iter().map(|e| e.ln()).collect();
         Ok(self.forward_log_unchecked(&log))
@@ -250,7 +261,7 @@ impl Hmm {
     pub fn forward_scaled(&self, emissions: &[f64]) -> Result<ScaledForward> {
         self.check_linear_emissions(emissions)?;
         if self.linear_ok {
-            let mut s = Scaled::new(self);
+            let mut s = Scaled::new(self, Tiny::Flush);
             for e in emissions.chunks_exact(self.n) {
                 s.step(self, e);
                 if s.dead {
@@ -295,7 +306,7 @@ impl Hmm {
         let mut lin = vec![0.0; log_emissions.len()];
         let mut alphas = vec![0.0; log_emissions.len()];
         let mut c = vec![0.0; t_len];
-        let mut s = Scaled::new(self);
+        let mut s = Scaled::new(self, Tiny::Track);
         let mut shift = 0.0;
         for (t, (le, e)) in log_emissions.chunks_exact(n).zip(lin.chunks_exact_mut(n)).enumerate() {
             let m = shift_exp(le, e);
@@ -304,12 +315,17 @@ impl Hmm {
             }
             shift += m;
             c[t] = s.step(self, e);
+            if s.ever_tiny {
+                return None;
+            }
             if s.dead {
                 return (!s.collapsed && s.bound <= BOUND_TOL).then_some(None);
             }
             alphas[t * n..(t + 1) * n].copy_from_slice(s.alpha());
         }
-        if s.collapsed || s.bound > BOUND_TOL {
+        if s.collapsed || s.bound > BOUND_TOL || s.ever_tiny {
+            // A state below 1e-280 is tracked in log space by the forward pass; the backward pass
+            // would need the same care: the log-space recursion does it.
             return None;
         }
         let mut posteriors = alphas;
@@ -742,15 +758,16 @@ impl ForwardFilter {
     }
 }
 
-/// Streaming scaled forward filter over *linear* emission likelihoods: the allocation-free,
-/// transcendental-free counterpart of [`ForwardFilter`] (one `ln` per step for the returned
-/// log p(o_t | o_<t); none per state).
+/// Streaming scaled forward filter over *linear* emission likelihoods: the allocation-free
+/// counterpart of [`ForwardFilter`] without `exp`/`ln` per state (one `ln` per step for the
+/// returned log p(o_t | o_<t)).
 ///
-/// A state whose filtered probability falls below 1e-280 is flushed to zero and the flushed mass
-/// is carried in [`ScaledFilter::error_bound`], a bound on the relative error of p(o_1..t) (module
-/// docs of `hmm::scaled`). A stream cannot be rerun, so when the bound matters (models with
-/// absorbing states and very long streams) check it, or use [`ForwardFilter`], which is exact. For
-/// a model with a non-zero probability below 1e-20 the bound is infinite from the start.
+/// Exact like [`ForwardFilter`]: a state whose filtered probability falls below 1e-280 reads 0 in
+/// [`ScaledFilter::filtered`] but is carried in log space (a few `exp` per transition out of it per
+/// step) and comes back when it rises again. [`ScaledFilter::error_bound`] bounds what can still
+/// be lost (contributions below the smallest normal double, ~1e-300 relative); it is infinite if
+/// a step could not be represented in linear arithmetic at all (c_t < 1e-280, or a model with a
+/// non-zero probability below 1e-20) — use [`ForwardFilter`] there.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScaledFilter {
     inner: Scaled,
@@ -760,7 +777,7 @@ impl ScaledFilter {
     /// A filter at t = 0 for `hmm`.
     pub fn new(hmm: &Hmm) -> Self {
         ScaledFilter {
-            inner: Scaled::new(hmm),
+            inner: Scaled::new(hmm, Tiny::Track),
         }
     }
 
@@ -779,7 +796,13 @@ impl ScaledFilter {
         check_len("HMM state count of this filter", n, hmm.n)?;
         check_linear_emission(emission)?;
         let c = self.inner.step(hmm, emission);
-        Ok(if self.inner.dead { f64::NEG_INFINITY } else { c.ln() })
+        Ok(if self.inner.dead {
+            f64::NEG_INFINITY
+        } else if self.inner.log_c.is_nan() {
+            c.ln()
+        } else {
+            self.inner.log_c
+        })
     }
 
     /// log p(o_1..t) so far (0 before the first step, `-inf` once impossible).
@@ -846,16 +869,66 @@ pub struct SharedForward {
 /// Errors: width 0, T = 0, a length not a multiple of width, a column count ≠ n or a column ≥
 /// width, NaN or `+inf` emissions.
 pub fn forward_shared(models: &[SharedModel<'_>], log_emissions: &[f64], width: usize) -> Result<Vec<SharedForward>> {
-    if width == 0 || log_emissions.is_empty() {
-        return Err(BayesError::Empty {
-            what: "shared log emission matrix",
+    check_shared_shape(models, log_emissions.len(), width)?;
+    check_log_emission(log_emissions)?;
+    Ok(shared_core(
+        models,
+        log_emissions.len() / width,
+        width,
+        |t, row| shift_exp(&log_emissions[t * width..(t + 1) * width], row),
+        |t, c| log_emissions[t * width + c],
+    ))
+}
+
+/// [`forward_shared`] with *linear* shared emissions: `emissions` is T×width (finite, ≥ 0) and
+/// the likelihood of column c at step t is `emissions[t·width + c] · exp(log_scales[t])`, so
+/// callers that build emissions as products of precomputed factors take no `exp` at all. Same
+/// results (exact) and errors, plus: `log_scales` must have T finite entries.
+pub fn forward_shared_linear(
+    models: &[SharedModel<'_>],
+    emissions: &[f64],
+    log_scales: &[f64],
+    width: usize,
+) -> Result<Vec<SharedForward>> {
+    check_shared_shape(models, emissions.len(), width)?;
+    check_linear_emission(emissions)?;
+    let t_len = emissions.len() / width;
+    check_len("shared log scales (one per step)", t_len, log_scales.len())?;
+    if let Some(index) = log_scales.iter().position(|l| !l.is_finite()) {
+        return Err(BayesError::NonFinite {
+            what: "shared log scale",
+            index,
+            value: log_scales[index],
+            requirement: "finite",
         });
     }
-    if !log_emissions.len().is_multiple_of(width) {
+    Ok(shared_core(
+        models,
+        t_len,
+        width,
+        |t, row| {
+            let src = &emissions[t * width..(t + 1) * width];
+            if src.iter().all(|&e| e == 0.0) {
+                return f64::NEG_INFINITY;
+            }
+            row.copy_from_slice(src);
+            log_scales[t]
+        },
+        |t, c| emissions[t * width + c].ln() + log_scales[t],
+    ))
+}
+
+fn check_shared_shape(models: &[SharedModel<'_>], len: usize, width: usize) -> Result<()> {
+    if width == 0 || len == 0 {
+        return Err(BayesError::Empty {
+            what: "shared emission matrix",
+        });
+    }
+    if !len.is_multiple_of(width) {
         return Err(BayesError::DimensionMismatch {
-            what: "shared log emission matrix (T×width, a multiple of width)",
-            expected: log_emissions.len().div_ceil(width) * width,
-            got: log_emissions.len(),
+            what: "shared emission matrix (T×width, a multiple of width)",
+            expected: len.div_ceil(width) * width,
+            got: len,
         });
     }
     for m in models {
@@ -872,14 +945,26 @@ pub fn forward_shared(models: &[SharedModel<'_>], log_emissions: &[f64], width: 
             });
         }
     }
-    check_log_emission(log_emissions)?;
-    let mut filters: Vec<Scaled> = models.iter().map(|m| Scaled::new(m.hmm)).collect();
+    Ok(())
+}
+
+/// The batched pass: `row(t, out)` writes step t's linear shared row (up to a factor) and returns
+/// the log of that factor (`-inf`: every column impossible); `log_at(t, c)` is the exact log
+/// emission, for the models that must rerun in log space.
+fn shared_core(
+    models: &[SharedModel<'_>],
+    t_len: usize,
+    width: usize,
+    mut row_at: impl FnMut(usize, &mut [f64]) -> f64,
+    log_at: impl Fn(usize, usize) -> f64,
+) -> Vec<SharedForward> {
+    let mut filters: Vec<Scaled> = models.iter().map(|m| Scaled::new(m.hmm, Tiny::Track)).collect();
     let mut rows: Vec<Vec<f64>> = models.iter().map(|m| vec![0.0; m.hmm.n]).collect();
     let mut lin = vec![0.0; width];
     let mut shift = 0.0;
     let mut all_impossible = false;
-    for le in log_emissions.chunks_exact(width) {
-        let m = shift_exp(le, &mut lin);
+    for t in 0..t_len {
+        let m = row_at(t, &mut lin);
         if m == f64::NEG_INFINITY {
             all_impossible = true;
             break;
@@ -895,8 +980,7 @@ pub fn forward_shared(models: &[SharedModel<'_>], log_emissions: &[f64], width: 
             f.step(model.hmm, row);
         }
     }
-    let t_len = log_emissions.len() / width;
-    Ok(models
+    models
         .iter()
         .zip(&filters)
         .map(|(model, f)| {
@@ -909,17 +993,18 @@ pub fn forward_shared(models: &[SharedModel<'_>], log_emissions: &[f64], width: 
                 };
             }
             if exact_enough {
+                let mut log_filtered = Vec::with_capacity(n);
+                f.log_alpha(&mut log_filtered);
                 return SharedForward {
                     log_likelihood: f.log_likelihood() + shift,
-                    log_filtered: f.alpha().iter().map(|a| a.ln()).collect(),
+                    log_filtered,
                 };
             }
             let mut exact = ForwardFilter::new(model.hmm);
             let mut row = vec![0.0; n];
             for t in 0..t_len {
-                let le = &log_emissions[t * width..(t + 1) * width];
                 for (r, &c) in row.iter_mut().zip(model.columns) {
-                    *r = le[c];
+                    *r = log_at(t, c);
                 }
                 exact.step_unchecked(model.hmm, &row);
                 if exact.is_impossible() {
@@ -931,7 +1016,7 @@ pub fn forward_shared(models: &[SharedModel<'_>], log_emissions: &[f64], width: 
                 log_filtered: exact.log_filtered().to_vec(),
             }
         })
-        .collect())
+        .collect()
 }
 
 /// Emission matrix (T×n row-major) for a categorical emission model, linear:

@@ -35,7 +35,7 @@
 //! the bound exceeds [`BOUND_TOL`]: the bound is 0 for models whose states all stay above 1e-280
 //! (dense models, most schema models), and the exact rerun covers the rest.
 
-use super::Hmm;
+use super::{ForwardFilter, Hmm};
 
 /// Normalised probabilities below this are flushed to zero (and added to the error bound).
 pub(crate) const FLOOR: f64 = 1e-280;
@@ -202,6 +202,13 @@ impl Hmm {
     }
 }
 
+/// exp(x), with arguments far below the double range answered 0 directly (glibc's underflow
+/// path, which sets errno, is slow).
+#[inline]
+fn exp_or_zero(x: f64) -> f64 {
+    if x < -746.0 { 0.0 } else { x.exp() }
+}
+
 /// Σ a_i b_i with four independent accumulators (the compiler vectorises them).
 #[inline]
 pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -220,10 +227,31 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     s
 }
 
+/// What a scaled pass does with a state whose normalised probability falls below [`FLOOR`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Tiny {
+    /// Flush it to zero and add its mass to the worst-case bound (hmmlearn's scaling mode loses it
+    /// the same way, without the bound).
+    Flush,
+    /// Carry it exactly, in log space, until it rises above the floor again or becomes impossible.
+    Track,
+}
+
 /// The working state of one scaled forward pass.
+///
+/// In [`Tiny::Track`] mode the pass is exact: states below [`FLOOR`] leave the linear vector and
+/// are carried as log values (`tiny_log`), stepped by a log-sum-exp over their outgoing CSR
+/// transitions, and promoted back when they rise above the floor. Their contributions to linear
+/// states are added in linear arithmetic; only a contribution below the smallest normal double
+/// (< 2.2e-308 of the step's normaliser) can be lost, and then it is at most a fraction r of the
+/// receiving state's own probability, so by linearity of the recursion its whole future is at most
+/// r of the total: r is added to `bound` (which therefore stays near 1e-300, never grows). The
+/// tiny pass costs a few `exp` per transition out of a tiny state — nothing while every state is
+/// above the floor (dense models, and most steps of most models).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Scaled {
-    /// α̂ (normalised filtered posterior) at `buf[pad..pad + n]`, zeros around it.
+    /// α̂ (normalised filtered posterior) at `buf[pad..pad + n]`, zeros around it (and at tiny
+    /// states).
     pub(crate) buf: Vec<f64>,
     pub(crate) pad: usize,
     pred: Vec<f64>,
@@ -232,35 +260,71 @@ pub(crate) struct Scaled {
     log_scale: f64,
     /// Π c over the steps not yet folded into `log_scale`.
     scale: f64,
-    /// Bound on the relative error of p(o_1..t) from flushed mass (see the module docs).
+    /// Bound on the relative error of p(o_1..t) from flushed or dropped mass (module docs).
     pub(crate) bound: f64,
     /// An observation had probability zero under every state that carries mass.
     pub(crate) dead: bool,
     /// A step the linear path could not represent (c_t zero after a flush, below 1e-280, or not
     /// finite; or a model with probabilities below 1e-20): only the exact path can answer.
     pub(crate) collapsed: bool,
+    mode: Tiny,
+    /// Some state has been tiny at some step (the scaled backward pass then defers to log space).
+    pub(crate) ever_tiny: bool,
+    /// log α̂_j of each tiny state (same normalisation as α̂); `-inf` for every other state.
+    pub(crate) tiny_log: Vec<f64>,
+    /// The tiny states, increasing. Capacity 2n, so the step never allocates.
+    tiny: Vec<usize>,
+    next_tiny: Vec<usize>,
+    /// Per-destination online log-sum-exp (max, sum of exp(v − max)) of the tiny contributions.
+    acc_max: Vec<f64>,
+    acc_sum: Vec<f64>,
+    touched: Vec<usize>,
+    touched_mark: Vec<bool>,
+    /// When more than a quarter of the states are tiny, per-state log arithmetic is cheaper than
+    /// the tiny pass: the pass continues as the log-space recursion (`ForwardFilter`) and comes
+    /// back to linear when no state is below the floor any more.
+    log_mode: bool,
+    /// The log-space recursion's state (allocated up front: switching never allocates).
+    log_filter: ForwardFilter,
+    /// ln of the emission row (log mode).
+    log_row: Vec<f64>,
+    /// ln c_t of the last step.
+    pub(crate) log_c: f64,
 }
 
 impl Scaled {
-    pub(crate) fn new(hmm: &Hmm) -> Self {
+    pub(crate) fn new(hmm: &Hmm, mode: Tiny) -> Self {
         let (pad, len) = hmm.kernel.padding(hmm.n);
+        let n = hmm.n;
         let mut s = Scaled {
             buf: vec![0.0; len],
             pad,
-            pred: vec![0.0; hmm.n],
+            pred: vec![0.0; n],
             steps: 0,
             log_scale: 0.0,
             scale: 1.0,
             bound: 0.0,
             dead: false,
             collapsed: false,
+            mode,
+            ever_tiny: false,
+            tiny_log: vec![f64::NEG_INFINITY; n],
+            tiny: Vec::with_capacity(2 * n),
+            next_tiny: Vec::with_capacity(2 * n),
+            acc_max: vec![0.0; n],
+            acc_sum: vec![0.0; n],
+            touched: Vec::with_capacity(n),
+            touched_mark: vec![false; n],
+            log_mode: false,
+            log_filter: ForwardFilter::new(hmm),
+            log_row: vec![0.0; n],
+            log_c: 0.0,
         };
         s.reset(hmm);
         s
     }
 
-    /// Back to t = 0: α̂ shows the start distribution; the bound is infinite for a model the
-    /// linear path cannot represent.
+    /// Back to t = 0: α̂ shows the start distribution.
     pub(crate) fn reset(&mut self, hmm: &Hmm) {
         self.buf.fill(0.0);
         let n = hmm.n;
@@ -271,6 +335,11 @@ impl Scaled {
         self.bound = 0.0;
         self.dead = false;
         self.collapsed = !hmm.linear_ok;
+        self.ever_tiny = false;
+        self.tiny_log.fill(f64::NEG_INFINITY);
+        self.tiny.clear();
+        self.log_mode = false;
+        self.log_c = 0.0;
     }
 
     /// Number of states.
@@ -278,13 +347,35 @@ impl Scaled {
         self.pred.len()
     }
 
-    /// α̂_t, length n.
+    /// α̂_t, length n (tiny states read 0 in linear mode).
     pub(crate) fn alpha(&self) -> &[f64] {
-        &self.buf[self.pad..self.pad + self.pred.len()]
+        if self.log_mode {
+            self.log_filter.filtered()
+        } else {
+            &self.buf[self.pad..self.pad + self.pred.len()]
+        }
+    }
+
+    /// log α̂_t,j for every state, into `out` (exact for tiny states too).
+    pub(crate) fn log_alpha(&self, out: &mut Vec<f64>) {
+        out.clear();
+        if self.log_mode {
+            out.extend_from_slice(self.log_filter.log_filtered());
+            return;
+        }
+        out.extend(
+            self.alpha()
+                .iter()
+                .zip(&self.tiny_log)
+                .map(|(&a, &l)| if a > 0.0 { a.ln() } else { l }),
+        );
     }
 
     /// log p(o_1..t) so far.
     pub(crate) fn log_likelihood(&self) -> f64 {
+        if self.log_mode {
+            return self.log_filter.log_likelihood();
+        }
         if self.dead {
             f64::NEG_INFINITY
         } else {
@@ -301,12 +392,19 @@ impl Scaled {
             self.steps += 1;
             return 0.0;
         }
+        if self.log_mode {
+            return self.log_step(hmm, e);
+        }
         if self.steps == 0 {
             self.pred.copy_from_slice(&hmm.start_lin);
         } else {
             hmm.predict(&self.buf, self.pad, &mut self.pred);
         }
         self.steps += 1;
+        let tracking = !self.tiny.is_empty();
+        if tracking {
+            self.tiny_contributions(hmm);
+        }
         let alpha = &mut self.buf[self.pad..self.pad + n];
         let mut acc = [0.0f64; 4];
         {
@@ -324,38 +422,58 @@ impl Scaled {
             alpha[j] = self.pred[j] * e[j];
             c += alpha[j];
         }
-        if c == 0.0 && self.bound == 0.0 && !self.collapsed {
+        // Tiny contributions (log, unnormalised) become x_j = exp(t_j); t_j is kept in acc_max.
+        let mut tiny_possible = false;
+        if tracking {
+            for &j in &self.touched {
+                let t = if e[j] > 0.0 {
+                    self.acc_max[j] + self.acc_sum[j].ln() + e[j].ln()
+                } else {
+                    f64::NEG_INFINITY
+                };
+                self.acc_max[j] = t;
+                tiny_possible |= t > f64::NEG_INFINITY;
+                c += exp_or_zero(t);
+            }
+        }
+        if c == 0.0 && self.bound == 0.0 && !self.collapsed && !tiny_possible {
             // Every state carrying mass gives the observation probability zero, and none was
             // flushed: the sequence is impossible (the exact path agrees).
             let underflow = self.pred.iter().zip(e).any(|(&p, &e)| p > 0.0 && e > 0.0);
             if !underflow {
                 self.dead = true;
                 alpha.fill(0.0);
+                self.clear_tiny();
                 return 0.0;
             }
         }
         if !(c >= MIN_C && c.is_finite()) {
             self.collapsed = true;
             if c == 0.0 || !c.is_finite() {
-                // Nothing left to normalise: the exact path takes over (callers check the bound).
+                // Nothing left to normalise: the exact path takes over (callers check).
                 self.dead = true;
                 alpha.fill(0.0);
+                self.clear_tiny();
                 return 0.0;
             }
         }
         let inv = 1.0 / c;
-        let mut flushed = 0.0;
-        for a in alpha.iter_mut() {
+        self.log_c = f64::NAN;
+        // Normalise; find states that fall below the floor (or whose product underflowed).
+        let mut small = false;
+        for ((a, &p), &e) in alpha.iter_mut().zip(&self.pred).zip(e) {
             let v = *a * inv;
-            let keep = v >= FLOOR;
-            flushed += if keep { 0.0 } else { v };
-            *a = if keep { v } else { 0.0 };
+            small |= (v < FLOOR) & (v > 0.0) | ((*a < 1e-290) & (p > 0.0) & (e > 0.0));
+            *a = v;
         }
-        if self.bound > 0.0 {
+        if self.mode == Tiny::Flush && self.bound > 0.0 {
+            // Flushed mass can grow at most by the best emission over the normaliser.
             let emax = e.iter().copied().fold(0.0, f64::max);
             self.bound = self.bound * emax * inv;
         }
-        self.bound += flushed;
+        if small || tracking {
+            self.below_floor(e, c, inv);
+        }
         let s = self.scale * c;
         if (1.0 / SCALE_RANGE..=SCALE_RANGE).contains(&s) {
             self.scale = s;
@@ -363,6 +481,165 @@ impl Scaled {
             self.log_scale += self.scale.ln() + c.ln();
             self.scale = 1.0;
         }
+        if self.tiny.len() >= 2 && 4 * self.tiny.len() > n {
+            self.enter_log_mode(hmm);
+        }
         c
+    }
+
+    /// Hands the pass over to the log-space recursion from the current (exact) state.
+    #[cold]
+    fn enter_log_mode(&mut self, hmm: &Hmm) {
+        let _ = hmm;
+        let ll = self.log_likelihood();
+        let pad = self.pad;
+        let f = &mut self.log_filter;
+        for (j, ((l, p), &t)) in f
+            .log_alpha
+            .iter_mut()
+            .zip(f.post.iter_mut())
+            .zip(&self.tiny_log)
+            .enumerate()
+        {
+            let a = self.buf[pad + j];
+            *l = if a > 0.0 { a.ln() } else { t };
+            *p = if a > 0.0 { a } else { t.exp() };
+        }
+        f.steps = self.steps;
+        f.log_likelihood = ll;
+        self.log_mode = true;
+    }
+
+    /// One step of the log-space recursion; back to linear when no state is below the floor.
+    fn log_step(&mut self, hmm: &Hmm, e: &[f64]) -> f64 {
+        let f = &mut self.log_filter;
+        for (l, &x) in self.log_row.iter_mut().zip(e) {
+            *l = x.ln();
+        }
+        self.steps += 1;
+        let log_c = f.step_unchecked(hmm, &self.log_row);
+        self.log_c = log_c;
+        if f.is_impossible() {
+            self.dead = true;
+            return 0.0;
+        }
+        let floor = FLOOR.ln();
+        if f.log_alpha.iter().all(|&l| l == f64::NEG_INFINITY || l >= floor) {
+            // Every state is representable again: back to the linear pass.
+            let n = self.pred.len();
+            self.buf[self.pad..self.pad + n].copy_from_slice(&f.post);
+            let ll = f.log_likelihood();
+            for &i in &self.tiny {
+                self.tiny_log[i] = f64::NEG_INFINITY;
+            }
+            self.tiny.clear();
+            self.log_scale = ll;
+            self.scale = 1.0;
+            self.log_mode = false;
+        }
+        log_c.exp()
+    }
+
+    /// Accumulates, per destination j, log Σ_{tiny i} α̂_i A_ij (online log-sum-exp over the CSR
+    /// rows of the tiny states) into acc_max/acc_sum, listing the destinations in `touched`.
+    fn tiny_contributions(&mut self, hmm: &Hmm) {
+        self.touched.clear();
+        for &i in &self.tiny {
+            let li = self.tiny_log[i];
+            for k in hmm.out_ptr[i]..hmm.out_ptr[i + 1] {
+                let j = hmm.out_to[k];
+                let v = li + hmm.out_log[k];
+                if !self.touched_mark[j] {
+                    self.touched_mark[j] = true;
+                    self.touched.push(j);
+                    self.acc_max[j] = v;
+                    self.acc_sum[j] = 1.0;
+                } else if v <= self.acc_max[j] {
+                    self.acc_sum[j] += exp_or_zero(v - self.acc_max[j]);
+                } else {
+                    self.acc_sum[j] = self.acc_sum[j] * exp_or_zero(self.acc_max[j] - v) + 1.0;
+                    self.acc_max[j] = v;
+                }
+            }
+        }
+        // The old tiny values are consumed; the new ones are written by `below_floor`.
+        for &i in &self.tiny {
+            self.tiny_log[i] = f64::NEG_INFINITY;
+        }
+    }
+
+    /// The slow part of a step (only when some state is, or becomes, tiny): flush or track states
+    /// below the floor, add the tiny contributions (already in acc_max as unnormalised logs t_j),
+    /// promote tiny states that rose above the floor.
+    #[cold]
+    fn below_floor(&mut self, e: &[f64], c: f64, inv: f64) {
+        let n = self.pred.len();
+        let ln_c = c.ln();
+        let pad = self.pad;
+        self.next_tiny.clear();
+        for (j, &ej) in e.iter().enumerate().take(n) {
+            let v = self.buf[pad + j];
+            let p = self.pred[j];
+            let underflow = v * c < 1e-290 && p > 0.0 && ej > 0.0;
+            if (v > 0.0 && v < FLOOR) || underflow {
+                self.buf[pad + j] = 0.0;
+                match self.mode {
+                    Tiny::Flush => self.bound += if v > 0.0 { v } else { f64::MIN_POSITIVE * inv },
+                    Tiny::Track => {
+                        self.tiny_log[j] = p.ln() + ej.ln() - ln_c;
+                        self.next_tiny.push(j);
+                    }
+                }
+            }
+        }
+        for &j in &self.touched {
+            self.touched_mark[j] = false;
+            let t = self.acc_max[j];
+            if t == f64::NEG_INFINITY {
+                continue;
+            }
+            let a = self.buf[pad + j];
+            if a > 0.0 {
+                // A live state: add the tiny mass linearly; what underflows is dominated by a.
+                let x = exp_or_zero(t - ln_c);
+                if x > 0.0 {
+                    self.buf[pad + j] = a + x;
+                } else {
+                    let r = exp_or_zero(t - ln_c - a.ln());
+                    self.bound += if r > 0.0 { r } else { f64::MIN_POSITIVE };
+                }
+            } else {
+                let l = self.tiny_log[j];
+                let t = t - ln_c;
+                let m = l.max(t);
+                self.tiny_log[j] = m + (exp_or_zero(l - m) + exp_or_zero(t - m)).ln();
+                self.next_tiny.push(j);
+            }
+        }
+        self.next_tiny.sort_unstable();
+        self.next_tiny.dedup();
+        self.tiny.clear();
+        for k in 0..self.next_tiny.len() {
+            let j = self.next_tiny[k];
+            let l = self.tiny_log[j];
+            if l >= FLOOR.ln() {
+                self.buf[pad + j] = l.exp();
+                self.tiny_log[j] = f64::NEG_INFINITY;
+            } else if l > f64::NEG_INFINITY {
+                self.tiny.push(j);
+            }
+        }
+        self.ever_tiny |= !self.tiny.is_empty();
+    }
+
+    fn clear_tiny(&mut self) {
+        for &i in &self.tiny {
+            self.tiny_log[i] = f64::NEG_INFINITY;
+        }
+        for &j in &self.touched {
+            self.touched_mark[j] = false;
+        }
+        self.touched.clear();
+        self.tiny.clear();
     }
 }
