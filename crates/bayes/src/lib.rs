@@ -17,7 +17,7 @@
 //! | [`multivariate`] | multivariate normal, multivariate t, inverse-Wishart densities and samplers via Cholesky | (A.1), (A.19)–(A.24) |
 //! | [`bayes_factor`] | ln B₁₀ of task model against background | (5.19)–(5.23) |
 //! | [`chi2`] | Pearson χ² contingency / goodness-of-fit tests for experiment reports | Fig. 5.3 |
-//! | [`hmm`] | log-space HMM: forward, streaming filter, smoothing, Viterbi | §4.3, (4.10)–(4.21) |
+//! | [`hmm`] | HMMs: scaled linear-domain and log-space forward passes (exact), streaming filters, smoothing, Viterbi, a batched pass over shared emissions | §4.3, (4.10)–(4.21) |
 //! | [`special`] | ln Γ, ln Γ differences, Γ_p, ψ, incomplete gamma | — |
 //!
 //! Conventions: hyper-parameters and statistics are validated at construction

@@ -1,5 +1,6 @@
-//! Discrete-time hidden Markov models in log space: forward log-likelihood, a streaming
-//! allocation-free forward filter, forward–backward smoothing and Viterbi decoding.
+//! Discrete-time hidden Markov models: forward log-likelihood, streaming allocation-free forward
+//! filters, forward–backward smoothing, Viterbi decoding, and a batched forward pass of several
+//! models over shared emissions (library-wide schema inference).
 //!
 //! The model ([`Hmm`]) holds the log start distribution π and the log transition matrix A
 //! (`A[i][j] = p(z_{t+1} = j | z_t = i)`, row = from). Emissions are *not* part of the model: the
@@ -8,7 +9,24 @@
 //! predicate vectors, …). [`categorical_log_emissions`] builds them for a categorical model.
 //! These are the quantities of the schema HMMs in Sweeney (2011) §4.3, eqs. (4.10)–(4.21).
 //!
-//! ## Numerics
+//! ## Which pass
+//! | entry point | input | arithmetic | exact? |
+//! | --- | --- | --- | --- |
+//! | [`Hmm::forward`], [`Hmm::forward_backward`] | log emissions | one `exp` per lattice entry, then the scaled linear recursion | yes (below) |
+//! | [`Hmm::forward_linear`], [`ScaledFilter`], [`forward_shared`], [`forward_shared_linear`] | linear emissions (or shared columns) | scaled linear recursion, no `exp`/`ln` per element | yes |
+//! | [`Hmm::forward_scaled`] | linear emissions | the same recursion with hmmlearn's flushing, and a worst-case bound | to its bound |
+//! | [`Hmm::forward_exact`], [`ForwardFilter`], [`Hmm::viterbi`] | log emissions | log space (Viterbi: max-plus, no transcendental at all) | yes |
+//!
+//! The scaled recursion (module `scaled`: dense rows in register blocks, bands of diagonals for
+//! left-to-right models, CSC columns for the rest) carries α̂_t = p(z_t | o_1..t) and the product of
+//! the step normalisers c_t = p(o_t | o_<t) (Rabiner 1989 §V.A). States whose probability falls
+//! below 1e-280 of the distribution leave the linear vector and are carried exactly in log space
+//! until they come back (a quarter of the states or more: the pass continues as the log-space
+//! recursion), so the exact entry points agree with the log-space recursion to rounding (the
+//! tests check 1e-12 against it and against hmmlearn). A step linear arithmetic cannot represent
+//! at all (c_t < 1e-280) reruns in log space.
+//!
+//! ## The log-space recursion
 //! Probabilities are carried as normalised *filtered* posteriors `p(z_t | o_1..t)` (both as logs
 //! and as plain numbers) plus the running `log p(o_1..t)`. One step is
 //!
