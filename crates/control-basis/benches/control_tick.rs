@@ -1,9 +1,22 @@
 //! The control tick: FK + Jacobian + damped pseudoinverse + one null-space level, per arm and for the
 //! whole of Dexter (both arms, both hands, the head).
+//!
+//! The `wam_*_distinct_q` cases time what the Pinocchio peer times (`../shared/reference/peers/`,
+//! `bench_pinocchio_cpp.cpp`; run side by side by `benches/peers/arm_tick.sh`): every call takes the
+//! next of 1024 configurations drawn uniformly within the joint limits (and a 6-D error with entries
+//! of about 0.01), made before timing, so neither the branch predictor nor the DLS warm start sees the
+//! same problem twice in a row.
+//! - `wam_fk_jacobian_dls_distinct_q`: FK + tip Jacobian (6×7) + one damped least-squares step
+//!   Jᵀ (J Jᵀ + λ² I)⁻¹ e — Pinocchio's `fk_plus_frame_jacobian` plus Eigen's `dls_step_eigen` (fixed-size
+//!   6×6 LDLT, constant λ = 0.05). Ours also estimates σ_min for the adaptive damping, which the peer
+//!   does not.
+//! - `wam_dls_only_distinct_j`: the DLS step alone on the 1024 Jacobians (Eigen's `dls_step_eigen`).
+//! - `wam_tick_reach_manipulability_distinct_q`: the whole [`ControlStack`] tick, reach ◁ manipulability
+//!   (pose error, DLS, manipulability gradient, exact null-space projection, limits, predicates).
 
 use control_basis::{
-    Chain, ControlStack, Controller, FeedbackElement, ManipulabilityRows, MotorUnits, Operator, Potential, Reference,
-    RobotModel, Sensor, StackSettings, forward_kinematics, jacobian,
+    Chain, ControlStack, Controller, DampedLeastSquares, DlsSettings, FeedbackElement, ManipulabilityRows, MotorUnits,
+    Operator, Potential, Reference, RobotModel, Sensor, StackSettings, forward_kinematics, jacobian,
 };
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::DVector;
@@ -78,6 +91,69 @@ fn bench(c: &mut Criterion) {
             forward_kinematics(&arm, &mut s);
             jacobian(&arm, &mut s);
             black_box(s.jacobian()[(0, 0)])
+        })
+    });
+
+    // 1024 configurations within the joint limits and 6-D errors, made before timing (splitmix64).
+    let mut seed = 1u64;
+    let mut uniform = move || {
+        seed = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = seed;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let qs: Vec<Vec<f64>> = (0..1024)
+        .map(|_| {
+            arm.dofs()
+                .iter()
+                .map(|d| d.limits.lower + (d.limits.upper - d.limits.lower) * uniform())
+                .collect()
+        })
+        .collect();
+    let es: Vec<[f64; 6]> = (0..1024)
+        .map(|_| std::array::from_fn(|_| 0.02 * (uniform() - 0.5)))
+        .collect();
+    let mut dls = DampedLeastSquares::new(6, DlsSettings::default());
+    let mut out = vec![0.0; arm.dof()];
+    let mut i = 0usize;
+    let mut s2 = arm.new_state();
+    c.bench_function("wam_fk_jacobian_dls_distinct_q", |b| {
+        b.iter(|| {
+            i = (i + 1) & 1023;
+            s2.q_mut().as_mut_slice().copy_from_slice(&qs[i]);
+            forward_kinematics(&arm, &mut s2);
+            jacobian(&arm, &mut s2);
+            dls.solve(s2.jacobian(), &es[i], &mut out);
+            black_box(out[0])
+        })
+    });
+
+    // The DLS step alone on those 1024 Jacobians (Eigen's `dls_step_eigen` times this on 1000).
+    let js: Vec<_> = qs
+        .iter()
+        .map(|q| {
+            s2.q_mut().as_mut_slice().copy_from_slice(q);
+            forward_kinematics(&arm, &mut s2);
+            jacobian(&arm, &mut s2);
+            s2.jacobian().clone()
+        })
+        .collect();
+    c.bench_function("wam_dls_only_distinct_j", |b| {
+        b.iter(|| {
+            i = (i + 1) & 1023;
+            dls.solve(&js[i], &es[i], &mut out);
+            black_box(out[0])
+        })
+    });
+
+    let mut stack = arm_stack(&arm);
+    let mut i = 0usize;
+    c.bench_function("wam_tick_reach_manipulability_distinct_q", |b| {
+        b.iter(|| {
+            i = (i + 1) & 1023;
+            s2.q_mut().as_mut_slice().copy_from_slice(&qs[i]);
+            black_box(stack.tick(&arm, &mut s2, &[], 0.002)[0])
         })
     });
 

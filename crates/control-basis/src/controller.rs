@@ -543,20 +543,20 @@ pub fn evaluate(
             let Reference::Position(r) = &buf.filtered else {
                 return none(buf);
             };
-            link_jacobian(chain, state, link, &mut buf.scratch);
+            let src = link_jacobian_or_tip(chain, state, link, &mut buf.scratch);
             let y = state.link_poses()[link].translation.vector;
             buf.rows = 3;
-            copy_rows(&buf.scratch, 0, &mut buf.jacobian, 0, 3, 1.0);
+            copy_rows(src, 0, &mut buf.jacobian, 0, 3, 1.0);
             quadratic(y.as_slice(), r.as_slice(), &mut buf.error.as_mut_slice()[..3])
         }
         (Sensor::LinkOrientation { link }, Potential::Quadratic { .. }) => {
             let Reference::Orientation(r) = &buf.filtered else {
                 return none(buf);
             };
-            link_jacobian(chain, state, link, &mut buf.scratch);
+            let src = link_jacobian_or_tip(chain, state, link, &mut buf.scratch);
             let err = orientation_error(&state.link_poses()[link].rotation, r);
             buf.rows = 3;
-            copy_rows(&buf.scratch, 3, &mut buf.jacobian, 0, 3, 1.0);
+            copy_rows(src, 3, &mut buf.jacobian, 0, 3, 1.0);
             buf.error.as_mut_slice()[..3].copy_from_slice(err.as_slice());
             0.5 * err.norm_squared()
         }
@@ -564,13 +564,13 @@ pub fn evaluate(
             let Reference::Pose(r) = &buf.filtered else {
                 return none(buf);
             };
-            link_jacobian(chain, state, link, &mut buf.scratch);
+            let src = link_jacobian_or_tip(chain, state, link, &mut buf.scratch);
             let pose = &state.link_poses()[link];
             let ep = pose.translation.vector - r.translation.vector;
             let er = orientation_error(&pose.rotation, &r.rotation) * w;
             buf.rows = 6;
-            copy_rows(&buf.scratch, 0, &mut buf.jacobian, 0, 3, 1.0);
-            copy_rows(&buf.scratch, 3, &mut buf.jacobian, 3, 3, w);
+            copy_rows(src, 0, &mut buf.jacobian, 0, 3, 1.0);
+            copy_rows(src, 3, &mut buf.jacobian, 3, 3, w);
             let e = buf.error.as_mut_slice();
             e[..3].copy_from_slice(ep.as_slice());
             e[3..6].copy_from_slice(er.as_slice());
@@ -603,6 +603,26 @@ pub fn evaluate(
         }
     }
     Some(phi)
+}
+
+/// The Jacobian of chain link `link`: the state's tip Jacobian itself when the link's origin is the tip
+/// point on the last joint (the same columns [`link_jacobian`] would compute, bit for bit), else computed
+/// into `scratch`.
+fn link_jacobian_or_tip<'a>(
+    chain: &Chain,
+    state: &'a ChainState,
+    link: usize,
+    scratch: &'a mut Matrix6xX<f64>,
+) -> &'a Matrix6xX<f64> {
+    let on_tip = chain.links()[link].after == chain.joints().len().checked_sub(1)
+        && state.link_poses()[link].translation.vector == state.tip_pose().translation.vector
+        && state.jacobian().ncols() == scratch.ncols();
+    if on_tip {
+        state.jacobian()
+    } else {
+        link_jacobian(chain, state, link, scratch);
+        scratch
+    }
 }
 
 fn none(buf: &mut TaskBuffers) -> Option<f64> {

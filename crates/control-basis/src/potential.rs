@@ -56,6 +56,8 @@ impl ManipulabilityRows {
 pub struct ManipulabilityWorkspace {
     b: Matrix6xX<f64>,
     axes: Vec<Vec3>,
+    /// z_e × (p − p_e) of each joint (the revolute fast path).
+    lin: Vec<Vec3>,
 }
 
 impl ManipulabilityWorkspace {
@@ -64,6 +66,7 @@ impl ManipulabilityWorkspace {
         ManipulabilityWorkspace {
             b: Matrix6xX::zeros(chain.dof()),
             axes: vec![Vec3::zeros(); chain.joints().len()],
+            lin: vec![Vec3::zeros(); chain.joints().len()],
         }
     }
 }
@@ -82,29 +85,46 @@ pub fn manipulability(
     ws: &mut ManipulabilityWorkspace,
     grad: &mut [f64],
 ) -> f64 {
+    match rows {
+        ManipulabilityRows::Full => manipulability_fixed::<6>(chain, state, ws, grad),
+        ManipulabilityRows::Position => manipulability_fixed::<3>(chain, state, ws, grad),
+    }
+}
+
+/// [`manipulability`] for the first M rows of the tip Jacobian (M = 6 or 3), A on the stack.
+#[allow(clippy::needless_range_loop)] // triangular index loops over fixed-size factors
+fn manipulability_fixed<const M: usize>(
+    chain: &Chain,
+    state: &ChainState,
+    ws: &mut ManipulabilityWorkspace,
+    grad: &mut [f64],
+) -> f64 {
     let jac = state.jacobian();
     let n = chain.dof();
-    let m = rows.count();
-    // A = J Jᵀ (m×m, column-major), factored by Cholesky: det A = Π Lᵢᵢ², and B = A⁻¹ J by m×m solves.
-    let mut a = [0.0f64; 36];
+    let js = jac.as_slice();
+    // A = J Jᵀ (M×M, a[j][i] = A(i, j)), factored by Cholesky: det A = Π Lᵢᵢ², and B = A⁻¹ J by M×M
+    // solves.
+    let mut a = [[0.0f64; M]; M];
     for k in 0..n {
-        for i in 0..m {
-            let ci = jac[(i, k)];
+        let col: &[f64; M] = js[6 * k..6 * k + M].try_into().expect("M ≤ 6 rows");
+        for i in 0..M {
+            let ci = col[i];
             for j in 0..=i {
-                a[i + j * m] += ci * jac[(j, k)];
+                a[j][i] += ci * col[j];
             }
         }
     }
-    for i in 0..m {
+    for i in 0..M {
         for j in 0..i {
-            a[j + i * m] = a[i + j * m];
+            a[i][j] = a[j][i];
         }
     }
-    let scale = (0..m).map(|i| a[i + i * m]).fold(0.0, f64::max).max(1e-300);
+    let scale = (0..M).map(|i| a[i][i]).fold(0.0, f64::max).max(1e-300);
     let mut l = a;
-    let factored = crate::linalg::cholesky_in_place(&mut l[..m * m], m);
+    let mut inv = [0.0f64; M];
+    let factored = crate::linalg::cholesky_fixed(&mut l, &mut inv);
     let w = if factored {
-        (0..m).map(|i| l[i + i * m]).product::<f64>()
+        (0..M).map(|i| l[i][i]).product::<f64>()
     } else {
         0.0
     };
@@ -113,19 +133,24 @@ pub fn manipulability(
     // singular value of J is small but not zero.
     let ok = factored && w > 0.0 || {
         l = a;
-        for i in 0..m {
-            l[i + i * m] += 1e-12 * scale;
+        for (i, li) in l.iter_mut().enumerate() {
+            li[i] += 1e-12 * scale;
         }
-        crate::linalg::cholesky_in_place(&mut l[..m * m], m)
+        crate::linalg::cholesky_fixed(&mut l, &mut inv)
     };
-    ws.b.fill(0.0);
+    let bs = ws.b.as_mut_slice();
+    bs.fill(0.0);
     if ok {
-        let mut col = [0.0f64; 6];
-        for k in 0..n {
-            col[..m].copy_from_slice(&jac.column(k).as_slice()[..m]);
-            crate::linalg::cholesky_solve(&l[..m * m], m, &mut col[..m]);
-            for (i, c) in col[..m].iter().enumerate() {
-                ws.b[(i, k)] = *c;
+        // All n columns solved together (up to 16 at a time, on the stack).
+        for (jk, bk) in js.chunks(6 * 16).zip(bs.chunks_mut(6 * 16)) {
+            let mut cols = [[0.0f64; M]; 16];
+            let cnt = jk.len() / 6;
+            for (c, j) in cols.iter_mut().zip(jk.chunks_exact(6)) {
+                c.copy_from_slice(&j[..M]);
+            }
+            crate::linalg::cholesky_solve_many_fixed(&l, &inv, &mut cols[..cnt]);
+            for (c, b) in cols.iter().zip(bk.chunks_exact_mut(6)) {
+                b[..M].copy_from_slice(c);
             }
         }
     }
@@ -133,8 +158,35 @@ pub fn manipulability(
     let joints = chain.joints();
     let frames = state.joint_frames();
     let p = state.tip_pose().translation.vector;
+    let mut revolute = true;
     for (e, (je, fe)) in joints.iter().zip(frames).enumerate() {
         ws.axes[e] = (fe.rotation * je.axis.into_inner()) * (je.sign * je.multiplier);
+        revolute &= je.kind != JointKind::Prismatic;
+    }
+    if revolute {
+        // All joints revolute: with c_e = z_e × (p − p_e) (the linear Jacobian column of joint e) and
+        // B's column b_e = (b_v, b_ω), the triple products of the general loop below regroup as
+        //   f < e: b_v·(z_f × c_e) + b_ω·(z_f × z_e) = z_f · (c_e × b_v + z_e × b_ω) = z_f · g_e,
+        //   f ≥ e: b_v·(z_e × c_f) = c_f · (b_v × z_e) = c_f · h_e,
+        // so each pair costs one 3-vector dot product instead of two nested cross products.
+        for (e, fe) in frames.iter().enumerate().take(joints.len()) {
+            ws.lin[e] = ws.axes[e].cross(&(p - fe.translation.vector));
+        }
+        for (e, je) in joints.iter().enumerate() {
+            let ze = ws.axes[e];
+            let be = &bs[6 * je.dof..6 * je.dof + 6];
+            let bv = Vec3::new(be[0], be[1], be[2]);
+            let mut g = ws.lin[e].cross(&bv);
+            if M == 6 {
+                g += ze.cross(&Vec3::new(be[3], be[4], be[5]));
+            }
+            let h = bv.cross(&ze);
+            for (f, jf) in joints.iter().enumerate() {
+                let s = if f < e { ws.axes[f].dot(&g) } else { ws.lin[f].dot(&h) };
+                grad[jf.dof] += w * s;
+            }
+        }
+        return w;
     }
     for (e, je) in joints.iter().enumerate() {
         let ze = ws.axes[e];
@@ -168,10 +220,10 @@ pub fn manipulability(
                 (true, true) => (Vec3::zeros(), Vec3::zeros()),
             };
             let mut s = 0.0;
-            for r in 0..m.min(3) {
+            for r in 0..M.min(3) {
                 s += be[r] * dv[r];
             }
-            if m == 6 {
+            if M == 6 {
                 for r in 0..3 {
                     s += be[r + 3] * dw[r];
                 }
