@@ -869,7 +869,11 @@ impl ControlStack {
             self.basis.project_out(&mut self.v);
             self.du += &self.v;
             if k + 1 < self.controllers.len() {
-                self.basis.add_first_rows(&buf.jacobian, buf.rows);
+                // The first level's rows come orthonormal out of its own (undamped) factor.
+                let from_factor = !buf.identity && self.basis.start_from_factor(&self.dls[k], &buf.jacobian, buf.rows);
+                if !from_factor {
+                    self.basis.add_first_rows(&buf.jacobian, buf.rows);
+                }
             }
         }
     }
@@ -908,6 +912,10 @@ impl ControlStack {
     /// The task buffers (e, J) of the last tick.
     pub fn buffers(&self) -> &[TaskBuffers] {
         &self.buffers
+    }
+    /// Each level's damped least-squares workspace (holding its last undamped factor).
+    pub(crate) fn dls_workspaces(&self) -> &[DampedLeastSquares] {
+        &self.dls
     }
     /// Damping used by each level at the last tick.
     pub fn dls_info(&self) -> &[DlsInfo] {

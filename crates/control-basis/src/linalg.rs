@@ -47,6 +47,11 @@ pub struct DampedLeastSquares {
     w: Vec<f64>,
     /// Rows of the previous solve whose smallest-eigenvector estimate `y` is kept (0 = none).
     warm_rows: usize,
+    /// The Cholesky factor of J Jᵀ (+ 1e-14·scale I) of the last fixed-size solve whose law was
+    /// undamped (`factor[k][i]` = L(i, k)), its reciprocal pivots, and its row count (0: none kept).
+    factor: [[f64; 6]; 6],
+    factor_inv: [f64; 6],
+    factor_rows: usize,
 }
 
 impl DampedLeastSquares {
@@ -59,7 +64,39 @@ impl DampedLeastSquares {
             y: vec![0.0; max_rows],
             w: vec![0.0; max_rows],
             warm_rows: 0,
+            factor: [[0.0; 6]; 6],
+            factor_inv: [0.0; 6],
+            factor_rows: 0,
         }
+    }
+
+    /// After a solve whose law was undamped (σ_min ≥ ε), writes an orthonormal basis of the row space
+    /// of the same J (its first `m` rows, n columns, column-major with `rows` rows) into `out` (m rows
+    /// of n, contiguous): Q = L⁻¹ J from the solve's own factor, m²n/2 multiply-adds instead of a
+    /// Gram–Schmidt pass. Q Qᵀ = I − δ L⁻¹L⁻ᵀ with δ = 1e-14·max Aᵢᵢ the factor's regularisation, so
+    /// the rows are orthonormal to δ/σ_min² ≤ 4e-12·max Aᵢᵢ/ε². False (nothing written) when the last
+    /// solve was damped, general-size or of another row count.
+    pub fn row_basis_from_factor(&self, js: &[f64], rows: usize, m: usize, out: &mut [f64]) -> bool {
+        if m == 0 || m != self.factor_rows || rows < m {
+            return false;
+        }
+        let n = js.len() / rows;
+        debug_assert!(out.len() >= m * n);
+        for c in 0..n {
+            let mut b = [0.0f64; 6];
+            b[..m].copy_from_slice(&js[c * rows..c * rows + m]);
+            for i in 0..m {
+                let mut s = b[i];
+                for (k, bk) in b.iter().enumerate().take(i) {
+                    s -= self.factor[k][i] * bk;
+                }
+                b[i] = s * self.factor_inv[i];
+            }
+            for (r, &q) in b.iter().enumerate().take(m) {
+                out[r * n + c] = q;
+            }
+        }
+        true
     }
 
     /// The settings.
@@ -228,6 +265,14 @@ impl DampedLeastSquares {
         } else {
             0.0
         };
+        self.factor_rows = 0;
+        if lambda_sq == 0.0 && factored {
+            for (f, c) in self.factor.iter_mut().zip(&chol) {
+                f[..M].copy_from_slice(c);
+            }
+            self.factor_inv[..M].copy_from_slice(&inv);
+            self.factor_rows = M;
+        }
         if lambda_sq > 0.0 || !factored {
             chol = a;
             for (i, ci) in chol.iter_mut().enumerate() {
@@ -255,6 +300,7 @@ impl DampedLeastSquares {
 
     /// The general kernel (any m ≤ `max_rows`), buffers on the heap (sized at construction).
     fn solve_general(&mut self, js: &[f64], rows: usize, m: usize, e: &[f64], out: &mut [f64]) -> DlsInfo {
+        self.factor_rows = 0;
         let n = out.len();
         // A = J Jᵀ (column-major m×m).
         let a = &mut self.a[..m * m];
@@ -542,6 +588,24 @@ impl RowSpaceBasis {
         self.add_first_rows(jac, jac.nrows());
     }
 
+    /// Starts the span with the first `m` rows of `jac` using the factor of the damped least-squares
+    /// solve that just ran on the same rows ([`DampedLeastSquares::row_basis_from_factor`]). Only on
+    /// an empty basis; false (basis unchanged) when that is not possible — use
+    /// [`RowSpaceBasis::add_first_rows`] then.
+    pub fn start_from_factor(&mut self, dls: &DampedLeastSquares, jac: &DMatrix<f64>, m: usize) -> bool {
+        let n = self.dim();
+        if self.rank != 0 || m > n || jac.ncols() != n {
+            return false;
+        }
+        let rows = jac.nrows();
+        if dls.row_basis_from_factor(jac.as_slice(), rows, m, &mut self.basis.as_mut_slice()[..m * n]) {
+            self.rank = m;
+            true
+        } else {
+            false
+        }
+    }
+
     /// Adds the first `m` rows of `jac` to the span.
     pub fn add_first_rows(&mut self, jac: &DMatrix<f64>, m: usize) {
         let n = self.dim();
@@ -726,5 +790,40 @@ mod tests {
         b.projector(&mut n);
         assert!((&n * &n - &n).abs().max() < 1e-12);
         assert!((&j * &n).abs().max() < 1e-12);
+    }
+
+    #[test]
+    fn basis_from_the_factor_equals_gram_schmidt() {
+        for (m, seed) in [(1usize, 0.3), (3, 0.7), (6, 1.1), (6, 2.9)] {
+            let j = DMatrix::from_fn(m, 7, |i, k| {
+                (((i + 2) * (k + 1)) as f64 * seed).sin() + 0.2 * (i == k) as u8 as f64
+            });
+            let mut dls = DampedLeastSquares::new(6, DlsSettings::default());
+            let mut out = vec![0.0; 7];
+            let info = dls.solve(&j, &vec![0.1; m], &mut out);
+            assert_eq!(info.lambda_sq, 0.0, "test matrices are well conditioned");
+            let mut fast = RowSpaceBasis::new(7);
+            assert!(fast.start_from_factor(&dls, &j, m));
+            assert_eq!(fast.rank(), m);
+            assert!(!fast.start_from_factor(&dls, &j, m), "only on an empty basis");
+            let mut slow = RowSpaceBasis::new(7);
+            slow.add_rows(&j);
+            let (mut pf, mut ps) = (DMatrix::zeros(7, 7), DMatrix::zeros(7, 7));
+            fast.projector(&mut pf);
+            slow.projector(&mut ps);
+            assert!((&pf - &ps).abs().max() < 1e-10, "m = {m}");
+            assert!((&j * &pf).abs().max() < 1e-10);
+            // Another row count than the last solve: refused.
+            let mut other = RowSpaceBasis::new(7);
+            if m > 1 {
+                assert!(!other.start_from_factor(&dls, &j, m - 1));
+            }
+        }
+        // A damped solve keeps no factor.
+        let singular = DMatrix::from_fn(2, 7, |_, k| k as f64);
+        let mut dls = DampedLeastSquares::new(6, DlsSettings::default());
+        let mut out = vec![0.0; 7];
+        assert!(dls.solve(&singular, &[1.0, 1.0], &mut out).lambda_sq > 0.0);
+        assert!(!RowSpaceBasis::new(7).start_from_factor(&dls, &singular, 2));
     }
 }

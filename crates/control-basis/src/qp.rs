@@ -479,7 +479,14 @@ impl QpComposer {
             self.v.copy_from(step);
             self.basis.project_out(&mut self.v);
             self.reference += &self.v;
-            self.basis.add_first_rows(&buf.jacobian, buf.rows);
+            // As the tick does: the first level's rows from its own factor when it has one.
+            let from_factor = !buf.identity
+                && self
+                    .basis
+                    .start_from_factor(&stack.dls_workspaces()[k], &buf.jacobian, buf.rows);
+            if !from_factor {
+                self.basis.add_first_rows(&buf.jacobian, buf.rows);
+            }
             first.get_or_insert(k);
         }
         first
