@@ -182,22 +182,7 @@ impl DampedLeastSquares {
     fn solve_fixed<const M: usize>(&mut self, js: &[f64], rows: usize, e: &[f64], out: &mut [f64]) -> DlsInfo {
         let n = out.len();
         debug_assert!(js.len() >= rows * n);
-        // A = J Jᵀ: a[j][i] holds A(i, j), lower triangle (i ≥ j) computed, then mirrored.
-        let mut a = [[0.0f64; M]; M];
-        for k in 0..n {
-            let col: &[f64; M] = js[k * rows..k * rows + M].try_into().expect("M rows");
-            for i in 0..M {
-                let ci = col[i];
-                for j in 0..=i {
-                    a[j][i] += ci * col[j];
-                }
-            }
-        }
-        for i in 0..M {
-            for j in 0..i {
-                a[i][j] = a[j][i];
-            }
-        }
+        let a = gram_fixed::<M>(js, rows, n);
         let mut scale = 0.0f64;
         let mut trace = 0.0;
         for (i, ai) in a.iter().enumerate() {
@@ -438,20 +423,30 @@ pub(crate) fn cholesky_fixed<const M: usize>(a: &mut [[f64; M]; M], inv: &mut [f
 #[inline]
 #[allow(clippy::needless_range_loop)] // triangular index loops over fixed-size factors
 pub(crate) fn cholesky_solve_fixed<const M: usize>(l: &[[f64; M]; M], inv: &[f64; M], b: &mut [f64; M]) {
+    cholesky_solve_many_fixed(l, inv, std::slice::from_mut(b));
+}
+
+/// A = J Jᵀ for the first M rows of J (column-major with `rows` rows, n columns): `a[j][i]` = A(i, j),
+/// the lower triangle computed and mirrored.
+#[inline]
+#[allow(clippy::needless_range_loop)] // triangular index loops over fixed-size matrices
+pub(crate) fn gram_fixed<const M: usize>(js: &[f64], rows: usize, n: usize) -> [[f64; M]; M] {
+    let mut a = [[0.0f64; M]; M];
+    for k in 0..n {
+        let col: &[f64; M] = js[k * rows..k * rows + M].try_into().expect("M rows");
+        for i in 0..M {
+            let ci = col[i];
+            for j in 0..=i {
+                a[j][i] += ci * col[j];
+            }
+        }
+    }
     for i in 0..M {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= l[k][i] * b[k];
+        for j in 0..i {
+            a[i][j] = a[j][i];
         }
-        b[i] = s * inv[i];
     }
-    for i in (0..M).rev() {
-        let mut s = b[i];
-        for k in i + 1..M {
-            s -= l[i][k] * b[k];
-        }
-        b[i] = s * inv[i];
-    }
+    a
 }
 
 /// Solves `L Lᵀ X = B` in place for every column of `cols` (each an M-vector) at once: the columns are

@@ -104,21 +104,7 @@ fn manipulability_fixed<const M: usize>(
     let js = jac.as_slice();
     // A = J Jᵀ (M×M, a[j][i] = A(i, j)), factored by Cholesky: det A = Π Lᵢᵢ², and B = A⁻¹ J by M×M
     // solves.
-    let mut a = [[0.0f64; M]; M];
-    for k in 0..n {
-        let col: &[f64; M] = js[6 * k..6 * k + M].try_into().expect("M ≤ 6 rows");
-        for i in 0..M {
-            let ci = col[i];
-            for j in 0..=i {
-                a[j][i] += ci * col[j];
-            }
-        }
-    }
-    for i in 0..M {
-        for j in 0..i {
-            a[i][j] = a[j][i];
-        }
-    }
+    let a = crate::linalg::gram_fixed::<M>(js, 6, n);
     let scale = (0..M).map(|i| a[i][i]).fold(0.0, f64::max).max(1e-300);
     let mut l = a;
     let mut inv = [0.0f64; M];

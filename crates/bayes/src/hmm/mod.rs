@@ -1055,19 +1055,7 @@ pub fn categorical_emissions(emission_probs: &[f64], n_states: usize, obs: &[usi
         });
     }
     check_linear_emission(emission_probs)?;
-    let k = emission_probs.len() / n_states;
-    let mut out = Vec::with_capacity(obs.len() * n_states);
-    for &o in obs {
-        if o >= k {
-            return Err(BayesError::IndexOutOfRange {
-                what: "observation symbol",
-                index: o,
-                len: k,
-            });
-        }
-        out.extend((0..n_states).map(|j| emission_probs[j * k + o]));
-    }
-    Ok(out)
+    categorical_lattice(emission_probs, n_states, obs)
 }
 
 /// Log emission matrix (T×n row-major) for a categorical emission model:
@@ -1088,7 +1076,12 @@ pub fn categorical_log_emissions(log_emission_probs: &[f64], n_states: usize, ob
         });
     }
     check_log_emission(log_emission_probs)?;
-    let k = log_emission_probs.len() / n_states;
+    categorical_lattice(log_emission_probs, n_states, obs)
+}
+
+/// Entry (t, j) = `table[j · K + obs[t]]` for an n×K table (checked by the caller).
+fn categorical_lattice(table: &[f64], n_states: usize, obs: &[usize]) -> Result<Vec<f64>> {
+    let k = table.len() / n_states;
     let mut out = Vec::with_capacity(obs.len() * n_states);
     for &o in obs {
         if o >= k {
@@ -1098,7 +1091,7 @@ pub fn categorical_log_emissions(log_emission_probs: &[f64], n_states: usize, ob
                 len: k,
             });
         }
-        out.extend((0..n_states).map(|j| log_emission_probs[j * k + o]));
+        out.extend((0..n_states).map(|j| table[j * k + o]));
     }
     Ok(out)
 }
