@@ -184,6 +184,17 @@ fn decaying_state_is_tracked_exactly() {
         }
         assert_eq!(filter.filtered()[0], 0.0);
         assert!(filter.error_bound() < 1e-250, "{}", filter.error_bound());
+        // Its exact log value is kept.
+        let mut log_f = vec![0.0; n];
+        filter.log_filtered_into(&mut log_f);
+        let mut reference = ForwardFilter::new(&hmm);
+        for row in log_e.chunks(n) {
+            reference.step(&hmm, row).unwrap();
+        }
+        assert!(log_f[0] < -600.0 && log_f[0].is_finite(), "{}", log_f[0]);
+        for (a, b) in log_f.iter().zip(reference.log_filtered()) {
+            assert!((a - b).abs() <= 1e-9 * b.abs().max(1.0), "{a} vs {b}");
+        }
         let exact = hmm.forward_exact(&log_e).unwrap();
         assert!(scaled_diff(filter.log_likelihood(), exact) <= 1e-12);
         assert!(scaled_diff(hmm.forward(&log_e).unwrap(), exact) <= 1e-12);

@@ -834,6 +834,16 @@ impl ScaledFilter {
         self.inner.alpha()
     }
 
+    /// log p(z_t = j | o_1..t) into `out` (length n), exact also for the states that read 0 in
+    /// [`Self::filtered`] because they are below 1e-280. Allocates nothing.
+    ///
+    /// # Panics
+    /// If `out.len()` ≠ n.
+    pub fn log_filtered_into(&self, out: &mut [f64]) {
+        assert_eq!(out.len(), self.inner.n(), "one entry per state");
+        self.inner.log_alpha_into(out);
+    }
+
     /// Bound on the relative error of p(o_1..t) (and the absolute error of [`Self::filtered`])
     /// from flushed probability mass: 0 unless a state fell below 1e-280; infinite once a step
     /// could not be represented in linear arithmetic at all (see [`Hmm::forward_scaled`]).

@@ -356,19 +356,22 @@ impl Scaled {
         }
     }
 
+    /// log α̂_t,j for every state, into `out` (length n; exact for tiny states too).
+    pub(crate) fn log_alpha_into(&self, out: &mut [f64]) {
+        if self.log_mode {
+            out.copy_from_slice(self.log_filter.log_filtered());
+            return;
+        }
+        for ((o, &a), &l) in out.iter_mut().zip(self.alpha()).zip(&self.tiny_log) {
+            *o = if a > 0.0 { a.ln() } else { l };
+        }
+    }
+
     /// log α̂_t,j for every state, into `out` (exact for tiny states too).
     pub(crate) fn log_alpha(&self, out: &mut Vec<f64>) {
         out.clear();
-        if self.log_mode {
-            out.extend_from_slice(self.log_filter.log_filtered());
-            return;
-        }
-        out.extend(
-            self.alpha()
-                .iter()
-                .zip(&self.tiny_log)
-                .map(|(&a, &l)| if a > 0.0 { a.ln() } else { l }),
-        );
+        out.resize(self.n(), 0.0);
+        self.log_alpha_into(out);
     }
 
     /// log p(o_1..t) so far.
