@@ -24,7 +24,7 @@ use crate::linalg::{DampedLeastSquares, DlsInfo, DlsSettings, RowSpaceBasis};
 use crate::math::{Iso3, Rot3, Vec3};
 use crate::potential::{
     Contact, ManipulabilityRows, ManipulabilityWorkspace, force_residual, joint_limit, manipulability,
-    orientation_error, quadratic,
+    manipulability_from_factor, orientation_error, quadratic,
 };
 use crate::predicate::{Predicate, PredicateSettings, PredicateTracker};
 
@@ -390,6 +390,16 @@ impl Controller {
         }
     }
 
+    /// The row weights D of a task whose Jacobian is D times the first rows of its link's Jacobian
+    /// (pose: 1, 1, 1 and the orientation weight; position: 1, 1, 1); `None` for other tasks.
+    fn tip_row_weights(&self) -> Option<[f64; 6]> {
+        match (self.feedback.sensor, self.potential) {
+            (Sensor::LinkPose { .. }, Potential::Quadratic { orientation_weight: w }) => Some([1.0, 1.0, 1.0, w, w, w]),
+            (Sensor::LinkPosition { .. }, Potential::Quadratic { .. }) => Some([1.0; 6]),
+            _ => None,
+        }
+    }
+
     fn check_against(&self, chain: &Chain) -> Result<(), CbError> {
         if self.motor_units.len() != chain.dof() {
             return Err(CbError::DimensionMismatch {
@@ -511,6 +521,22 @@ pub fn evaluate(
     buf: &mut TaskBuffers,
     dt_secs: f64,
 ) -> Option<f64> {
+    evaluate_with(controller, chain, state, contacts, reference, buf, dt_secs, false)
+}
+
+/// [`evaluate`]; with `defer`, a manipulability potential only sets up its rows and J = I and returns
+/// `Some(NaN)`: the stack computes φ and e later from the first level's factor.
+#[allow(clippy::too_many_arguments)]
+fn evaluate_with(
+    controller: &Controller,
+    chain: &Chain,
+    state: &ChainState,
+    contacts: &[Contact],
+    reference: &Reference,
+    buf: &mut TaskBuffers,
+    dt_secs: f64,
+    defer: bool,
+) -> Option<f64> {
     filter_reference(controller.feedback.operator, reference, &mut buf.filtered, dt_secs);
     let n = chain.dof();
     buf.identity = matches!(controller.feedback.sensor, Sensor::JointPositions);
@@ -533,6 +559,9 @@ pub fn evaluate(
         (Sensor::JointPositions, Potential::Manipulability { rows }) => {
             buf.rows = n;
             set_identity(&mut buf.jacobian, n);
+            if defer {
+                return Some(f64::NAN);
+            }
             let g = &mut buf.error.as_mut_slice()[..n];
             let w = manipulability(chain, state, rows, &mut buf.manip, g);
             // e = ∇φ_M = −∇w.
@@ -698,6 +727,10 @@ pub struct ControlStack {
     upper: Vec<f64>,
     clamped: Vec<bool>,
     clamp_to: Vec<f64>,
+    /// Manipulability levels (below the first) whose φ and e wait for the first level's factor.
+    deferred: Vec<bool>,
+    /// How many manipulability evaluations took the first level's factor (diagnostics and tests).
+    shared_factor_count: u64,
 }
 
 impl ControlStack {
@@ -742,6 +775,8 @@ impl ControlStack {
             upper: chain.dofs().iter().map(|d| d.limits.upper).collect(),
             clamped: vec![false; n],
             clamp_to: vec![0.0; n],
+            deferred: vec![false; controllers.len()],
+            shared_factor_count: 0,
             controllers,
         })
     }
@@ -785,12 +820,17 @@ impl ControlStack {
         for k in 0..self.controllers.len() {
             let c = &self.controllers[k];
             let buf = &mut self.buffers[k];
-            let phi = evaluate(c, chain, state, contacts, &self.references[k], buf, dt_secs);
+            // A manipulability level below the first waits for the first level's factor (`compose`).
+            let defer = k > 0 && matches!(c.potential, Potential::Manipulability { .. });
+            let phi = evaluate_with(c, chain, state, contacts, &self.references[k], buf, dt_secs, defer);
+            self.deferred[k] = defer && phi.is_some();
             self.phis[k] = phi;
-            self.trackers[k].update(phi, dt_secs);
+            if !self.deferred[k] {
+                self.trackers[k].update(phi, dt_secs);
+            }
         }
         self.clamped.fill(false);
-        self.compose(dt_secs);
+        self.compose(Some((chain, &*state)), dt_secs);
         if self.settings.clamp_position_limits {
             // At most n rounds: each round clamps at least one more joint or stops.
             for _ in 0..self.clamped.len() {
@@ -818,7 +858,7 @@ impl ControlStack {
                         }
                     }
                 }
-                self.compose(dt_secs);
+                self.compose(None, dt_secs);
             }
             for (i, &c) in self.clamped.iter().enumerate() {
                 if c {
@@ -841,10 +881,20 @@ impl ControlStack {
     }
 
     /// Δu = Σₖ N₁…ₖ₋₁ (−κₖ dt Jₖ† eₖ) (3.7) from the evaluated buffers.
-    fn compose(&mut self, dt_secs: f64) {
+    ///
+    /// `first`: the chain and state of the tick's first composition, which also evaluates the deferred
+    /// manipulability levels (`None` when recomposing after clamping).
+    fn compose(&mut self, first: Option<(&Chain, &ChainState)>, dt_secs: f64) {
         self.du.fill(0.0);
         self.basis.clear();
+        // Rows of the basis that are Q = L⁻¹J of the first level's own undamped factor (0: none).
+        let mut factor_level: Option<(usize, usize)> = None;
         for k in 0..self.controllers.len() {
+            if let Some((chain, state)) = first
+                && self.deferred[k]
+            {
+                self.evaluate_deferred(k, factor_level, chain, state, dt_secs);
+            }
             let buf = &self.buffers[k];
             self.level_steps[k].fill(0.0);
             if self.phis[k].is_none() || buf.rows == 0 {
@@ -871,11 +921,72 @@ impl ControlStack {
             if k + 1 < self.controllers.len() {
                 // The first level's rows come orthonormal out of its own (undamped) factor.
                 let from_factor = !buf.identity && self.basis.start_from_factor(&self.dls[k], &buf.jacobian, buf.rows);
+                if from_factor {
+                    factor_level = Some((k, buf.rows));
+                }
                 if !from_factor {
                     self.basis.add_first_rows(&buf.jacobian, buf.rows);
                 }
             }
         }
+    }
+
+    /// φ_M and e = −∇w of the deferred manipulability level `k` (3.14–3.16). When the first level's
+    /// rows are the first M rows of the tip Jacobian up to fixed row weights, J₀ = D J (checked entry by
+    /// entry: a pose task on the tip, D = diag(1, 1, 1, w, w, w), for M = 6; a position task for M = 3),
+    /// and its solve was undamped, its Cholesky factor L₀ = D L of J₀J₀ᵀ and the basis rows
+    /// Q = L₀⁻¹J₀ = L⁻¹J already hold what w = Π L₀ᵢᵢ / det D and B = A⁻¹J = D L₀⁻ᵀ Q need
+    /// ([`manipulability_from_factor`]); otherwise the potential computes its own.
+    fn evaluate_deferred(
+        &mut self,
+        k: usize,
+        factor_level: Option<(usize, usize)>,
+        chain: &Chain,
+        state: &ChainState,
+        dt_secs: f64,
+    ) {
+        let Potential::Manipulability { rows } = self.controllers[k].potential else {
+            return;
+        };
+        let n = chain.dof();
+        let m = rows.count();
+        let tip = state.jacobian().as_slice();
+        let shared = factor_level.and_then(|(level, rows_used)| {
+            let weights = self.controllers[level].tip_row_weights()?;
+            let src = &self.buffers[level];
+            let stride = src.jacobian.nrows();
+            let js = src.jacobian.as_slice();
+            let same = rows_used == m
+                && src.jacobian.ncols() == n
+                && (0..n).all(|c| (0..m).all(|r| js[c * stride + r] == weights[r] * tip[c * 6 + r]));
+            if !same {
+                return None;
+            }
+            let (l, inv) = self.dls[level].undamped_factor(m)?;
+            Some((l, inv, weights))
+        });
+        let buf = &mut self.buffers[k];
+        let g = &mut buf.error.as_mut_slice()[..n];
+        let q_rows = self.basis.rows();
+        let w = match (shared, rows) {
+            (Some((l, inv, d)), ManipulabilityRows::Full) => {
+                manipulability_from_factor::<6>(chain, state, l, inv, &d, q_rows, &mut buf.manip, g)
+            }
+            (Some((l, inv, d)), ManipulabilityRows::Position) => {
+                manipulability_from_factor::<3>(chain, state, l, inv, &d, q_rows, &mut buf.manip, g)
+            }
+            (None, _) => manipulability(chain, state, rows, &mut buf.manip, g),
+        };
+        self.shared_factor_count += u64::from(shared.is_some());
+        g.iter_mut().for_each(|v| *v = -*v);
+        self.phis[k] = Some(-w);
+        self.trackers[k].update(self.phis[k], dt_secs);
+    }
+
+    /// How many manipulability levels so far reused the first level's Cholesky factor of J Jᵀ instead of
+    /// forming their own (a diagnostic: the results are the same to rounding).
+    pub fn shared_factor_count(&self) -> u64 {
+        self.shared_factor_count
     }
 
     /// Which joints were clamped at a position limit in the last tick.

@@ -82,21 +82,55 @@ impl DampedLeastSquares {
         }
         let n = js.len() / rows;
         debug_assert!(out.len() >= m * n);
-        for c in 0..n {
-            let mut b = [0.0f64; 6];
-            b[..m].copy_from_slice(&js[c * rows..c * rows + m]);
-            for i in 0..m {
-                let mut s = b[i];
-                for (k, bk) in b.iter().enumerate().take(i) {
-                    s -= self.factor[k][i] * bk;
-                }
-                b[i] = s * self.factor_inv[i];
-            }
-            for (r, &q) in b.iter().enumerate().take(m) {
-                out[r * n + c] = q;
-            }
+        match m {
+            1 => self.row_basis_fixed::<1>(js, rows, n, out),
+            2 => self.row_basis_fixed::<2>(js, rows, n, out),
+            3 => self.row_basis_fixed::<3>(js, rows, n, out),
+            4 => self.row_basis_fixed::<4>(js, rows, n, out),
+            5 => self.row_basis_fixed::<5>(js, rows, n, out),
+            _ => self.row_basis_fixed::<6>(js, rows, n, out),
         }
         true
+    }
+
+    /// The Cholesky factor (`l[k][i]` = L(i, k)) of J Jᵀ + 1e-14·max Aᵢᵢ I and its reciprocal pivots,
+    /// when the last solve was a fixed-size one on `m` rows whose law was undamped.
+    pub(crate) fn undamped_factor(&self, m: usize) -> Option<(&[[f64; 6]; 6], &[f64; 6])> {
+        (m > 0 && m == self.factor_rows).then_some((&self.factor, &self.factor_inv))
+    }
+
+    /// Q = L⁻¹ J for M rows: the columns go through the forward substitution side by side (8 at a
+    /// time, independent dependency chains), then out as rows.
+    #[allow(clippy::needless_range_loop)] // triangular index loops over a fixed-size factor
+    fn row_basis_fixed<const M: usize>(&self, js: &[f64], rows: usize, n: usize, out: &mut [f64]) {
+        let mut c0 = 0;
+        while c0 < n {
+            let cnt = (n - c0).min(8);
+            let mut b = [[0.0f64; 8]; M];
+            for c in 0..cnt {
+                let col = &js[(c0 + c) * rows..(c0 + c) * rows + M];
+                for (r, &v) in col.iter().enumerate() {
+                    b[r][c] = v;
+                }
+            }
+            for i in 0..M {
+                let mut s = b[i];
+                for k in 0..i {
+                    let lki = self.factor[k][i];
+                    for c in 0..8 {
+                        s[c] -= lki * b[k][c];
+                    }
+                }
+                let p = self.factor_inv[i];
+                for c in 0..8 {
+                    b[i][c] = s[c] * p;
+                }
+            }
+            for (r, br) in b.iter().enumerate() {
+                out[r * n + c0..r * n + c0 + cnt].copy_from_slice(&br[..cnt]);
+            }
+            c0 += cnt;
+        }
     }
 
     /// The settings.
@@ -568,6 +602,10 @@ impl RowSpaceBasis {
     /// Forgets all rows.
     pub fn clear(&mut self) {
         self.rank = 0;
+    }
+    /// The orthonormal rows so far (`rank` rows of n, contiguous).
+    pub(crate) fn rows(&self) -> &[f64] {
+        &self.basis.as_slice()[..self.rank * self.dim()]
     }
     /// Dimension of the span so far.
     pub fn rank(&self) -> usize {

@@ -140,13 +140,71 @@ fn manipulability_fixed<const M: usize>(
             }
         }
     }
+    manipulability_gradient::<M>(chain, state, w, ws, grad);
+    w
+}
+
+/// [`manipulability`] from a damped least-squares solve that ran on the weighted rows J₀ = D J (first M
+/// rows of the tip Jacobian, D = diag(`d`) > 0) and was undamped: its Cholesky factor L₀ = D L of
+/// J₀J₀ᵀ = D A D (`l[k][i]` = L₀(i, k), `inv` its reciprocal pivots) and the rows Q = L₀⁻¹J₀ = L⁻¹J
+/// (M rows of n, contiguous). Then w = √det A = Π L₀ᵢᵢ / Π dᵢ and B = A⁻¹J = L⁻ᵀQ = D L₀⁻ᵀ Q (one
+/// back-substitution per column): no Gram matrix, no second factorisation.
+#[allow(clippy::needless_range_loop, clippy::too_many_arguments)] // triangular index loops
+pub(crate) fn manipulability_from_factor<const M: usize>(
+    chain: &Chain,
+    state: &ChainState,
+    l: &[[f64; 6]; 6],
+    inv: &[f64; 6],
+    d: &[f64; 6],
+    q_rows: &[f64],
+    ws: &mut ManipulabilityWorkspace,
+    grad: &mut [f64],
+) -> f64 {
+    let n = chain.dof();
+    debug_assert!(q_rows.len() >= M * n);
+    let w: f64 = (0..M).map(|i| l[i][i] / d[i]).product();
+    let bs = ws.b.as_mut_slice();
+    for c in 0..n {
+        let mut b = [0.0f64; M];
+        for (r, br) in b.iter_mut().enumerate() {
+            *br = q_rows[r * n + c];
+        }
+        // L₀ᵀ b = q: row i of L₀ᵀ is column i of L₀, i.e. l[i][k] for k ≥ i.
+        for i in (0..M).rev() {
+            let mut s = b[i];
+            for k in i + 1..M {
+                s -= l[i][k] * b[k];
+            }
+            b[i] = s * inv[i];
+        }
+        let col = &mut bs[6 * c..6 * c + 6];
+        for r in 0..M {
+            col[r] = d[r] * b[r];
+        }
+        col[M..].fill(0.0);
+    }
+    manipulability_gradient::<M>(chain, state, w, ws, grad);
+    w
+}
+
+/// ∂w/∂q_k = w · Σ_e b_e · ∂J_e/∂q_k (3.16) from B = A⁻¹ J in `ws.b` (first M rows of each column).
+#[allow(clippy::needless_range_loop)] // fixed-size row loops
+fn manipulability_gradient<const M: usize>(
+    chain: &Chain,
+    state: &ChainState,
+    w: f64,
+    ws: &mut ManipulabilityWorkspace,
+    grad: &mut [f64],
+) {
+    let ManipulabilityWorkspace { b, axes, lin } = ws;
+    let bs = b.as_slice();
     grad.fill(0.0);
     let joints = chain.joints();
     let frames = state.joint_frames();
     let p = state.tip_pose().translation.vector;
     let mut revolute = true;
     for (e, (je, fe)) in joints.iter().zip(frames).enumerate() {
-        ws.axes[e] = (fe.rotation * je.axis.into_inner()) * (je.sign * je.multiplier);
+        axes[e] = (fe.rotation * je.axis.into_inner()) * (je.sign * je.multiplier);
         revolute &= je.kind != JointKind::Prismatic;
     }
     if revolute {
@@ -154,32 +212,40 @@ fn manipulability_fixed<const M: usize>(
         // B's column b_e = (b_v, b_ω), the triple products of the general loop below regroup as
         //   f < e: b_v·(z_f × c_e) + b_ω·(z_f × z_e) = z_f · (c_e × b_v + z_e × b_ω) = z_f · g_e,
         //   f ≥ e: b_v·(z_e × c_f) = c_f · (b_v × z_e) = c_f · h_e,
-        // so each pair costs one 3-vector dot product instead of two nested cross products.
-        for (e, fe) in frames.iter().enumerate().take(joints.len()) {
-            ws.lin[e] = ws.axes[e].cross(&(p - fe.translation.vector));
+        // so each pair costs one 3-vector dot product instead of two nested cross products — and the
+        // sum over e splits into a suffix sum of g and a prefix sum of h:
+        //   ∂w/∂q_f = w (z_f · Σ_{e>f} g_e + c_f · Σ_{e≤f} h_e),
+        // O(n) instead of O(n²).
+        let count = joints.len();
+        for (e, fe) in frames.iter().enumerate().take(count) {
+            lin[e] = axes[e].cross(&(p - fe.translation.vector));
         }
-        for (e, je) in joints.iter().enumerate() {
-            let ze = ws.axes[e];
-            let be = &bs[6 * je.dof..6 * je.dof + 6];
+        let mut suffix = Vec3::zeros(); // Σ_{e>f} g_e
+        for f in (0..count).rev() {
+            // grad gets z_f · Σ_{e>f} g_e first, then g_f joins the sum.
+            grad[joints[f].dof] += w * axes[f].dot(&suffix);
+            let be = &bs[6 * joints[f].dof..6 * joints[f].dof + 6];
             let bv = Vec3::new(be[0], be[1], be[2]);
-            let mut g = ws.lin[e].cross(&bv);
+            let mut g = lin[f].cross(&bv);
             if M == 6 {
-                g += ze.cross(&Vec3::new(be[3], be[4], be[5]));
+                g += axes[f].cross(&Vec3::new(be[3], be[4], be[5]));
             }
-            let h = bv.cross(&ze);
-            for (f, jf) in joints.iter().enumerate() {
-                let s = if f < e { ws.axes[f].dot(&g) } else { ws.lin[f].dot(&h) };
-                grad[jf.dof] += w * s;
-            }
+            suffix += g;
         }
-        return w;
+        let mut prefix = Vec3::zeros(); // Σ_{e≤f} h_e
+        for f in 0..count {
+            let be = &bs[6 * joints[f].dof..6 * joints[f].dof + 3];
+            prefix += Vec3::new(be[0], be[1], be[2]).cross(&axes[f]);
+            grad[joints[f].dof] += w * lin[f].dot(&prefix);
+        }
+        return;
     }
     for (e, je) in joints.iter().enumerate() {
-        let ze = ws.axes[e];
+        let ze = axes[e];
         let pe = frames[e].translation.vector;
-        let be = ws.b.column(je.dof);
+        let be = b.column(je.dof);
         for (f, jf) in joints.iter().enumerate() {
-            let zf = ws.axes[f];
+            let zf = axes[f];
             let pf = frames[f].translation.vector;
             let (dv, dw) = match (je.kind == JointKind::Prismatic, jf.kind == JointKind::Prismatic) {
                 (false, false) => {
@@ -217,7 +283,6 @@ fn manipulability_fixed<const M: usize>(
             grad[jf.dof] += w * s;
         }
     }
-    w
 }
 
 /// Joint-limit potential φ_L = ½ Σ ((q_i − mid_i) / range_i)² over joints with finite limits; gradient

@@ -74,6 +74,66 @@ fn manipulability_gradient_matches_finite_differences() {
     }
 }
 
+/// A manipulability level under a reach on the same tip rows takes w and B = A⁻¹J from the reach's own
+/// Cholesky factor; the result must equal the potential computed on its own.
+#[test]
+fn manipulability_from_the_reach_factor_equals_the_standalone_potential() {
+    let chain = common::wam_chain();
+    let n = chain.dof();
+    let mut r = common::rng(17);
+    for (rows, reach) in [
+        (
+            ManipulabilityRows::Full,
+            Controller::reach_pose(&chain, tip(&chain), 5.0).unwrap(),
+        ),
+        (
+            ManipulabilityRows::Position,
+            Controller::reach_position(&chain, tip(&chain), 5.0).unwrap(),
+        ),
+    ] {
+        let manip = Controller::manipulability(&chain, rows, 1.0).unwrap();
+        let mut stack = ControlStack::new(&chain, vec![reach, manip.clone()], no_vel_scaling()).unwrap();
+        let mut alone = ControlStack::new(&chain, vec![manip], no_vel_scaling()).unwrap();
+        let mut s = chain.new_state();
+        for _ in 0..200 {
+            let q = common::random_q(&chain, &mut r, 0.95);
+            let target = pose_at(&chain, &common::random_q(&chain, &mut r, 0.9));
+            let reference = match rows {
+                ManipulabilityRows::Full => Reference::Pose(target),
+                ManipulabilityRows::Position => Reference::Position(target.translation.vector),
+            };
+            stack.set_reference(&chain, 0, reference).unwrap();
+            s.set_q(&chain, &q).unwrap();
+            stack.tick(&chain, &mut s, &[], 0.01);
+            s.set_q(&chain, &q).unwrap();
+            alone.tick(&chain, &mut s, &[], 0.01);
+            let (phi, phi0) = (stack.potentials()[1].unwrap(), alone.potentials()[0].unwrap());
+            assert!(
+                (phi - phi0).abs() <= 1e-9 * phi0.abs().max(1e-3),
+                "{rows:?}: φ {phi} vs {phi0}"
+            );
+            let (e, e0) = (&stack.buffers()[1].error, &alone.buffers()[0].error);
+            let scale = e0.rows(0, n).amax().max(1e-6);
+            for k in 0..n {
+                assert!(
+                    (e[k] - e0[k]).abs() <= 1e-9 * scale,
+                    "{rows:?} joint {k}: {} vs {}",
+                    e[k],
+                    e0[k]
+                );
+            }
+            assert_eq!(stack.predicate(1), alone.predicate(0));
+        }
+        // The shared path ran (the undamped solves: most random configurations).
+        assert!(
+            stack.shared_factor_count() >= 100,
+            "{rows:?}: shared {} of 200",
+            stack.shared_factor_count()
+        );
+        assert_eq!(alone.shared_factor_count(), 0);
+    }
+}
+
 #[test]
 fn inferior_objectives_do_not_move_superior_ones() {
     let chain = common::wam_chain();
