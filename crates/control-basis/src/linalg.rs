@@ -70,12 +70,14 @@ impl DampedLeastSquares {
         }
     }
 
-    /// After a solve whose law was undamped (σ_min ≥ ε), writes an orthonormal basis of the row space
-    /// of the same J (its first `m` rows, n columns, column-major with `rows` rows) into `out` (m rows
-    /// of n, contiguous): Q = L⁻¹ J from the solve's own factor, m²n/2 multiply-adds instead of a
-    /// Gram–Schmidt pass. Q Qᵀ = I − δ L⁻¹L⁻ᵀ with δ = 1e-14·max Aᵢᵢ the factor's regularisation, so
-    /// the rows are orthonormal to δ/σ_min² ≤ 4e-12·max Aᵢᵢ/ε². False (nothing written) when the last
-    /// solve was damped, general-size or of another row count.
+    /// After a fixed-size solve, writes an orthonormal basis of the row space of the same J (its first
+    /// `m` rows, n columns, column-major with `rows` rows) into `out` (m rows of n, contiguous):
+    /// Q = L⁻¹ J from the solve's own undamped factor, m²n/2 multiply-adds instead of a Gram–Schmidt
+    /// pass. Q Qᵀ = I − δ (A + δI)⁻¹ with δ = 1e-14·max Aᵢᵢ the factor's regularisation, so the rows
+    /// are orthonormal to δ/σ_min². The factor is kept when the law was undamped (σ_min ≥ ε: error
+    /// ≤ 4e-12·max Aᵢᵢ/ε²) or when the certified lower bound on σ_min² (AM–GM or 1/tr A⁻¹, see
+    /// [`DampedLeastSquares::solve_rows`]) is at least 1e10·δ (error ≤ 1e-10). False (nothing
+    /// written) otherwise, and after a general-size solve or one of another row count.
     pub fn row_basis_from_factor(&self, js: &[f64], rows: usize, m: usize, out: &mut [f64]) -> bool {
         if m == 0 || m != self.factor_rows || rows < m {
             return false;
@@ -285,7 +287,10 @@ impl DampedLeastSquares {
             0.0
         };
         self.factor_rows = 0;
-        if lambda_sq == 0.0 && factored {
+        // The undamped factor is kept for the row basis (and a manipulability level) when the law
+        // used it, or — inside the damping band — when the certified bound λ_min ≥ `lower_bound`
+        // keeps Q = L⁻¹J orthonormal to tiny / λ_min ≤ 1e-10 (see `row_basis_from_factor`).
+        if factored && (lambda_sq == 0.0 || lower_bound >= 1e10 * tiny) {
             for (f, c) in self.factor.iter_mut().zip(&chol) {
                 f[..M].copy_from_slice(c);
             }
