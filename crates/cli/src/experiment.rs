@@ -89,6 +89,11 @@ pub struct SortingArgs {
     /// Or the held-out catalog's features (from --dump-features).
     #[arg(long, conflicts_with = "test_catalog")]
     test_features: Option<PathBuf>,
+    /// Relevance: objects the teacher left alone in the demonstration scenes, per trial (drawn from
+    /// the training catalog outside the task's classes); they fit the background model M₀. 0: M₀ is
+    /// the prior predictive.
+    #[arg(long, default_value_t = 0)]
+    background: usize,
 }
 
 /// `pbd experiment execute` arguments.
@@ -150,6 +155,7 @@ fn sorting(a: SortingArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         features: a.features,
         test_catalog: a.test_catalog,
         test_features: a.test_features,
+        background: a.background,
     };
     let summary = pbd::experiment::sorting::run(&options, &Bars::new(a.json, true)?)?;
     for (path, figure) in &summary.figures {

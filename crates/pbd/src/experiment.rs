@@ -63,6 +63,10 @@ pub struct SortingOptions {
     pub test_catalog: Option<PathBuf>,
     /// Or the held-out catalog's features already rendered (a feature bank).
     pub test_features: Option<PathBuf>,
+    /// Relevance: objects of the demonstration scenes the teacher left alone, per trial — drawn from
+    /// the training catalog's presentations outside the task's classes — that fit the background
+    /// model M₀ (§5.1.3). 0: M₀ is the prior predictive. Their objects are never test objects.
+    pub background: usize,
 }
 
 impl Default for SortingOptions {
@@ -81,6 +85,7 @@ impl Default for SortingOptions {
             features: None,
             test_catalog: None,
             test_features: None,
+            background: 0,
         }
     }
 }

@@ -179,6 +179,9 @@ struct SortingConfig {
     /// Examples per class.
     #[serde(default = "default_examples")]
     examples: usize,
+    /// Relevance: objects left alone in the demonstration scenes that fit the background model M₀.
+    #[serde(default)]
+    background: usize,
 }
 
 fn default_views() -> usize {
@@ -218,6 +221,7 @@ fn sorting_trial(py: Python<'_>, config: &Bound<'_, PyAny>, trial: usize) -> PyR
         seed: c.seed,
         test_catalog: c.test_catalog.clone(),
         test_features: c.test_features.clone(),
+        background: c.background,
         ..Default::default()
     };
     let (result, _) = runner::run(py, None, |progress| {

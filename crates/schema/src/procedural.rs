@@ -101,7 +101,12 @@
 //! of a place whose π is drawn around the base measure m — the two-level form of (5.20)–(5.21) with
 //! m in place of the seed's uniform L⁻¹, so a colour every object shows (white highlights, dark
 //! shading) is no evidence of belonging to the task — and size from the NIG prior predictive
-//! (Fig. 5.7). The
+//! (Fig. 5.7). The seed calls M₀ "a procedural feature model for non-sortable objects": when the
+//! robot has seen objects the teacher left alone in the demonstration scenes
+//! ([`ProceduralModel::observe_background`]), M₀ is fitted to them — p₀(õ) is then the posterior
+//! predictive of one place holding those objects (P5 for colour, the Student-t for size) — so a
+//! distractor that looks like what the teacher ignored needs more evidence. A feature a structure
+//! leaves unconnected is scored by the same p₀ inside p₁ and cancels from B₁₀. The
 //! object is *relevant* when ln B₁₀ > [`Hyper::relevance_log_threshold`], by default
 //! [`DEFAULT_RELEVANCE_LOG_THRESHOLD`] = 2 (B₁₀ > e² ≈ 7.4, "substantial" evidence), calibrated on
 //! the rendered household catalog: with three examples per class it maximises the mean accuracy of
@@ -165,6 +170,8 @@ pub struct Predictor {
     structures: StructurePosterior,
     log_psi: Vec<f64>,
     z: Vec<Vec<f64>>,
+    /// The background objects' colour normaliser grid (empty: no background objects).
+    z_background: Vec<f64>,
 }
 
 /// The most places a model file may hold: a sorting task with a hundred bins is far beyond any
@@ -1117,6 +1124,9 @@ pub struct Prediction {
 pub struct ProceduralModel {
     hyper: Hyper,
     places: BTreeMap<String, PlaceStats>,
+    /// Objects of the demonstration scenes that the teacher left alone: the data of the background
+    /// model M₀ (§5.1.3). Empty: M₀ is the prior predictive.
+    background: PlaceStats,
 }
 
 impl ProceduralModel {
@@ -1126,6 +1136,7 @@ impl ProceduralModel {
         Ok(ProceduralModel {
             hyper,
             places: BTreeMap::new(),
+            background: PlaceStats::empty(),
         })
     }
 
@@ -1204,8 +1215,38 @@ impl ProceduralModel {
         for (name, o) in &other.places {
             places.entry(name.clone()).or_insert_with(PlaceStats::empty).absorb(o)?;
         }
+        let mut background = self.background.clone();
+        background.absorb(&other.background)?;
         self.places = places;
+        self.background = background;
         Ok(())
+    }
+
+    /// Adds an object of a demonstration scene that the teacher did not move to the background
+    /// model M₀ of task relevance (§5.1.3: "a procedural feature model for non-sortable objects").
+    /// With background objects, p₀(õ) is the posterior predictive of a place holding them — the
+    /// two-level colour unit (P5) and the size unit's Student-t — instead of the prior predictive.
+    pub fn observe_background(&mut self, features: &Features) -> Result<(), SchemaError> {
+        features.validate("background.")?;
+        let draws = self.hyper.draws(features);
+        if draws.is_empty() {
+            return Err(SchemaError::invalid(INPUT, "background.colors", "no colour terms"));
+        }
+        let Some(x) = features.size_half_pixels() else {
+            return Err(SchemaError::invalid(
+                INPUT,
+                "background.pixels",
+                "0 pixels in both cameras",
+            ));
+        };
+        self.background.add_object(draws)?;
+        self.background.size.add(x)?;
+        Ok(())
+    }
+
+    /// Background objects observed so far ([`ProceduralModel::observe_background`]).
+    pub fn background_objects(&self) -> usize {
+        self.background.objects.len()
     }
 
     /// The hyper-parameters.
@@ -1329,19 +1370,35 @@ impl ProceduralModel {
     /// Per feature type, ln p(õ_f | place k) for every place and the background ln p₀(õ_f):
     /// `(color_per_place, color_background, size_per_place, size_background)`; a missing feature
     /// scores 0.
-    fn feature_scores(&self, f: &Features, z: &[Vec<f64>]) -> Result<(Vec<f64>, f64, Vec<f64>, f64), SchemaError> {
+    fn feature_scores(
+        &self,
+        f: &Features,
+        z: &[Vec<f64>],
+        z_background: &[f64],
+    ) -> Result<(Vec<f64>, f64, Vec<f64>, f64), SchemaError> {
         let unit = self.hyper.color_unit();
         let draws = self.hyper.draws(f);
         let size = f.deci_pixels();
         let groups: Vec<Vec<&ObjectDraws>> = self.places.values().map(|p| p.objects.iter().collect()).collect();
         let color_k = unit.log_scores(&groups, z, &draws);
-        let color_bg = unit.log_background(&draws);
+        let color_bg = if self.background.objects.is_empty() {
+            unit.log_background(&draws)
+        } else {
+            let group: Vec<&ObjectDraws> = self.background.objects.iter().collect();
+            unit.log_scores(&[group], &[z_background.to_vec()], &draws)[0]
+        };
         let size_k = self
             .places
             .values()
             .map(|p| size.map_or(0.0, |x| self.size_predictive(&p.size).log_pdf(x)))
             .collect();
-        let size_bg = size.map_or(0.0, |x| self.hyper.size_prior.predictive().log_pdf(x));
+        let size_bg = size.map_or(0.0, |x| {
+            if self.background.objects.is_empty() {
+                self.hyper.size_prior.predictive().log_pdf(x)
+            } else {
+                self.size_predictive(&self.background.size).log_pdf(x)
+            }
+        });
         Ok((color_k, color_bg, size_k, size_bg))
     }
 
@@ -1363,17 +1420,28 @@ impl ProceduralModel {
             .values()
             .map(|p| unit.log_z_grid(&p.objects.iter().collect::<Vec<_>>()))
             .collect();
+        let z_background = if self.background.objects.is_empty() {
+            Vec::new()
+        } else {
+            unit.log_z_grid(&self.background.objects.iter().collect::<Vec<_>>())
+        };
         Ok(Predictor {
             structures: self.structure_posterior()?,
             log_psi: self.log_place_prior()?,
             z,
+            z_background,
         })
     }
 
     /// [`ProceduralModel::predict`] with the shared terms from [`ProceduralModel::predictor`] (of
     /// this model, unchanged since).
     pub fn predict_with(&self, features: &Features, predictor: &Predictor) -> Result<Prediction, SchemaError> {
-        let Predictor { structures, log_psi, z } = predictor;
+        let Predictor {
+            structures,
+            log_psi,
+            z,
+            z_background,
+        } = predictor;
         if log_psi.len() != self.places.len() || z.len() != self.places.len() {
             return Err(SchemaError::invalid(
                 INPUT,
@@ -1390,7 +1458,7 @@ impl ProceduralModel {
                 "no colour terms and no pixels: nothing to predict from",
             ));
         }
-        let (color_k, color_bg, size_k, size_bg) = self.feature_scores(features, z)?;
+        let (color_k, color_bg, size_k, size_bg) = self.feature_scores(features, z, z_background)?;
         let k = log_psi.len();
         // Joint log weights over (structure, place).
         let mut log_place = vec![Vec::with_capacity(structures.structures.len()); k];

@@ -263,3 +263,62 @@ fn explain_handles_many_places_and_the_place_limit_holds() {
         .to_string();
     assert!(err.contains("places") && err.contains("limit"), "{err}");
 }
+
+/// §5.1.3: M₀ "a procedural feature model for non-sortable objects". Objects the teacher left alone
+/// fit it; an object like them then has a lower B₁₀, one unlike them is still relevant; the background
+/// survives the file round trip and `merge`, and a bad one is named.
+#[test]
+fn background_objects_fit_the_relevance_model_m0() {
+    let probe = |terms: &[u8], px: u32| Features {
+        histogram: Vec::new(),
+        pixels: [px, px + 20],
+        colors: terms.iter().map(|&t| (t, 1.0 / terms.len() as f64)).collect(),
+    };
+    let prior = small_model();
+    assert_eq!(prior.background_objects(), 0);
+    // Left alone in the scenes: pink (9) and white-and-pink objects.
+    let mut fitted = small_model();
+    for (terms, px) in [(&[9u8][..], 1000), (&[2, 9][..], 1200), (&[9][..], 900)] {
+        fitted.observe_background(&probe(terms, px)).unwrap();
+    }
+    assert_eq!(fitted.background_objects(), 3);
+    let b10 = |m: &ProceduralModel, f: &Features| m.predict(f).unwrap().relevance.bayes_factor.log_b10;
+    let (pink, red) = (probe(&[9, 3], 1000), probe(&[3], 1000));
+    assert!(
+        b10(&fitted, &pink) < b10(&prior, &pink) - 1.0,
+        "a pink-and-red object looks like the background: {} vs {}",
+        b10(&fitted, &pink),
+        b10(&prior, &pink)
+    );
+    assert!(
+        b10(&fitted, &red) > 2.0,
+        "a red object is still relevant: {}",
+        b10(&fitted, &red)
+    );
+    // The place decision does not change (an unconnected feature is scored by M₀ in every place, so
+    // only the mixing over structures moves the place probabilities).
+    assert_eq!(
+        fitted.predict(&red).unwrap().map_place,
+        prior.predict(&red).unwrap().map_place
+    );
+
+    let back = ProceduralModel::from_json(&fitted.to_json(), "m.json").unwrap();
+    assert_eq!(back, fitted);
+    assert!(
+        !prior.to_json().contains("background"),
+        "no background: the file is unchanged"
+    );
+    let mut merged = small_model();
+    merged.merge(&fitted).unwrap();
+    assert_eq!(merged.background_objects(), 3);
+
+    let mut v: serde_json::Value = serde_json::from_str(&fitted.to_json()).unwrap();
+    v["background"]["size"]["n"] = serde_json::json!(7);
+    let e = field_of(ProceduralModel::from_json(&v.to_string(), "m.json").unwrap_err());
+    assert!(e.starts_with("background.size.n"), "{e}");
+    let mut v: serde_json::Value = serde_json::from_str(&fitted.to_json()).unwrap();
+    v["background"]["color_objects"][0] = serde_json::json!([[12, 100]]);
+    let e = field_of(ProceduralModel::from_json(&v.to_string(), "m.json").unwrap_err());
+    assert!(e.starts_with("background.color_objects[0]"), "{e}");
+    assert!(fitted.observe_background(&probe(&[], 0)).is_err());
+}

@@ -101,6 +101,8 @@ struct TrialResult {
     model: ProceduralModel,
     /// (score ln B10, is_task_object) for the relevance test set.
     scores: Vec<(f64, bool)>,
+    /// The test bank's presentation of each score.
+    scored: Vec<usize>,
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -113,8 +115,18 @@ fn sorting_trial(
     rng: &mut Generator,
     negatives: &[usize],
     held_out: Option<(&FeatureBank, &[Vec<usize>])>,
+    background: (&[usize], usize),
 ) -> anyhow::Result<TrialResult> {
     let mut train = Vec::new();
+    // The scene's other objects (left alone by the teacher): drawn first, from the training bank.
+    let mut scene: Vec<usize> = Vec::new();
+    if background.1 > 0 {
+        scene = background.0.to_vec();
+        scene.shuffle(rng);
+        scene.truncate(background.1);
+    }
+    let scene_features: Vec<Features> = scene.iter().map(|&p| view(bank, rng, p).clone()).collect();
+    let seen: Vec<&str> = scene.iter().map(|&p| bank.presentations[p].object.as_str()).collect();
     let mut test = Vec::new();
     for (k, pool) in pools.iter().enumerate() {
         let mut pool = pool.clone();
@@ -130,7 +142,7 @@ fn sorting_trial(
                     reference: names[k].clone(),
                 });
             } else {
-                test.push((k, f));
+                test.push((k, p, f));
             }
         }
     }
@@ -139,30 +151,41 @@ fn sorting_trial(
         Some((test_bank, test_pools)) => {
             for (k, pool) in test_pools.iter().enumerate() {
                 for &p in pool {
-                    test.push((k, view(test_bank, rng, p).clone()));
+                    test.push((k, p, view(test_bank, rng, p).clone()));
                 }
             }
             test_bank
         }
         None => bank,
     };
-    let model = ProceduralModel::learn(hyper.clone(), &train)?;
+    let mut model = ProceduralModel::learn(hyper.clone(), &train)?;
+    for f in &scene_features {
+        model.observe_background(f)?;
+    }
     let order: Vec<&str> = model.place_names();
     let index: BTreeMap<&str, usize> = names.iter().enumerate().map(|(i, s)| (s.as_str(), i)).collect();
     let mut confusion = vec![vec![0.0; names.len()]; names.len()];
     let mut correct = 0;
     let mut scores = Vec::new();
-    for (k, f) in &test {
-        let pred = model.predict(f)?;
+    let mut scored = Vec::new();
+    let predictor = model.predictor()?;
+    for (k, p, f) in &test {
+        let pred = model.predict_with(f, &predictor)?;
         let j = index.get(pred.map_place.as_str()).copied().unwrap_or(*k);
         confusion[*k][j] += 1.0;
         correct += usize::from(j == *k);
         scores.push((pred.relevance.bayes_factor.log_b10, true));
+        scored.push(*p);
     }
     debug_assert_eq!(order.len(), names.len());
     for &p in negatives {
+        // An object seen in the demonstration scenes is not a new object (same catalog only).
+        if held_out.is_none() && seen.contains(&bank.presentations[p].object.as_str()) {
+            continue;
+        }
         let f = view(bank, rng, p);
-        scores.push((model.predict(f)?.relevance.bayes_factor.log_b10, false));
+        scores.push((model.predict_with(f, &predictor)?.relevance.bayes_factor.log_b10, false));
+        scored.push(p);
     }
     // χ² against a random sorter: is the predicted bin independent of the true class?
     let p_value = chi2_against_random(&confusion);
@@ -172,6 +195,7 @@ fn sorting_trial(
         p_value,
         model,
         scores,
+        scored,
     })
 }
 
@@ -245,6 +269,8 @@ struct Setup<'a> {
     pools: Vec<Vec<usize>>,
     /// Indices into the test bank (the held-out one when there is one).
     negatives: Vec<usize>,
+    /// The training bank's presentations outside the task's classes (background scene objects).
+    distractors: Vec<usize>,
     max_n: usize,
     /// The held-out bank and its class pools.
     test: Option<(&'a FeatureBank, Vec<Vec<usize>>)>,
@@ -275,6 +301,12 @@ fn setup<'a>(args: &SortingOptions, bank: &FeatureBank, test: Option<&'a Feature
     } else {
         Vec::new()
     };
+    let distractors = {
+        let l = labels(bank, label);
+        (0..l.len())
+            .filter(|&i| !l[i].is_some_and(|c| classes.iter().any(|k| k == c)))
+            .collect::<Vec<_>>()
+    };
     // With a held-out catalog every training presentation may be an example; else one per class
     // stays out for testing.
     let held = usize::from(test.is_none());
@@ -285,19 +317,18 @@ fn setup<'a>(args: &SortingOptions, bank: &FeatureBank, test: Option<&'a Feature
         hyper,
         pools,
         negatives,
+        distractors,
         max_n,
         test,
     })
 }
 
-/// One trial and its (ln B10, is-a-task-object) scores (for the pooled ROC curve).
-fn run_trial(
-    args: &SortingOptions,
-    bank: &FeatureBank,
-    s: &Setup,
-    n: usize,
-    t: usize,
-) -> anyhow::Result<(TrialRecord, Vec<(f64, bool)>)> {
+/// A trial's record, its (ln B10, is-a-task-object) scores and the test bank's presentation of each.
+type TrialScores = (TrialRecord, Vec<(f64, bool)>, Vec<usize>);
+
+/// One trial, its (ln B10, is-a-task-object) scores (for the pooled ROC curve) and the test bank's
+/// presentation of each score.
+fn run_trial(args: &SortingOptions, bank: &FeatureBank, s: &Setup, n: usize, t: usize) -> anyhow::Result<TrialScores> {
     let salt = if args.feature == Feature::Relevance { 2 } else { 1 };
     let mut rng = trial_rng(args.seed, salt, n, t);
     let held_out = s.test.as_ref().map(|(b, p)| (*b, p.as_slice()));
@@ -310,6 +341,14 @@ fn run_trial(
         &mut rng,
         &s.negatives,
         held_out,
+        (
+            &s.distractors,
+            if args.feature == Feature::Relevance {
+                args.background
+            } else {
+                0
+            },
+        ),
     )?;
     let sp = r.model.structure_posterior()?;
     let (auc_value, accuracy) = if args.feature == Feature::Relevance {
@@ -333,7 +372,7 @@ fn run_trial(
         auc: auc_value,
         accuracy_at_threshold: accuracy,
     };
-    Ok((record, r.scores))
+    Ok((record, r.scores, r.scored))
 }
 
 /// Trial `trial` with `examples` examples per class of the experiment `args` on `bank` (see
@@ -675,7 +714,7 @@ fn sorting(
                 break;
             }
             done += 1;
-            let (r, _) = run_trial(args, bank, &setup, n, t)?;
+            let (r, _, _) = run_trial(args, bank, &setup, n, t)?;
             hits += r.correct;
             tested += r.tested;
             csv.push(format!(
@@ -807,6 +846,7 @@ fn relevance(
     let mut rows = Vec::new();
     let mut curves = Vec::new();
     let mut accuracy_notes = Vec::new();
+    let mut per_object = Vec::new();
     for n in 1..=max_n {
         let mut aucs = Vec::new();
         let mut pooled = Vec::new();
@@ -815,7 +855,18 @@ fn relevance(
             if progress.should_stop() {
                 break;
             }
-            let (r, scores) = run_trial(args, bank, &setup, n, t)?;
+            let (r, scores, scored) = run_trial(args, bank, &setup, n, t)?;
+            let names = setup.test.as_ref().map_or(bank, |t| t.0);
+            for (&(x, task), &p) in scores.iter().zip(&scored) {
+                let pr = &names.presentations[p];
+                per_object.push(format!(
+                    "{n},{t},{},{},{},{},{x:.6}",
+                    pr.name,
+                    pr.object,
+                    pr.color_class.as_deref().unwrap_or(""),
+                    u8::from(task)
+                ));
+            }
             let (a, right) = (r.auc.unwrap_or(f64::NAN), r.accuracy_at_threshold.unwrap_or(f64::NAN));
             acc.push(right);
             csv.push(format!("{n},{t},{a:.6},{right:.6}"));
@@ -863,6 +914,12 @@ fn relevance(
     let dir = &args.output;
     let csv_path = dir.join("relevance.csv");
     write_csv(&csv_path, "examples_per_class,trial,auc,accuracy_at_threshold", &csv)?;
+    let objects_csv = dir.join("relevance_objects.csv");
+    write_csv(
+        &objects_csv,
+        "examples_per_class,trial,presentation,object,color_class,task_object,log_b10",
+        &per_object,
+    )?;
     let roc_csv = dir.join("roc.csv");
     let roc_rows: Vec<String> = curves
         .iter()
@@ -893,7 +950,7 @@ fn relevance(
     summary.rows.insert(classes.join(" + "), rows);
     summary
         .files
-        .extend([csv_path, roc_csv, svg].map(|p| p.display().to_string()));
+        .extend([csv_path, objects_csv, roc_csv, svg].map(|p| p.display().to_string()));
     Ok(())
 }
 

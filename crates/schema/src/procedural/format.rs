@@ -62,12 +62,22 @@ struct PlaceFile {
     size: SizeStats,
 }
 
+/// The background model's data (objects left alone in the demonstration scenes, §5.1.3).
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BackgroundFile {
+    color_objects: Vec<Vec<(usize, u64)>>,
+    size: SizeStats,
+}
+
 #[derive(Serialize)]
 struct FileV4<'a> {
     format: &'a str,
     version: u32,
     hyper: HyperFile,
     places: Vec<PlaceFile>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    background: Option<BackgroundFile>,
 }
 
 const SIZE_UNIT: &str = "deci-pixels";
@@ -149,6 +159,10 @@ impl ProceduralModel {
                     size: p.size,
                 })
                 .collect(),
+            background: (!self.background.objects.is_empty()).then(|| BackgroundFile {
+                color_objects: self.background.objects.clone(),
+                size: self.background.size,
+            }),
         };
         let mut s = serde_json::to_string_pretty(&file).unwrap_or_default();
         s.push('\n');
@@ -214,7 +228,7 @@ impl ProceduralModel {
             None => return Err(invalid("version", "missing".into())),
         }
         for key in obj.keys() {
-            if !matches!(key.as_str(), "format" | "version" | "hyper" | "places") {
+            if !matches!(key.as_str(), "format" | "version" | "hyper" | "places" | "background") {
                 return Err(invalid(key, "unknown field".into()));
             }
         }
@@ -317,35 +331,68 @@ impl ProceduralModel {
                 ));
             }
             let d = u64::from(model.hyper.color_draws_per_object);
-            let mut stats = PlaceStats::empty();
-            for (j, o) in pf.color_objects.into_iter().enumerate() {
-                let of = format!("{field}.color_objects[{j}]");
-                if o.windows(2).any(|w| w[0].0 >= w[1].0) {
-                    return Err(invalid(&of, "colour terms must be strictly ascending".into()));
-                }
-                for &(b, n) in &o {
-                    if b >= COLORS {
-                        return Err(invalid(&of, format!("colour term {b} out of range 0..{COLORS}")));
-                    }
-                    if n == 0 {
-                        return Err(invalid(&of, format!("colour term {b} has 0 draws")));
-                    }
-                }
-                let total: u64 = o.iter().map(|x| x.1).sum();
-                if total != d {
-                    return Err(invalid(
-                        &of,
-                        format!("{total} colour draws, expected draws_per_object = {d}"),
-                    ));
-                }
-                stats.add_object(o).map_err(|e| invalid(&of, e.to_string()))?;
-            }
+            let mut stats = color_objects(pf.color_objects, d, &field, &invalid)?;
             stats.demonstrations = pf.demonstrations;
             stats.size = pf.size;
             model.places.insert(pf.name, stats);
         }
+        if let Some(bv) = obj.get("background") {
+            let field = "background";
+            let bf: BackgroundFile = serde_json::from_value(bv.clone()).map_err(|e| invalid(field, e.to_string()))?;
+            if bf.color_objects.is_empty() {
+                return Err(invalid(
+                    "background.color_objects",
+                    "empty (leave `background` out instead)".into(),
+                ));
+            }
+            if bf.size.n != bf.color_objects.len() as u64 {
+                return Err(invalid(
+                    "background.size.n",
+                    format!("{} size observations for {} objects", bf.size.n, bf.color_objects.len()),
+                ));
+            }
+            bf.size.check().map_err(|m| invalid("background.size", m))?;
+            let d = u64::from(model.hyper.color_draws_per_object);
+            let mut stats = color_objects(bf.color_objects, d, field, &invalid)?;
+            stats.size = bf.size;
+            model.background = stats;
+        }
         Ok(model)
     }
+}
+
+/// Checks and adds the colour draws of `objects` (each strictly ascending terms < [`COLORS`], no
+/// zero counts, `d` draws) to a new [`PlaceStats`]; `field` prefixes errors.
+fn color_objects(
+    objects: Vec<Vec<(usize, u64)>>,
+    d: u64,
+    field: &str,
+    invalid: &dyn Fn(&str, String) -> SchemaError,
+) -> Result<PlaceStats, SchemaError> {
+    let mut stats = PlaceStats::empty();
+    for (j, o) in objects.into_iter().enumerate() {
+        let of = format!("{field}.color_objects[{j}]");
+        if o.windows(2).any(|w| w[0].0 >= w[1].0) {
+            return Err(invalid(&of, "colour terms must be strictly ascending".into()));
+        }
+        for &(b, n) in &o {
+            if b >= COLORS {
+                return Err(invalid(&of, format!("colour term {b} out of range 0..{COLORS}")));
+            }
+            if n == 0 {
+                return Err(invalid(&of, format!("colour term {b} has 0 draws")));
+            }
+        }
+        let total: u64 = o.iter().map(|x| x.1).sum();
+        if total != d {
+            return Err(invalid(
+                &of,
+                format!("{total} colour draws, expected draws_per_object = {d}"),
+            ));
+        }
+        stats.add_object(o).map_err(|e| invalid(&of, e.to_string()))?;
+    }
+    Ok(stats)
 }
 
 /// What kind of JSON value `v` is, for messages.
