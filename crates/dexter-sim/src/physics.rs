@@ -218,6 +218,9 @@ pub struct DexterSim {
     dof_index: HashMap<String, usize>,
     /// For each URDF link: its body and the link's pose in the body frame.
     link_body: Vec<(RigidBodyHandle, Iso3)>,
+    /// The six fingertip links (left fingers 1–3, then right), when the model has them: the F/T
+    /// sensors' origins, looked up once so that reading the sensors allocates nothing.
+    tip_links: [Option<usize>; 6],
     collider_part: HashMap<ColliderHandle, Part>,
     objects: Vec<SimObject>,
     object_by_collider: HashMap<ColliderHandle, usize>,
@@ -295,6 +298,7 @@ impl DexterSim {
             mimics: Vec::new(),
             dof_index: HashMap::new(),
             link_body: Vec::new(),
+            tip_links: [None; 6],
             collider_part: HashMap::new(),
             objects: Vec::new(),
             object_by_collider: HashMap::new(),
@@ -312,6 +316,13 @@ impl DexterSim {
             },
             model,
         };
+        for (k, t) in sim.tip_links.iter_mut().enumerate() {
+            let arm = if k < 3 { Arm::Left } else { Arm::Right };
+            *t = sim
+                .model
+                .link(&format!("{}/bhand/finger_{}/tip_link", arm.prefix(), k % 3 + 1))
+                .ok();
+        }
         sim.build_robot()?;
         sim.build_scene(scene)?;
         sim.read_encoders();
@@ -1012,16 +1023,9 @@ impl DexterSim {
                 in_contact: false,
             };
         }
-        let tip_origin = |arm: Arm, finger: u8| -> Vec3 {
-            let name = format!("{}/bhand/finger_{}/tip_link", arm.prefix(), finger);
-            self.model
-                .link(&name)
-                .map(|l| self.link_pose(l).translation.vector)
-                .unwrap_or_default()
-        };
         let mut origins = [Vec3::zeros(); 6];
-        for (k, o) in origins.iter_mut().enumerate() {
-            *o = tip_origin(if k < 3 { Arm::Left } else { Arm::Right }, (k % 3) as u8 + 1);
+        for (o, l) in origins.iter_mut().zip(self.tip_links) {
+            *o = l.map(|l| self.link_pose(l).translation.vector).unwrap_or_default();
         }
         self.for_each_contact_force(|part, _other, point, force| {
             if let Part::Finger(arm, f) = part {
