@@ -614,6 +614,12 @@ fn run_with(
     if test.is_some() && !matches!(args.feature, Feature::Color | Feature::Size | Feature::Relevance) {
         bail!("a held-out test catalog goes with --feature color, size or relevance");
     }
+    if args.background > 0 && args.feature != Feature::Relevance {
+        bail!(
+            "--background {} (objects left alone, for the relevance background model) goes with --feature relevance",
+            args.background
+        );
+    }
     let t1 = Instant::now();
     let mut summary = Summary {
         experiment: format!("{:?}", args.feature).to_lowercase(),
