@@ -11,6 +11,7 @@
 //! - `SIM_SLEEP=0|1`: `SimSettings::allow_sleep` (default: the crate's default);
 //! - `SIM_MOVE=1`: the left arm keeps moving (Reach tick every 5 steps, goals 10 cm apart alternating
 //!   every 0.5 s), so the figure is not only about resting bodies;
+//! - `SIM_MM_ONCE=0|1`: `SimSettings::mass_matrix_once_per_step` (default: the crate's default);
 //! - `SIM_SETTLE=n`: steps taken before timing starts (default 0).
 //!
 //! Prints set-up time, stepping time, steps/s, the number of awake bodies at the end, the
@@ -35,6 +36,9 @@ fn main() {
     }
     if let Some(s) = env::<u8>("SIM_SLEEP") {
         settings.allow_sleep = s != 0;
+    }
+    if let Some(s) = env::<u8>("SIM_MM_ONCE") {
+        settings.mass_matrix_once_per_step = s != 0;
     }
     let moving = env::<u8>("SIM_MOVE").unwrap_or(0) != 0;
     let settle: u64 = env("SIM_SETTLE").unwrap_or(0);

@@ -36,6 +36,8 @@ use crate::scene::{ObjectSpec, Scene};
 use crate::snapshot::{Arm, FingertipWrench, ObjectState, Snapshot, SnapshotHeader};
 use bayes::rng::{Draw, Generator};
 
+mod mjcf;
+
 /// Dexter's URDF, embedded.
 pub const DEXTER_URDF: &str = include_str!("../../../assets/dexter.urdf");
 
@@ -72,6 +74,10 @@ pub struct SimSettings {
     pub placement_jitter: (f64, f64),
     /// Let bodies at rest sleep (objects and robot links; a robot part is woken when its motor reference changes).
     pub allow_sleep: bool,
+    /// Assemble and factorise the arms' mass matrices once per step (at the first of the
+    /// `solver_iterations` substeps) instead of at every substep. The step's constraints are built
+    /// with that matrix either way; see `vendor/README.md`, change 3.
+    pub mass_matrix_once_per_step: bool,
 }
 
 impl Default for SimSettings {
@@ -86,6 +92,7 @@ impl Default for SimSettings {
             seed: 0,
             placement_jitter: (0.003, 0.05),
             allow_sleep: true,
+            mass_matrix_once_per_step: true,
         }
     }
 }
@@ -287,6 +294,7 @@ impl DexterSim {
         let ip = &mut world.integration_parameters;
         ip.dt = settings.dt;
         ip.num_solver_iterations = settings.solver_iterations.max(1);
+        ip.multibody_mass_matrix_once_per_step = settings.mass_matrix_once_per_step;
         ip.contact_softness.natural_frequency = settings.contact_hz;
         ip.static_contact_softness.natural_frequency = 2.0 * settings.contact_hz;
 
@@ -842,6 +850,26 @@ impl DexterSim {
     /// Motor references.
     pub fn joint_targets(&self) -> &[f64] {
         &self.q_ref
+    }
+
+    /// Motor velocity references (feed-forward q̇_ref of each PD).
+    pub fn joint_target_velocities(&self) -> &[f64] {
+        &self.qd_ref
+    }
+
+    /// Contact points the solver works on now (all pairs, all manifolds): the figure to compare
+    /// with another engine's contact count.
+    pub fn active_contacts(&self) -> usize {
+        self.world
+            .narrow_phase
+            .contact_pairs()
+            .map(|p| {
+                p.manifolds()
+                    .iter()
+                    .map(|m| m.data.solver_contacts.len())
+                    .sum::<usize>()
+            })
+            .sum()
     }
 
     /// Sets the motor reference of DOF `i` (clamped to its limits) with velocity feed-forward `qd`.
