@@ -23,6 +23,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod bench_scene;
 pub mod convert;
 pub mod error;
 pub mod execute;

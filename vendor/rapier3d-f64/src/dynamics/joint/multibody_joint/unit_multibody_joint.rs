@@ -35,11 +35,15 @@ pub fn unit_joint_limit_constraint(
     let dof_j_id = *j_id + dof_id + link.assembly_id;
     jacobians.rows_mut(*j_id, ndofs * 2).fill(0.0);
     jacobians[dof_j_id] = 1.0;
-    multibody.inv_augmented_mass_two_columns(
-        (dof_id + link.assembly_id, 1.0),
-        (dof_id + link.assembly_id, 0.0),
-        &mut jacobians.rows_mut(*j_id + ndofs, ndofs),
-    );
+    // pbd (vendor/README.md, change 5): a limit that is not violated gets impulse bounds [0, 0]
+    // and can apply nothing during this step; its M⁻¹Jᵀ stays zero and its solve returns at once.
+    if min_enabled || max_enabled {
+        multibody.inv_augmented_mass_two_columns(
+            (dof_id + link.assembly_id, 1.0),
+            (dof_id + link.assembly_id, 0.0),
+            &mut jacobians.rows_mut(*j_id + ndofs, ndofs),
+        );
+    }
 
     let lhs = jacobians[dof_j_id + ndofs]; // = J^t * M^-1 J
     let impulse_bounds = [

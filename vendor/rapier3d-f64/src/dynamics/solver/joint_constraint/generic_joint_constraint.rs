@@ -277,6 +277,11 @@ impl GenericJointConstraint {
         solver_vels: &mut SolverBodies,
         generic_solver_vels: &mut DVector,
     ) {
+        // pbd (vendor/README.md, change 5): an inactive constraint (impulse bounds [0, 0], no
+        // impulse) applies nothing; the full solve would clamp to 0 and add 0.
+        if self.impulse == 0.0 && self.impulse_bounds[0] == 0.0 && self.impulse_bounds[1] == 0.0 {
+            return;
+        }
         let jacobians = jacobians.as_slice();
 
         let solver_vel1 = self.solver_vel1(solver_vels, generic_solver_vels);
