@@ -880,44 +880,44 @@ impl Multibody {
                 let parent_link = &self.links[parent_id];
                 let parent_rb = &bodies[parent_link.rigid_body];
                 let parent_j = &self.body_jacobians[parent_id];
-                let parent_j_w = parent_j.fixed_rows::<ANG_DIM>(DIM);
-                let parent_j_w = parent_j_w.columns(0, nc);
                 let parent_w = SimdAngVector::<Real>::from(parent_rb.vels.angvel).gcross_matrix();
 
                 let (coriolis_v, parent_coriolis_v) = self.coriolis_v.index_mut2(i, parent_id);
                 let (coriolis_w, parent_coriolis_w) = self.coriolis_w.index_mut2(i, parent_id);
 
-                coriolis_v.copy_from(parent_coriolis_v);
-                coriolis_w.copy_from(parent_coriolis_w);
-                let mut coriolis_v = coriolis_v.columns_mut(0, nc);
-                let mut coriolis_w = coriolis_w.columns_mut(0, nc);
-                let parent_coriolis_w = parent_coriolis_w.columns(0, nc);
-
+                // pbd (vendor/README.md, change 6): the five 3×3·(3×nc) products of rapier 0.36.1,
+                // column by column with fixed-size 3×3 matrices (the three acting on the parent's
+                // angular Jacobian summed first), instead of dynamically sized gemms.
                 // [c1 - c0].gcross() * (JDot + JDot/u * qdot)"
                 let shift_cross_tr = vect_to_na(link.shift02).gcross_matrix_tr();
-                coriolis_v.gemm(1.0, &shift_cross_tr, &parent_coriolis_w, 1.0);
-
                 // JDot (but the 2.0 originates from the sum of two identical terms in JDot and JDot/u * gdot)
                 let dvel_cross = vect_to_na(
                     rb.vels.angvel.gcross(link.shift02) + 2.0 * link.joint_velocity.linvel,
                 )
                 .gcross_matrix_tr();
-                coriolis_v.gemm(1.0, &dvel_cross, &parent_j_w, 1.0);
-
                 // JDot/u * qdot
-                coriolis_v.gemm(
-                    1.0,
-                    &vect_to_na(link.joint_velocity.linvel).gcross_matrix_tr(),
-                    &parent_j_w,
-                    1.0,
-                );
-                coriolis_v.gemm(1.0, &(parent_w * shift_cross_tr), &parent_j_w, 1.0);
-
-                #[cfg(feature = "dim3")]
+                let on_parent_jw = dvel_cross
+                    + vect_to_na(link.joint_velocity.linvel).gcross_matrix_tr()
+                    + parent_w * shift_cross_tr;
+                let vel_wrt_joint_w = vect_to_na(link.joint_velocity.angvel).gcross_matrix();
                 {
-                    let vel_wrt_joint_w = vect_to_na(link.joint_velocity.angvel).gcross_matrix();
-                    coriolis_w.gemm(-1.0, &vel_wrt_joint_w, &parent_j_w, 1.0);
+                    let cv = coriolis_v.as_mut_slice();
+                    let cw = coriolis_w.as_mut_slice();
+                    let pcv = parent_coriolis_v.as_slice();
+                    let pcw = parent_coriolis_w.as_slice();
+                    let pj = parent_j.as_slice();
+                    for b in 0..nc {
+                        let pcv_b = na::Vector3::new(pcv[3 * b], pcv[3 * b + 1], pcv[3 * b + 2]);
+                        let pcw_b = na::Vector3::new(pcw[3 * b], pcw[3 * b + 1], pcw[3 * b + 2]);
+                        let pjw_b = na::Vector3::new(pj[6 * b + 3], pj[6 * b + 4], pj[6 * b + 5]);
+                        let v = pcv_b + shift_cross_tr * pcw_b + on_parent_jw * pjw_b;
+                        let w = pcw_b - vel_wrt_joint_w * pjw_b;
+                        cv[3 * b..3 * b + 3].copy_from_slice(v.as_slice());
+                        cw[3 * b..3 * b + 3].copy_from_slice(w.as_slice());
+                    }
                 }
+                let mut coriolis_v = coriolis_v.columns_mut(0, nc);
+                let mut coriolis_w = coriolis_w.columns_mut(0, nc);
 
                 // JDot (but the 2.0 originates from the sum of two identical terms in JDot and JDot/u * gdot)
                 if !link.joint.kinematic {
@@ -947,26 +947,25 @@ impl Multibody {
             }
 
             {
-                let rb_j_w = self.body_jacobians[i].fixed_rows::<ANG_DIM>(DIM);
-                let rb_j_w = rb_j_w.columns(0, nc);
-                let mut coriolis_v = self.coriolis_v[i].columns_mut(0, nc);
-                let coriolis_w = self.coriolis_w[i].columns(0, nc);
-
+                // pbd, change 6: the three products below, column by column (fixed size).
                 // [c3 - c2].gcross() * (JDot + JDot/u * qdot)
                 let shift_cross_tr = vect_to_na(link.shift23).gcross_matrix_tr();
-                coriolis_v.gemm(1.0, &shift_cross_tr, &coriolis_w, 1.0);
-
                 // JDot
                 let dvel_cross = vect_to_na(rb.vels.angvel.gcross(link.shift23)).gcross_matrix_tr();
-                coriolis_v.gemm(1.0, &dvel_cross, &rb_j_w, 1.0);
-
                 // JDot/u * qdot
-                coriolis_v.gemm(
-                    1.0,
-                    &(SimdAngVector::<Real>::from(rb.vels.angvel).gcross_matrix() * shift_cross_tr),
-                    &rb_j_w,
-                    1.0,
-                );
+                let on_jw = dvel_cross
+                    + SimdAngVector::<Real>::from(rb.vels.angvel).gcross_matrix() * shift_cross_tr;
+                let jac = self.body_jacobians[i].as_slice();
+                let cv = self.coriolis_v[i].as_mut_slice();
+                let cw = self.coriolis_w[i].as_slice();
+                for b in 0..nc {
+                    let cw_b = na::Vector3::new(cw[3 * b], cw[3 * b + 1], cw[3 * b + 2]);
+                    let jw_b = na::Vector3::new(jac[6 * b + 3], jac[6 * b + 4], jac[6 * b + 5]);
+                    let d = shift_cross_tr * cw_b + on_jw * jw_b;
+                    cv[3 * b] += d.x;
+                    cv[3 * b + 1] += d.y;
+                    cv[3 * b + 2] += d.z;
+                }
             }
 
             /*
