@@ -27,13 +27,26 @@ fn refused(args: &[&str], needles: &[&str]) {
 /// Runs `pbd args`, sends SIGINT after `seconds`, and returns its output once it exited; the exit
 /// must follow within 10 s.
 fn interrupted_after(args: &[&str], seconds: u64) -> std::process::Output {
+    interrupted_when(args, None, std::time::Duration::from_secs(seconds))
+}
+
+/// Runs `pbd args`, waits until `started` exists and is not empty (when given: the run is under
+/// way, whatever the machine's speed), then `delay`, then sends SIGINT.
+fn interrupted_when(args: &[&str], started: Option<&Path>, delay: std::time::Duration) -> std::process::Output {
     let child = std::process::Command::new(env!("CARGO_BIN_EXE_pbd"))
         .args(args)
         .stderr(std::process::Stdio::piped())
         .stdout(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(std::time::Duration::from_secs(seconds));
+    if let Some(path) = started {
+        let t0 = std::time::Instant::now();
+        while std::fs::metadata(path).map(|m| m.len() == 0).unwrap_or(true) {
+            assert!(t0.elapsed().as_secs() < 60, "{} never appeared", path.display());
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+    }
+    std::thread::sleep(delay);
     let ok = std::process::Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()
@@ -455,7 +468,13 @@ fn stdout_and_err(o: &std::process::Output) -> String {
 fn sim_pick_place_stops_on_sigint_with_a_complete_log() {
     let d = dir("pp-sigint");
     let log = d.join("pp.mcap");
-    let o = interrupted_after(&["sim", "pick-place", "--mcap", &s(&log)], 3);
+    // Interrupted 0.5 s into the run (a pick-and-place takes ≥ 2 s of wall time even on a fast
+    // machine; a fixed delay from the start let the faster simulator finish first).
+    let o = interrupted_when(
+        &["sim", "pick-place", "--mcap", &s(&log)],
+        Some(&log),
+        std::time::Duration::from_millis(500),
+    );
     assert_eq!(o.status.code(), Some(130), "{}", String::from_utf8_lossy(&o.stderr));
     let o = pbd(&["doctor", &s(&log), "--json"]);
     assert!(o.status.success(), "the log is complete: {}", stderr(&o));
