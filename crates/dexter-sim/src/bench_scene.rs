@@ -224,6 +224,23 @@ pub fn replay(sim: &mut DexterSim, traj: &Trajectory, until: Option<u64>) -> Res
     if traj.dofs != sim.joint_names() {
         return Err(SimError::Unsupported("the trajectory's DOFs are not this robot's"));
     }
+    // A trajectory file is input: every vector must have one entry per DOF, every number be finite.
+    let vectors = [&traj.initial_q_ref, &traj.initial_qd_ref]
+        .into_iter()
+        .chain(traj.periods.iter().flat_map(|p| [&p.q_ref, &p.qd_ref]))
+        .chain(traj.resets.iter().map(|r| &r.q));
+    for v in vectors {
+        if v.len() != n {
+            return Err(SimError::Size {
+                what: "trajectory reference vector",
+                expected: n,
+                got: v.len(),
+            });
+        }
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(SimError::Unsupported("a trajectory reference is not a finite number"));
+        }
+    }
     let steps = until.unwrap_or(traj.steps).min(traj.steps);
     let obj = sim.object(&traj.object)?;
     let t0 = Instant::now();
