@@ -78,9 +78,12 @@ pub struct RecordArgs {
     /// Also write the teacher's hand commands as a teleop file (CSV if it ends in .csv, else JSON lines).
     #[arg(long)]
     save_teleop: Option<PathBuf>,
-    /// Log the head cameras' images too (large files).
+    /// Log the head cameras' images too, at the percept rate, with their calibration.
     #[arg(long)]
     images: bool,
+    /// How images are stored: jpeg (quality 85), jpeg:QUALITY (1-100), png (lossless) or raw (rgb8).
+    #[arg(long, value_name = "FORMAT", default_value = "jpeg")]
+    image_format: pbd::mcap_log::ImageFormat,
     /// Rate of /tf, joint states and fingertips (Hz of simulated time).
     #[arg(long, default_value_t = 30.0)]
     log_hz: f64,
@@ -119,6 +122,7 @@ pub fn main(a: RecordArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         output: a.output,
         save_teleop: a.save_teleop,
         images: a.images,
+        image_format: a.image_format,
         log_hz: a.log_hz,
         percept_hz: a.percept_hz,
         max_seconds: a.max_seconds,

@@ -72,7 +72,7 @@ pub use error::CbError;
 pub use hardware::{Camera, CameraInfo, ForceTorque, Hardware, HardwareError, Image, Intrinsics};
 pub use ik::{IkSettings, IkSolution, inverse_kinematics};
 pub use linalg::{DampedLeastSquares, DlsInfo, DlsSettings, RowSpaceBasis};
-pub use model::{JointKind, JointLimits, RobotModel};
+pub use model::{JointKind, JointLimits, RobotModel, Visual, VisualGeometry};
 pub use monitor::Monitor;
 pub use plant::{ChainBinding, KinematicPlant, Plant};
 pub use potential::{Contact, ManipulabilityRows};

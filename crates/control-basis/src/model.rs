@@ -99,6 +99,55 @@ pub struct Link {
     pub mass: f64,
 }
 
+/// The shape of a [`Visual`], in URDF's conventions (cylinders and capsules along local z).
+#[derive(Debug, Clone, PartialEq)]
+pub enum VisualGeometry {
+    /// A box with these full extents (m).
+    Box {
+        /// x, y, z extents.
+        size: [f64; 3],
+    },
+    /// A cylinder along z, centred on the origin.
+    Cylinder {
+        /// Radius (m).
+        radius: f64,
+        /// Length along z (m).
+        length: f64,
+    },
+    /// A capsule along z: a cylinder of `length` with hemispherical caps.
+    Capsule {
+        /// Radius (m).
+        radius: f64,
+        /// Length of the cylindrical part (m).
+        length: f64,
+    },
+    /// A sphere.
+    Sphere {
+        /// Radius (m).
+        radius: f64,
+    },
+    /// A mesh file, as the URDF names it.
+    Mesh {
+        /// The file name or URI.
+        filename: String,
+        /// Scale along x, y, z.
+        scale: [f64; 3],
+    },
+}
+
+/// One `<visual>` element of a link ([`RobotModel::visuals`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Visual {
+    /// Index of the link into [`RobotModel::links`].
+    pub link: usize,
+    /// Pose of the shape in the link frame.
+    pub origin: Iso3,
+    /// The shape.
+    pub geometry: VisualGeometry,
+    /// Colour (r, g, b, a in [0, 1]), if the material gives one.
+    pub rgba: Option<[f64; 4]>,
+}
+
 /// A validated kinematic tree read from URDF.
 #[derive(Debug, Clone)]
 pub struct RobotModel {
@@ -351,6 +400,67 @@ impl RobotModel {
             model.mimic_root(j)?;
         }
         Ok(model)
+    }
+
+    /// The `<visual>` elements of every link, for drawing the robot: each a primitive in its link's
+    /// frame, with the colour of its material (an inline `<color>`, else the robot-level material of
+    /// that name, else `None`). Meshes are listed with their file name and scale; a viewer that
+    /// cannot load them may skip them. Elements with non-finite or negative sizes are left out.
+    pub fn visuals(&self) -> Vec<Visual> {
+        let named = |name: &str| {
+            self.urdf
+                .materials
+                .iter()
+                .find(|m| m.name == name)
+                .and_then(|m| m.color.as_ref())
+                .map(|c| *c.rgba)
+        };
+        let mut out = Vec::new();
+        for (link, l) in self.urdf.links.iter().enumerate() {
+            for v in &l.visual {
+                let xyz = *v.origin.xyz;
+                let rpy = *v.origin.rpy;
+                if xyz.iter().chain(rpy.iter()).any(|x| !x.is_finite()) {
+                    continue;
+                }
+                let ok = |x: f64| x.is_finite() && x >= 0.0;
+                let geometry = match &v.geometry {
+                    urdf_rs::Geometry::Box { size } if size.iter().all(|&x| ok(x)) => {
+                        VisualGeometry::Box { size: **size }
+                    }
+                    urdf_rs::Geometry::Cylinder { radius, length } if ok(*radius) && ok(*length) => {
+                        VisualGeometry::Cylinder {
+                            radius: *radius,
+                            length: *length,
+                        }
+                    }
+                    urdf_rs::Geometry::Capsule { radius, length } if ok(*radius) && ok(*length) => {
+                        VisualGeometry::Capsule {
+                            radius: *radius,
+                            length: *length,
+                        }
+                    }
+                    urdf_rs::Geometry::Sphere { radius } if ok(*radius) => VisualGeometry::Sphere { radius: *radius },
+                    urdf_rs::Geometry::Mesh { filename, scale } => VisualGeometry::Mesh {
+                        filename: filename.clone(),
+                        scale: scale.as_ref().map_or([1.0; 3], |s| **s),
+                    },
+                    _ => continue,
+                };
+                let rgba = v
+                    .material
+                    .as_ref()
+                    .and_then(|m| m.color.as_ref().map(|c| *c.rgba).or_else(|| named(&m.name)))
+                    .filter(|c| c.iter().all(|x| x.is_finite()));
+                out.push(Visual {
+                    link,
+                    origin: iso_from_xyz_rpy(xyz, rpy),
+                    geometry,
+                    rgba,
+                });
+            }
+        }
+        out
     }
 
     /// Index of the link called `name`.

@@ -79,6 +79,8 @@ pub fn demo(args: &DemoOptions, progress: &dyn Progress) -> Result<DemoReport> {
             assign: Some("red_block=bin-right,blue_mug=bin-left".into()),
             seed: Some(args.seed),
             output: demo.clone(),
+            // The head cameras at the percept rate, as JPEG with their calibration.
+            images: true,
             ..RecordOptions::default()
         },
         progress,

@@ -235,6 +235,7 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
             meta.insert("schema".to_string(), "pick_and_place".to_string());
             log.metadata("pbd", meta)?;
             log.log_scene(&scene, sim.header(), 0.0)?;
+            log.log_robot(sim.model(), 0.0)?;
             Some(log)
         }
         None => None,

@@ -6,19 +6,26 @@
 //! fingertip wrenches can be plotted. Every message is JSON with a JSON Schema, so the file is also
 //! easy to read back from Python or `jq`.
 //!
-//! | topic                  | schema                      | written by                          |
-//! |------------------------|-----------------------------|-------------------------------------|
-//! | `/tf`                  | `foxglove.FrameTransforms`  | [`McapLog::log_snapshot`]           |
-//! | `/joint_states`        | `pbd.JointState`            | [`McapLog::log_snapshot`]           |
-//! | `/fingertips`          | `pbd.FingertipWrenches`     | [`McapLog::log_snapshot`]           |
-//! | `/activity`            | `pbd.Activity`              | [`McapLog::log_snapshot`], on change |
-//! | `/scene`               | `foxglove.SceneUpdate`      | [`McapLog::log_scene`]              |
-//! | `/log`                 | `foxglove.Log`              | [`McapLog::log_text`]               |
-//! | `/camera/<name>/image` | `foxglove.RawImage` (rgb8)  | [`McapLog::log_image`]              |
+//! | topic                        | schema                        | written by                          |
+//! |------------------------------|-------------------------------|-------------------------------------|
+//! | `/tf`                        | `foxglove.FrameTransforms`    | [`McapLog::log_snapshot`]           |
+//! | `/joint_states`              | `pbd.JointState`              | [`McapLog::log_snapshot`]           |
+//! | `/fingertips`                | `pbd.FingertipWrenches`       | [`McapLog::log_snapshot`]           |
+//! | `/fingertips/arrows`         | `foxglove.SceneUpdate`        | [`McapLog::log_snapshot`]           |
+//! | `/activity`                  | `pbd.Activity`                | [`McapLog::log_snapshot`], on change |
+//! | `/robot`                     | `foxglove.SceneUpdate`        | [`McapLog::log_robot`]              |
+//! | `/scene`                     | `foxglove.SceneUpdate`        | [`McapLog::log_scene`]              |
+//! | `/log`                       | `foxglove.Log`                | [`McapLog::log_text`]               |
+//! | `/camera/<name>/image`       | `foxglove.CompressedImage` (JPEG or PNG) or `foxglove.RawImage` (rgb8) | [`McapLog::log_camera_image`] |
+//! | `/camera/<name>/calibration` | `foxglove.CameraCalibration`  | [`McapLog::log_camera_image`]       |
 //!
 //! Frames: `world` is the fixed frame; each robot link is published relative to its parent link
 //! (`parent_from_child = world_from_parent⁻¹ · world_from_child`), each object as
-//! `world → object/<name>`. A message's log time is the simulated time in nanoseconds.
+//! `world → object/<name>`. A message's log time is the simulated time in nanoseconds. A frame is
+//! written when it moved by more than [`McapLogOptions::tf_tolerance_m`] /
+//! [`McapLogOptions::tf_tolerance_rad`], and every frame at least every
+//! [`McapLogOptions::tf_keyframe_secs`] of log time (a keyframe), so that the parked arm and the
+//! resting objects cost nothing between keyframes and a reader who seeks still finds every frame.
 //!
 //! ## Crash safety
 //!
@@ -51,7 +58,11 @@ mod messages;
 mod scene;
 mod schemas;
 
-use messages::{FrameTree, Time, time_ns};
+mod robot;
+
+pub use robot::{ARROW_M_PER_N, ARROW_MAX_LENGTH, ARROW_MIN_FORCE};
+
+use messages::{FrameTree, TfPolicy, Time, time_ns};
 
 /// Robot links and objects (`foxglove.FrameTransforms`).
 pub const TOPIC_TF: &str = "/tf";
@@ -65,10 +76,88 @@ pub const TOPIC_JOINT_STATES: &str = "/joint_states";
 pub const TOPIC_FINGERTIPS: &str = "/fingertips";
 /// The task layer's activity text (`pbd.Activity`).
 pub const TOPIC_ACTIVITY: &str = "/activity";
+/// The robot's links drawn from its URDF visuals (`foxglove.SceneUpdate`).
+pub const TOPIC_ROBOT: &str = "/robot";
+/// Fingertip forces as arrows (`foxglove.SceneUpdate`).
+pub const TOPIC_FINGERTIP_ARROWS: &str = "/fingertips/arrows";
 
-/// The topic of a camera's images (`foxglove.RawImage`).
+/// The topic of a camera's images (`foxglove.CompressedImage` or `foxglove.RawImage`).
 pub fn camera_topic(camera_name: &str) -> String {
     format!("/camera/{camera_name}/image")
+}
+
+/// The topic of a camera's calibration (`foxglove.CameraCalibration`).
+pub fn calibration_topic(camera_name: &str) -> String {
+    format!("/camera/{camera_name}/calibration")
+}
+
+/// How camera images are stored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ImageFormat {
+    /// `foxglove.CompressedImage`, baseline JPEG of this quality (1–100): the smallest; the cameras'
+    /// pixel noise is what JPEG discards first.
+    Jpeg {
+        /// Quality, 1–100.
+        quality: u8,
+    },
+    /// `foxglove.CompressedImage`, lossless PNG.
+    Png,
+    /// `foxglove.RawImage`, `rgb8`: every byte as the robot saw it.
+    Raw,
+}
+
+impl Default for ImageFormat {
+    fn default() -> Self {
+        Self::Jpeg { quality: 85 }
+    }
+}
+
+impl std::str::FromStr for ImageFormat {
+    type Err = anyhow::Error;
+
+    /// `jpeg`, `jpeg:Q` (quality 1–100), `png` or `raw`.
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "jpeg" | "jpg" => Ok(Self::default()),
+            "png" => Ok(Self::Png),
+            "raw" => Ok(Self::Raw),
+            _ => {
+                let q = s
+                    .strip_prefix("jpeg:")
+                    .or_else(|| s.strip_prefix("jpg:"))
+                    .and_then(|q| q.parse::<u8>().ok())
+                    .filter(|q| (1..=100).contains(q));
+                q.map(|quality| Self::Jpeg { quality }).ok_or_else(|| {
+                    anyhow::anyhow!("unknown image format `{s}`: use jpeg, jpeg:QUALITY (1-100), png or raw")
+                })
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for ImageFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Jpeg { quality } => write!(f, "jpeg:{quality}"),
+            Self::Png => f.write_str("png"),
+            Self::Raw => f.write_str("raw"),
+        }
+    }
+}
+
+/// A camera as [`McapLog::log_camera_image`] needs it: its name (the topics), its optical frame
+/// in `/tf` (+z forward, +x right, +y down) and its pinhole calibration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CameraView<'a> {
+    /// Topic name: `/camera/<name>/image`.
+    pub name: &'a str,
+    /// The optical frame's link (the image's `frame_id`).
+    pub frame_id: &'a str,
+    /// Focal lengths (px).
+    pub focal: [f64; 2],
+    /// Principal point (px).
+    pub principal: [f64; 2],
 }
 
 /// Uncompressed size of a message record besides its data: opcode (1), record length (8), channel
@@ -91,7 +180,7 @@ pub enum LogLevel {
 }
 
 /// How a log is chunked; the defaults suit recordings of a few MB/s.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct McapLogOptions {
     /// A chunk is compressed and written once it holds this many uncompressed bytes.
     pub chunk_bytes: usize,
@@ -100,6 +189,15 @@ pub struct McapLogOptions {
     /// zstd level; 0 is zstd's default (3). Level 1 was both faster and smaller than 3 on
     /// snapshot logs (70 vs 94 µs CPU and 2.06 vs 2.26 kB per 60-link snapshot).
     pub zstd_level: u32,
+    /// How camera images are stored.
+    pub image_format: ImageFormat,
+    /// Every `/tf` frame is written at least this often (s of log time); 0 writes every frame of
+    /// every snapshot.
+    pub tf_keyframe_secs: f64,
+    /// Between keyframes a frame is written when it moved more than this (m) …
+    pub tf_tolerance_m: f64,
+    /// … or turned more than this (rad) since it was last written.
+    pub tf_tolerance_rad: f64,
 }
 
 impl Default for McapLogOptions {
@@ -108,6 +206,26 @@ impl Default for McapLogOptions {
             chunk_bytes: 1 << 20,
             max_chunk_age: Duration::from_secs(2),
             zstd_level: 1,
+            image_format: ImageFormat::default(),
+            // 50 µm and 0.1 mrad are below a pixel of the 3D panel at arm's length.
+            tf_keyframe_secs: 1.0,
+            tf_tolerance_m: 5e-5,
+            tf_tolerance_rad: 1e-4,
+        }
+    }
+}
+
+impl McapLogOptions {
+    fn tf_policy(&self) -> TfPolicy {
+        let keyframe = if self.tf_keyframe_secs > 0.0 {
+            time_ns(self.tf_keyframe_secs)
+        } else {
+            0
+        };
+        TfPolicy {
+            keyframe_ns: keyframe,
+            tolerance_m: if keyframe == 0 { -1.0 } else { self.tf_tolerance_m },
+            tolerance_rad: if keyframe == 0 { -1.0 } else { self.tf_tolerance_rad },
         }
     }
 }
@@ -134,6 +252,27 @@ struct Channels {
     joint_states: u16,
     fingertips: u16,
     activity: u16,
+    robot: u16,
+    arrows: u16,
+}
+
+/// Schema ids of the camera topics, and each camera's channels (image, calibration).
+#[derive(Debug, Clone, Default)]
+struct CameraChannels {
+    raw: u16,
+    compressed: u16,
+    calibration: u16,
+    by_name: HashMap<String, (u16, u16)>,
+}
+
+/// The fingertip arrows: sensor ids, their tip links in the frame tree, the arrows of this
+/// snapshot, and whether the last message drew any.
+#[derive(Debug, Clone, Default)]
+struct Arrows {
+    ids: Vec<String>,
+    links: Vec<Option<usize>>,
+    arrows: Vec<Option<messages::ArrowPrimitive>>,
+    shown: bool,
 }
 
 /// An MCAP log being written. Create with [`McapLog::create`], end with [`McapLog::finish`]
@@ -144,8 +283,11 @@ pub struct McapLog {
     writer: Option<McapWriter>,
     options: McapLogOptions,
     channels: Channels,
-    image_schema: u16,
-    cameras: HashMap<String, u16>,
+    cameras: CameraChannels,
+    tf_policy: TfPolicy,
+    arrows: Arrows,
+    /// Reused encoded-image buffer.
+    image: Vec<u8>,
     /// Channels of [`McapLog::log_json`], by topic.
     json_channels: HashMap<String, u16>,
     /// Resolved from the last snapshot header.
@@ -168,7 +310,7 @@ impl std::fmt::Debug for McapLog {
             .field("path", &self.path)
             .field("finished", &self.writer.is_none())
             .field("options", &self.options)
-            .field("cameras", &self.cameras.keys().collect::<Vec<_>>())
+            .field("cameras", &self.cameras.by_name.keys().collect::<Vec<_>>())
             .field("messages", &self.sequence)
             .finish_non_exhaustive()
     }
@@ -217,22 +359,35 @@ impl McapLog {
                 joint_states: add(TOPIC_JOINT_STATES, "pbd.JointState", schemas::joint_state())?,
                 fingertips: add(TOPIC_FINGERTIPS, "pbd.FingertipWrenches", schemas::fingertip_wrenches())?,
                 activity: add(TOPIC_ACTIVITY, "pbd.Activity", schemas::activity())?,
+                robot: add(TOPIC_ROBOT, "foxglove.SceneUpdate", schemas::scene_update())?,
+                arrows: add(TOPIC_FINGERTIP_ARROWS, "foxglove.SceneUpdate", schemas::scene_update())?,
             })
         })()
         .with_context(|| write_context(&path))?;
-        let image_schema = serde_json::to_vec(&schemas::raw_image())
-            .map_err(anyhow::Error::from)
-            .and_then(|data| Ok(writer.add_schema("foxglove.RawImage", "jsonschema", &data)?))
-            .with_context(|| write_context(&path))?;
+        let cameras = (|| -> Result<CameraChannels> {
+            let mut schema = |name: &str, value: serde_json::Value| -> Result<u16> {
+                Ok(writer.add_schema(name, "jsonschema", &serde_json::to_vec(&value)?)?)
+            };
+            Ok(CameraChannels {
+                raw: schema("foxglove.RawImage", schemas::raw_image())?,
+                compressed: schema("foxglove.CompressedImage", schemas::compressed_image())?,
+                calibration: schema("foxglove.CameraCalibration", schemas::camera_calibration())?,
+                by_name: HashMap::new(),
+            })
+        })()
+        .with_context(|| write_context(&path))?;
         writer.flush().with_context(|| write_context(&path))?;
 
+        let tf_policy = options.tf_policy();
         Ok(Self {
             path,
             writer: Some(writer),
             options,
             channels,
-            image_schema,
-            cameras: HashMap::new(),
+            cameras,
+            tf_policy,
+            arrows: Arrows::default(),
+            image: Vec::new(),
             json_channels: HashMap::new(),
             frame_tree: None,
             last_activity: None,
@@ -249,8 +404,10 @@ impl McapLog {
         &self.path
     }
 
-    /// Logs one simulator snapshot: `/tf` (every link and object), `/joint_states`, `/fingertips`,
-    /// and `/activity` when the activity text differs from the last one logged.
+    /// Logs one simulator snapshot: `/tf` (the links and objects that moved, all of them at a
+    /// keyframe), `/joint_states`, `/fingertips`, `/fingertips/arrows` (while any sensor reads a
+    /// force, and once more when none does), and `/activity` when the activity text differs from
+    /// the last one logged.
     ///
     /// `header` must describe `snap` (same joint, link and object counts); it may change between
     /// calls (the frame tree is re-resolved when it does).
@@ -280,28 +437,27 @@ impl McapLog {
             header.object_names.len()
         );
         if !self.frame_tree.as_ref().is_some_and(|tree| tree.matches(header)) {
-            self.frame_tree = Some(FrameTree::new(header));
+            let tree = FrameTree::new(header);
+            self.arrows.links.clear();
+            self.arrows.ids.clear();
+            self.frame_tree = Some(tree);
         }
         let log_time = time_ns(snap.time);
         let timestamp = Time::from_ns(log_time);
 
-        if let Some(tree) = &self.frame_tree {
-            let msg = messages::FrameTransforms {
-                timestamp,
-                tree,
-                link_poses: &snap.link_poses,
-                objects: &snap.objects,
-            };
-            encode(&mut self.json, &msg)?;
+        if let Some(tree) = &mut self.frame_tree
+            && tree.update(log_time, &snap.link_poses, &snap.objects, &self.tf_policy) > 0
+        {
+            encode(&mut self.json, &messages::FrameTransforms { timestamp, tree })?;
             self.write_buffer(self.channels.tf, log_time)?;
         }
 
         let msg = messages::JointState {
             timestamp,
             name: &header.joint_names,
-            position: &snap.q,
-            velocity: &snap.qd,
-            position_ref: &snap.q_ref,
+            position: messages::Rounded(&snap.q),
+            velocity: messages::Rounded(&snap.qd),
+            position_ref: messages::Rounded(&snap.q_ref),
         };
         encode(&mut self.json, &msg)?;
         self.write_buffer(self.channels.joint_states, log_time)?;
@@ -314,6 +470,7 @@ impl McapLog {
             },
         )?;
         self.write_buffer(self.channels.fingertips, log_time)?;
+        self.log_arrows(snap, timestamp, log_time)?;
 
         if self.last_activity.as_deref() != Some(snap.activity.as_str()) {
             encode(
@@ -329,6 +486,54 @@ impl McapLog {
             last.push_str(&snap.activity);
         }
         Ok(())
+    }
+
+    /// The fingertip readings as arrows at their tip links (see [`robot`]).
+    fn log_arrows(&mut self, snap: &Snapshot, timestamp: Time, log_time: u64) -> Result<()> {
+        let a = &mut self.arrows;
+        if a.ids.len() != snap.fingertips.len() {
+            a.ids = robot::fingertip_ids(&snap.fingertips);
+            a.links.clear();
+        }
+        if a.links.len() != snap.fingertips.len() {
+            let tree = self.frame_tree.as_ref();
+            a.links = snap
+                .fingertips
+                .iter()
+                .map(|f| tree.and_then(|t| t.link(&robot::tip_link(f))))
+                .collect();
+        }
+        a.arrows.clear();
+        for (f, link) in snap.fingertips.iter().zip(&a.links) {
+            let arrow = link
+                .and_then(|l| snap.link_poses.get(l))
+                .and_then(|pose| robot::force_arrow(&pose.translation.vector, f.force, f.in_contact));
+            a.arrows.push(arrow);
+        }
+        let any = a.arrows.iter().any(Option::is_some);
+        if !(any || a.shown) {
+            return Ok(());
+        }
+        a.shown = any;
+        encode(
+            &mut self.json,
+            &robot::ArrowUpdate {
+                timestamp,
+                ids: &a.ids,
+                arrows: &a.arrows,
+            },
+        )?;
+        self.write_buffer(self.channels.arrows, log_time)
+    }
+
+    /// Logs the robot on `/robot`: each link's URDF visuals as an entity locked to the link's
+    /// frame, so that the arms, hands and head move with `/tf`. Replaces everything logged on
+    /// `/robot` before.
+    pub fn log_robot(&mut self, model: &control_basis::RobotModel, time_secs: f64) -> Result<()> {
+        let log_time = time_ns(time_secs);
+        let update = robot::robot_update(model, Time::from_ns(log_time));
+        encode(&mut self.json, &update)?;
+        self.write_buffer(self.channels.robot, log_time)
     }
 
     /// Logs the scene on `/scene`: the table and places in `world`, each object in its frame
@@ -357,9 +562,46 @@ impl McapLog {
     }
 
     /// Logs an RGB image (`rgb8`, rows top to bottom, `width * height * 3` bytes) on
-    /// `/camera/<camera_name>/image`. Its `frame_id` is `camera_name`: name the camera after its
-    /// optical frame in `/tf` (+z forward, +x right, +y down) if Foxglove should place it in 3D.
+    /// `/camera/<camera_name>/image` in the log's [`ImageFormat`], with `frame_id` = `camera_name`
+    /// and no calibration. Prefer [`McapLog::log_camera_image`], which places the image in 3D.
     pub fn log_image(&mut self, time_secs: f64, camera_name: &str, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+        self.write_image(time_secs, camera_name, camera_name, None, width, height, rgb)
+    }
+
+    /// Logs a camera image (`rgb8`, rows top to bottom, `width * height * 3` bytes) on
+    /// `/camera/<name>/image` in the log's [`ImageFormat`], and the camera's pinhole calibration on
+    /// `/camera/<name>/calibration` (both in the optical frame `camera.frame_id`), so that Foxglove
+    /// shows the image in an image panel and projects it in the 3D panel.
+    pub fn log_camera_image(
+        &mut self,
+        time_secs: f64,
+        camera: &CameraView<'_>,
+        width: u32,
+        height: u32,
+        rgb: &[u8],
+    ) -> Result<()> {
+        self.write_image(
+            time_secs,
+            camera.name,
+            camera.frame_id,
+            Some(camera),
+            width,
+            height,
+            rgb,
+        )
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn write_image(
+        &mut self,
+        time_secs: f64,
+        camera_name: &str,
+        frame_id: &str,
+        calibration: Option<&CameraView<'_>>,
+        width: u32,
+        height: u32,
+        rgb: &[u8],
+    ) -> Result<()> {
         let step = width.checked_mul(3).context("image too wide")?;
         let expected = (step as usize)
             .checked_mul(height as usize)
@@ -369,31 +611,94 @@ impl McapLog {
             "camera {camera_name}: a {width}×{height} rgb8 image has {expected} bytes, got {}",
             rgb.len()
         );
-        let channel = match self.cameras.get(camera_name) {
-            Some(&channel) => channel,
+        let format = self.options.image_format;
+        let (image_channel, calibration_channel) = match self.cameras.by_name.get(camera_name) {
+            Some(&channels) => channels,
             None => {
                 let writer = self.writer.as_mut().context("the MCAP log is finished")?;
-                let channel = writer
-                    .add_channel(self.image_schema, &camera_topic(camera_name), "json", &BTreeMap::new())
+                let schema = match format {
+                    ImageFormat::Raw => self.cameras.raw,
+                    _ => self.cameras.compressed,
+                };
+                let channels = writer
+                    .add_channel(schema, &camera_topic(camera_name), "json", &BTreeMap::new())
+                    .and_then(|image| {
+                        let calibration = writer.add_channel(
+                            self.cameras.calibration,
+                            &calibration_topic(camera_name),
+                            "json",
+                            &BTreeMap::new(),
+                        )?;
+                        Ok((image, calibration))
+                    })
                     .with_context(|| write_context(&self.path))?;
-                self.cameras.insert(camera_name.to_owned(), channel);
-                channel
+                self.cameras.by_name.insert(camera_name.to_owned(), channels);
+                channels
+            }
+        };
+        let log_time = time_ns(time_secs);
+        let timestamp = Time::from_ns(log_time);
+        let data: &[u8] = match format {
+            ImageFormat::Raw => rgb,
+            ImageFormat::Jpeg { quality } => {
+                self.image.clear();
+                jpeg_encoder::Encoder::new(&mut self.image, quality.clamp(1, 100))
+                    .encode(
+                        rgb,
+                        u16::try_from(width).context("image too wide for JPEG")?,
+                        u16::try_from(height).context("image too high for JPEG")?,
+                        jpeg_encoder::ColorType::Rgb,
+                    )
+                    .with_context(|| format!("camera {camera_name}: JPEG encoding"))?;
+                &self.image
+            }
+            ImageFormat::Png => {
+                self.image.clear();
+                let mut encoder = png::Encoder::new(&mut self.image, width, height);
+                encoder.set_color(png::ColorType::Rgb);
+                encoder.set_depth(png::BitDepth::Eight);
+                encoder.set_compression(png::Compression::Fast);
+                encoder
+                    .write_header()
+                    .and_then(|mut w| w.write_image_data(rgb))
+                    .with_context(|| format!("camera {camera_name}: PNG encoding"))?;
+                &self.image
             }
         };
         self.base64.clear();
-        base64::engine::general_purpose::STANDARD.encode_string(rgb, &mut self.base64);
-        let log_time = time_ns(time_secs);
-        let msg = messages::RawImage {
-            timestamp: Time::from_ns(log_time),
-            frame_id: camera_name,
-            width,
-            height,
-            encoding: "rgb8",
-            step,
-            data: &self.base64,
-        };
-        encode(&mut self.json, &msg)?;
-        self.write_buffer(channel, log_time)
+        base64::engine::general_purpose::STANDARD.encode_string(data, &mut self.base64);
+        match format {
+            ImageFormat::Raw => encode(
+                &mut self.json,
+                &messages::RawImage {
+                    timestamp,
+                    frame_id,
+                    width,
+                    height,
+                    encoding: "rgb8",
+                    step,
+                    data: &self.base64,
+                },
+            )?,
+            ImageFormat::Jpeg { .. } | ImageFormat::Png => encode(
+                &mut self.json,
+                &messages::CompressedImage {
+                    timestamp,
+                    frame_id,
+                    data: &self.base64,
+                    format: if format == ImageFormat::Png { "png" } else { "jpeg" },
+                },
+            )?,
+        }
+        self.write_buffer(image_channel, log_time)?;
+        if let Some(c) = calibration {
+            encode(
+                &mut self.json,
+                &messages::CameraCalibration::pinhole(timestamp, frame_id, width, height, c.focal, c.principal),
+            )?;
+            self.write_buffer(calibration_channel, log_time)?;
+        }
+        Ok(())
     }
 
     /// Logs any serialisable message as JSON on `topic`, whose channel (with schema `schema_name` and

@@ -79,8 +79,11 @@ pub struct RecordOptions {
     pub output: PathBuf,
     /// Also write the teacher's hand commands as a teleop file (CSV if it ends in .csv, else JSON lines).
     pub save_teleop: Option<PathBuf>,
-    /// Log the head cameras' images too (large files).
+    /// Log the head cameras' images too, at the percept rate, with their calibration.
     pub images: bool,
+    /// How images are stored: JPEG (default, quality 85), PNG or raw `rgb8`.
+    #[serde(default)]
+    pub image_format: crate::mcap_log::ImageFormat,
     /// Rate of /tf, joint states and fingertips (Hz of simulated time).
     pub log_hz: f64,
     /// Rate of the robot's percepts (Hz).
@@ -104,6 +107,7 @@ impl Default for RecordOptions {
             output: PathBuf::from("demo.mcap"),
             save_teleop: None,
             images: false,
+            image_format: crate::mcap_log::ImageFormat::default(),
             log_hz: 30.0,
             percept_hz: 10.0,
             max_seconds: 600.0,
@@ -319,6 +323,10 @@ struct Sink<'a> {
     log_period: f64,
     next_log: f64,
     images: bool,
+    /// The head cameras: topic name, optical frame; and their focal lengths and principal point.
+    cameras: [(&'static str, &'static str); 2],
+    focal: [f64; 2],
+    principal: [f64; 2],
     stop: bool,
     error: Option<anyhow::Error>,
     progress: &'a dyn Progress,
@@ -375,8 +383,14 @@ impl DemoSink for Sink<'_> {
         self.keep(r);
         if self.images {
             let (l, rt) = eyes.images(dexter::eyes::Pair::Head);
-            for (name, img) in [("head_left", l), ("head_right", rt)] {
-                let r = self.log.log_image(p.t, name, img.width, img.height, &img.rgb);
+            for ((name, frame_id), img) in self.cameras.into_iter().zip([l, rt]) {
+                let view = crate::mcap_log::CameraView {
+                    name,
+                    frame_id,
+                    focal: self.focal,
+                    principal: self.principal,
+                };
+                let r = self.log.log_camera_image(p.t, &view, img.width, img.height, &img.rgb);
                 self.keep(r);
             }
         }
@@ -448,7 +462,13 @@ pub fn record(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordRep
     let scene_path = PathBuf::from(&args.scene);
     inputs.push(scene_path.as_path());
     crate::files::refuse_inputs_as_outputs(&inputs, &[args.output.as_path()])?;
-    let mut log = McapLog::create(&args.output)?;
+    let mut log = McapLog::create_with(
+        &args.output,
+        crate::mcap_log::McapLogOptions {
+            image_format: args.image_format,
+            ..Default::default()
+        },
+    )?;
     log.attach("dexter.urdf", "application/xml", DEXTER_URDF.as_bytes())?;
     let mut meta: BTreeMap<String, String> = BTreeMap::new();
     meta.insert("command".into(), "record".into());
@@ -461,6 +481,8 @@ pub fn record(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordRep
     // The scene file itself, so that `pbd infer` and `pbd execute` know the places and catalog.
     log.metadata("pbd", meta)?;
     log.log_scene(&scene, sim.header(), 0.0)?;
+    log.log_robot(sim.model(), 0.0)?;
+    let camera = control_basis::Camera::new(&scene.spec.camera.intrinsics(), control_basis::math::Iso3::identity())?;
 
     let max = match &source {
         TeleopSource::Replay(r) => (r.duration() + 2.0).min(args.max_seconds),
@@ -476,6 +498,12 @@ pub fn record(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordRep
         log_period: 1.0 / args.log_hz,
         next_log: 0.0,
         images: args.images,
+        cameras: [
+            ("head_left", dexter_sim::hardware::CAMERAS[0].1),
+            ("head_right", dexter_sim::hardware::CAMERAS[1].1),
+        ],
+        focal: [camera.fx, camera.fy],
+        principal: [camera.cx, camera.cy],
         stop: false,
         error: None,
         progress,

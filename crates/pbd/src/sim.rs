@@ -137,6 +137,7 @@ pub fn pick_place(args: &PickPlaceOptions, progress: &dyn Progress) -> anyhow::R
             ];
             log.metadata("pbd", meta.into_iter().map(|(k, v)| (k.to_string(), v)).collect())?;
             log.log_scene(&scene, sim.header(), 0.0)?;
+            log.log_robot(sim.model(), 0.0)?;
             Some(log)
         }
         None => None,

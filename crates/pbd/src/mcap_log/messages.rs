@@ -86,6 +86,12 @@ pub(super) struct Pose {
 }
 
 impl Pose {
+    /// The pose of an isometry.
+    pub fn of(iso: &Iso3) -> Self {
+        let (position, orientation) = split(iso);
+        Self { position, orientation }
+    }
+
     /// A pure translation.
     pub fn at(x: f64, y: f64, z: f64) -> Self {
         Self {
@@ -95,7 +101,8 @@ impl Pose {
     }
 }
 
-fn split(iso: &Iso3) -> (Vector3, Quaternion) {
+/// Position and orientation of an isometry.
+pub(super) fn split(iso: &Iso3) -> (Vector3, Quaternion) {
     let t = &iso.translation.vector;
     let q = iso.rotation.quaternion();
     (
@@ -138,7 +145,9 @@ pub(super) enum ParentFrame {
     Link(usize),
 }
 
-/// The frame tree of a [`SnapshotHeader`], resolved once and reused while the header is unchanged.
+/// The frame tree of a [`SnapshotHeader`], resolved once and reused while the header is unchanged,
+/// with the transforms published last: a frame is written again only when it moved by more than
+/// the tolerance or at a keyframe (every frame, so that a reader who seeks finds them all).
 #[derive(Debug, Clone)]
 pub(super) struct FrameTree {
     link_names: Vec<String>,
@@ -147,6 +156,25 @@ pub(super) struct FrameTree {
     parents: Vec<ParentFrame>,
     /// `object/<name>` for each object.
     object_frames: Vec<String>,
+    /// Parent-from-child of every link, then world-from-object of every object, this snapshot.
+    current: Vec<Iso3>,
+    /// What was last published for each frame.
+    published: Vec<Option<Iso3>>,
+    /// Whether each frame is written this snapshot.
+    publish: Vec<bool>,
+    /// Log time (ns) of the last keyframe.
+    last_keyframe: Option<u64>,
+}
+
+/// When a transform is written again.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct TfPolicy {
+    /// Every frame is written at least this often (ns of log time); 0 = every snapshot.
+    pub keyframe_ns: u64,
+    /// A frame that moved more than this (m) is written.
+    pub tolerance_m: f64,
+    /// … or turned more than this (rad).
+    pub tolerance_rad: f64,
 }
 
 impl FrameTree {
@@ -162,12 +190,17 @@ impl FrameTree {
                 Some(p) => index_of(p).map_or(ParentFrame::World, ParentFrame::Link),
             })
             .collect();
+        let frames = header.link_names.len() + header.object_names.len();
         Self {
             link_names: header.link_names.clone(),
             link_parents: header.link_parents.clone(),
             object_names: header.object_names.clone(),
             parents,
             object_frames: header.object_names.iter().map(|n| object_frame(n)).collect(),
+            current: vec![Iso3::identity(); frames],
+            published: vec![None; frames],
+            publish: vec![false; frames],
+            last_keyframe: None,
         }
     }
 
@@ -176,6 +209,56 @@ impl FrameTree {
         self.link_names == header.link_names
             && self.link_parents == header.link_parents
             && self.object_names == header.object_names
+    }
+
+    /// Index of the link called `name`.
+    pub fn link(&self, name: &str) -> Option<usize> {
+        self.link_names.iter().position(|n| n == name)
+    }
+
+    /// Computes this snapshot's transforms and chooses the frames to write (see [`TfPolicy`]);
+    /// returns how many. `link_poses` and `objects` are in the tree's order.
+    pub fn update(&mut self, log_time: u64, link_poses: &[Iso3], objects: &[ObjectState], policy: &TfPolicy) -> usize {
+        let keyframe = match self.last_keyframe {
+            None => true,
+            Some(t) => log_time < t || log_time - t >= policy.keyframe_ns,
+        };
+        if keyframe {
+            self.last_keyframe = Some(log_time);
+        }
+        let links = self.link_names.len();
+        for (i, parent) in self.parents.iter().enumerate() {
+            let world_from_child = &link_poses[i];
+            self.current[i] = match *parent {
+                ParentFrame::Root | ParentFrame::World => *world_from_child,
+                // child_in_parent = world_from_parent⁻¹ · world_from_child
+                ParentFrame::Link(p) => link_poses[p].inv_mul(world_from_child),
+            };
+            self.publish[i] = *parent != ParentFrame::Root;
+        }
+        for (k, o) in objects.iter().enumerate() {
+            self.current[links + k] = o.pose;
+            self.publish[links + k] = true;
+        }
+        let mut n = 0;
+        for ((publish, current), published) in self.publish.iter_mut().zip(&self.current).zip(&mut self.published) {
+            if !*publish {
+                continue;
+            }
+            let moved = match published {
+                None => true,
+                Some(last) => {
+                    (current.translation.vector - last.translation.vector).norm() > policy.tolerance_m
+                        || current.rotation.angle_to(&last.rotation) > policy.tolerance_rad
+                }
+            };
+            *publish = keyframe || moved;
+            if *publish {
+                *published = Some(*current);
+                n += 1;
+            }
+        }
+        n
     }
 }
 
@@ -199,17 +282,16 @@ impl<'a> FrameTransform<'a> {
         let (t, q) = split(parent_from_child);
         // 1 µm and ~2 µrad are far below what the simulator resolves; short numbers halve the
         // file and the compression time (18 → 13 kB of JSON for 65 transforms, 4.2 → 2.3 kB zstd).
-        let r = |x: f64| (x * 1e6).round() / 1e6;
         let translation = Vector3 {
-            x: r(t.x),
-            y: r(t.y),
-            z: r(t.z),
+            x: round6(t.x),
+            y: round6(t.y),
+            z: round6(t.z),
         };
         let rotation = Quaternion {
-            x: r(q.x),
-            y: r(q.y),
-            z: r(q.z),
-            w: r(q.w),
+            x: round6(q.x),
+            y: round6(q.y),
+            z: round6(q.z),
+            w: round6(q.w),
         };
         Self {
             timestamp,
@@ -221,15 +303,17 @@ impl<'a> FrameTransform<'a> {
     }
 }
 
-/// `foxglove.FrameTransforms` for every link (parent → child) and every object (`world → object/<name>`).
+/// `x` rounded to 6 decimals (non-finite values unchanged).
+pub(super) fn round6(x: f64) -> f64 {
+    (x * 1e6).round() / 1e6
+}
+
+/// `foxglove.FrameTransforms` for the frames [`FrameTree::update`] chose: links (parent → child)
+/// and objects (`world → object/<name>`).
 #[derive(Debug)]
 pub(super) struct FrameTransforms<'a> {
     pub timestamp: Time,
     pub tree: &'a FrameTree,
-    /// World pose of each link, in the tree's link order.
-    pub link_poses: &'a [Iso3],
-    /// In the tree's object order.
-    pub objects: &'a [ObjectState],
 }
 
 impl Serialize for FrameTransforms<'_> {
@@ -246,29 +330,43 @@ impl Serialize for TransformList<'_> {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let m = self.0;
         let tree = m.tree;
+        let links = tree.link_names.len();
         let mut seq = serializer.serialize_seq(None)?;
-        for (i, (parent, world_from_child)) in tree.parents.iter().zip(m.link_poses).enumerate() {
+        for (i, parent) in tree.parents.iter().enumerate() {
+            if !tree.publish[i] {
+                continue;
+            }
+            let parent_name = match *parent {
+                ParentFrame::Root => continue,
+                ParentFrame::World => WORLD_FRAME,
+                ParentFrame::Link(p) => tree.link_names[p].as_str(),
+            };
             let child = tree.link_names[i].as_str();
-            match *parent {
-                ParentFrame::Root => {}
-                ParentFrame::World => {
-                    seq.serialize_element(&FrameTransform::new(m.timestamp, WORLD_FRAME, child, world_from_child))?
-                }
-                ParentFrame::Link(p) => {
-                    // child_in_parent = world_from_parent⁻¹ · world_from_child
-                    let parent_from_child = m.link_poses[p].inv_mul(world_from_child);
-                    let parent_name = tree.link_names[p].as_str();
-                    seq.serialize_element(&FrameTransform::new(
-                        m.timestamp,
-                        parent_name,
-                        child,
-                        &parent_from_child,
-                    ))?
-                }
+            seq.serialize_element(&FrameTransform::new(m.timestamp, parent_name, child, &tree.current[i]))?;
+        }
+        for (k, frame) in tree.object_frames.iter().enumerate() {
+            if tree.publish[links + k] {
+                seq.serialize_element(&FrameTransform::new(
+                    m.timestamp,
+                    WORLD_FRAME,
+                    frame,
+                    &tree.current[links + k],
+                ))?;
             }
         }
-        for (frame, object) in tree.object_frames.iter().zip(m.objects) {
-            seq.serialize_element(&FrameTransform::new(m.timestamp, WORLD_FRAME, frame, &object.pose))?;
+        seq.end()
+    }
+}
+
+/// Serialises a slice of numbers rounded to 6 decimals.
+#[derive(Debug)]
+pub(super) struct Rounded<'a>(pub &'a [f64]);
+
+impl Serialize for Rounded<'_> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut seq = serializer.serialize_seq(Some(self.0.len()))?;
+        for &x in self.0 {
+            seq.serialize_element(&round6(x))?;
         }
         seq.end()
     }
@@ -279,9 +377,9 @@ impl Serialize for TransformList<'_> {
 pub(super) struct JointState<'a> {
     pub timestamp: Time,
     pub name: &'a [String],
-    pub position: &'a [f64],
-    pub velocity: &'a [f64],
-    pub position_ref: &'a [f64],
+    pub position: Rounded<'a>,
+    pub velocity: Rounded<'a>,
+    pub position_ref: Rounded<'a>,
 }
 
 /// `pbd.FingertipWrenches`.
@@ -344,6 +442,52 @@ pub(super) struct RawImage<'a> {
     pub data: &'a str,
 }
 
+/// `foxglove.CompressedImage`; `data` is already base64.
+#[derive(Debug, Serialize)]
+pub(super) struct CompressedImage<'a> {
+    pub timestamp: Time,
+    pub frame_id: &'a str,
+    pub data: &'a str,
+    pub format: &'a str,
+}
+
+/// `foxglove.CameraCalibration` of an undistorted pinhole camera.
+#[derive(Debug, Serialize)]
+pub(super) struct CameraCalibration<'a> {
+    pub timestamp: Time,
+    pub frame_id: &'a str,
+    pub width: u32,
+    pub height: u32,
+    pub distortion_model: &'a str,
+    #[serde(rename = "D")]
+    pub d: [f64; 0],
+    #[serde(rename = "K")]
+    pub k: [f64; 9],
+    #[serde(rename = "R")]
+    pub r: [f64; 9],
+    #[serde(rename = "P")]
+    pub p: [f64; 12],
+}
+
+impl<'a> CameraCalibration<'a> {
+    /// From the focal lengths and principal point (px).
+    pub fn pinhole(timestamp: Time, frame_id: &'a str, width: u32, height: u32, f: [f64; 2], c: [f64; 2]) -> Self {
+        let [fx, fy] = f;
+        let [cx, cy] = c;
+        Self {
+            timestamp,
+            frame_id,
+            width,
+            height,
+            distortion_model: "plumb_bob",
+            d: [],
+            k: [fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0],
+            r: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+            p: [fx, 0.0, cx, 0.0, 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0],
+        }
+    }
+}
+
 /// `foxglove.SceneUpdate`.
 #[derive(Debug, Serialize)]
 pub(super) struct SceneUpdate {
@@ -370,7 +514,7 @@ pub(super) struct SceneEntity {
     pub lifetime: DurationMsg,
     pub frame_locked: bool,
     pub metadata: Vec<KeyValuePair>,
-    pub arrows: EmptyList,
+    pub arrows: Vec<ArrowPrimitive>,
     pub cubes: Vec<SizedPrimitive>,
     pub spheres: Vec<SizedPrimitive>,
     pub cylinders: Vec<CylinderPrimitive>,
@@ -390,7 +534,7 @@ impl SceneEntity {
             lifetime: DurationMsg { sec: 0, nsec: 0 },
             frame_locked,
             metadata: Vec::new(),
-            arrows: EmptyList,
+            arrows: Vec::new(),
             cubes: Vec::new(),
             spheres: Vec::new(),
             cylinders: Vec::new(),
@@ -434,6 +578,17 @@ pub(super) struct KeyValuePair {
 pub(super) struct SizedPrimitive {
     pub pose: Pose,
     pub size: Vector3,
+    pub color: Color,
+}
+
+/// `foxglove.ArrowPrimitive`: points along the pose's +x, from its position.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub(super) struct ArrowPrimitive {
+    pub pose: Pose,
+    pub shaft_length: f64,
+    pub shaft_diameter: f64,
+    pub head_length: f64,
+    pub head_diameter: f64,
     pub color: Color,
 }
 

@@ -506,3 +506,46 @@ pub(super) fn activity() -> Value {
         "What the task layer is doing; written when it changes",
     )
 }
+
+/// `foxglove.CompressedImage` (`format`: `jpeg` or `png`).
+pub(super) fn compressed_image() -> Value {
+    object(
+        "foxglove.CompressedImage",
+        &[
+            ("timestamp", time()),
+            ("frame_id", string()),
+            ("data", bytes()),
+            ("format", string()),
+        ],
+        &["timestamp", "frame_id", "data", "format"],
+    )
+}
+
+/// `foxglove.CameraCalibration` (pinhole, no distortion).
+pub(super) fn camera_calibration() -> Value {
+    object(
+        "foxglove.CameraCalibration",
+        &[
+            ("timestamp", time()),
+            ("frame_id", string()),
+            ("width", uint()),
+            ("height", uint()),
+            ("distortion_model", string()),
+            ("D", array(number())),
+            ("K", array(number())),
+            ("R", array(number())),
+            ("P", array(number())),
+        ],
+        &[
+            "timestamp",
+            "frame_id",
+            "width",
+            "height",
+            "distortion_model",
+            "D",
+            "K",
+            "R",
+            "P",
+        ],
+    )
+}

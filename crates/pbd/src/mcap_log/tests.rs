@@ -127,7 +127,13 @@ fn keys(v: &Value) -> Vec<&str> {
 fn a_small_log_reads_back_with_its_channels_schemas_and_messages() {
     let tmp = TempFile::new("small");
     let header = header();
-    let mut log = McapLog::create(&tmp.0).unwrap();
+    // Every frame in every snapshot, images as they are.
+    let options = McapLogOptions {
+        image_format: ImageFormat::Raw,
+        tf_keyframe_secs: 0.0,
+        ..Default::default()
+    };
+    let mut log = McapLog::create_with(&tmp.0, options).unwrap();
     log.attach("dexter.urdf", "application/xml", b"<robot name=\"dexter\"/>")
         .unwrap();
     log.metadata("run", BTreeMap::from([("scene".to_owned(), "test".to_owned())]))
@@ -165,10 +171,13 @@ fn a_small_log_reads_back_with_its_channels_schemas_and_messages() {
     found.sort();
     let expected = [
         ("/activity", "pbd.Activity"),
+        ("/camera/head_left/calibration", "foxglove.CameraCalibration"),
         ("/camera/head_left/image", "foxglove.RawImage"),
         ("/fingertips", "pbd.FingertipWrenches"),
+        ("/fingertips/arrows", "foxglove.SceneUpdate"),
         ("/joint_states", "pbd.JointState"),
         ("/log", "foxglove.Log"),
+        ("/robot", "foxglove.SceneUpdate"),
         ("/scene", "foxglove.SceneUpdate"),
         ("/tf", "foxglove.FrameTransforms"),
     ]
@@ -290,13 +299,16 @@ fn a_small_log_reads_back_with_its_channels_schemas_and_messages() {
 #[test]
 fn frame_transforms_json_has_the_foxglove_field_names() {
     let header = header();
-    let tree = FrameTree::new(&header);
+    let mut tree = FrameTree::new(&header);
     let snap = snapshot(1.5, "");
+    let policy = McapLogOptions::default().tf_policy();
+    assert_eq!(
+        tree.update(time_ns(snap.time), &snap.link_poses, &snap.objects, &policy),
+        3
+    );
     let msg = messages::FrameTransforms {
         timestamp: Time::from_ns(time_ns(snap.time)),
         tree: &tree,
-        link_poses: &snap.link_poses,
-        objects: &snap.objects,
     };
     let v: Value = serde_json::to_value(&msg).unwrap();
     assert_eq!(keys(&v), ["transforms"]);
@@ -720,4 +732,214 @@ fn foreign_channels_are_skipped_and_trailing_bytes_reported() {
         "{:?}",
         s.skipped_chunks
     );
+}
+
+/// The frames written by each `/tf` message, as (parent, child) pairs.
+fn tf_pairs(tf: &Value) -> Vec<(String, String)> {
+    tf["transforms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| {
+            (
+                t["parent_frame_id"].as_str().unwrap().to_owned(),
+                t["child_frame_id"].as_str().unwrap().to_owned(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn tf_writes_what_moved_and_everything_at_keyframes() {
+    let tmp = TempFile::new("tf-delta");
+    let header = header();
+    let mut log = McapLog::create(&tmp.0).unwrap();
+    // 0.0, 0.1, …, 2.0 s: `arm` turns 0.1 rad per snapshot; `base` and the object rest.
+    for i in 0..=20 {
+        log.log_snapshot(&header, &snapshot(0.1 * f64::from(i), "")).unwrap();
+    }
+    // A resting snapshot repeated: nothing moved, no keyframe due, no message.
+    log.log_snapshot(&header, &snapshot(2.0, "")).unwrap();
+    log.finish().unwrap();
+    let by_topic = messages_by_topic(&std::fs::read(&tmp.0).unwrap());
+    let tf = &by_topic[TOPIC_TF];
+    assert_eq!(tf.len(), 21, "one message per snapshot that moved");
+    let all = [("world", "base"), ("base", "arm"), ("world", "object/jif")].map(|(p, c)| (p.to_owned(), c.to_owned()));
+    let arm_only = vec![("base".to_owned(), "arm".to_owned())];
+    for (i, (t, msg)) in tf.iter().enumerate() {
+        // Keyframes every 1 s of log time: at 0, 1 and 2 s.
+        let keyframe = i % 10 == 0;
+        assert_eq!(*t, time_ns(0.1 * i as f64));
+        assert_eq!(
+            tf_pairs(msg),
+            if keyframe { all.to_vec() } else { arm_only.clone() },
+            "message {i}"
+        );
+    }
+    // Joint states are written every snapshot, rounded to 6 decimals.
+    let js = &by_topic[TOPIC_JOINT_STATES];
+    assert_eq!(js.len(), 22);
+    assert_eq!(js[3].1["position"][0], 0.03);
+}
+
+#[test]
+fn images_are_jpeg_by_default_with_their_calibration_and_png_is_lossless() {
+    let (w, h) = (32u32, 24u32);
+    // A smooth gradient with a little noise, as the cameras see the table.
+    let rgb: Vec<u8> = (0..w * h)
+        .flat_map(|i| {
+            let (x, y) = (i % w, i / w);
+            [(x * 8) as u8, (y * 10) as u8, ((x * 7 + y * 3) % 256) as u8]
+        })
+        .collect();
+    let view = CameraView {
+        name: "head_left",
+        frame_id: "head/left_camera_optical_frame",
+        focal: [100.0, 101.0],
+        principal: [15.5, 11.5],
+    };
+    for format in [
+        ImageFormat::default(),
+        ImageFormat::Png,
+        ImageFormat::Jpeg { quality: 50 },
+    ] {
+        let tmp = TempFile::new("images");
+        let options = McapLogOptions {
+            image_format: format,
+            ..Default::default()
+        };
+        let mut log = McapLog::create_with(&tmp.0, options).unwrap();
+        log.log_camera_image(0.5, &view, w, h, &rgb).unwrap();
+        assert!(
+            log.log_camera_image(0.6, &view, w, h, &rgb[1..]).is_err(),
+            "wrong size refused"
+        );
+        log.finish().unwrap();
+        let bytes = std::fs::read(&tmp.0).unwrap();
+        let by_topic = messages_by_topic(&bytes);
+        let (_, image) = &by_topic["/camera/head_left/image"][0];
+        assert_eq!(keys(image), ["data", "format", "frame_id", "timestamp"], "{format}");
+        assert_eq!(image["frame_id"], "head/left_camera_optical_frame");
+        let data = base64::engine::general_purpose::STANDARD
+            .decode(image["data"].as_str().unwrap())
+            .unwrap();
+        match format {
+            ImageFormat::Png => {
+                assert_eq!(image["format"], "png");
+                let mut reader = png::Decoder::new(std::io::Cursor::new(&data)).read_info().unwrap();
+                let mut out = vec![0; reader.output_buffer_size().unwrap()];
+                let info = reader.next_frame(&mut out).unwrap();
+                assert_eq!((info.width, info.height), (w, h));
+                assert_eq!(&out[..info.buffer_size()], &rgb[..], "PNG is lossless");
+            }
+            _ => {
+                assert_eq!(image["format"], "jpeg");
+                assert_eq!(&data[..2], &[0xFF, 0xD8], "a JPEG starts with SOI");
+                assert!(data.len() < rgb.len(), "{} bytes for {} raw", data.len(), rgb.len());
+            }
+        }
+        let (t, cal) = &by_topic["/camera/head_left/calibration"][0];
+        assert_eq!(*t, 500_000_000);
+        assert_eq!(cal["frame_id"], "head/left_camera_optical_frame");
+        assert_eq!((cal["width"].as_u64(), cal["height"].as_u64()), (Some(32), Some(24)));
+        assert_eq!(
+            cal["K"],
+            serde_json::json!([100.0, 0.0, 15.5, 0.0, 101.0, 11.5, 0.0, 0.0, 1.0])
+        );
+        assert_eq!(cal["P"].as_array().unwrap().len(), 12);
+    }
+    assert_eq!(
+        "jpeg:70".parse::<ImageFormat>().unwrap(),
+        ImageFormat::Jpeg { quality: 70 }
+    );
+    assert_eq!("png".parse::<ImageFormat>().unwrap(), ImageFormat::Png);
+    for bad in ["jpeg:0", "jpeg:101", "gif", ""] {
+        assert!(bad.parse::<ImageFormat>().is_err(), "{bad}");
+    }
+}
+
+#[test]
+fn the_robot_is_drawn_and_fingertip_forces_are_arrows_at_the_tips() {
+    let model = control_basis::RobotModel::from_urdf_str(dexter_sim::physics::DEXTER_URDF).unwrap();
+    // The robot's links, plus the tip links the fingertip sensors sit on.
+    let links: Vec<String> = model.links.iter().map(|l| l.name.clone()).collect();
+    let header = SnapshotHeader {
+        joint_names: vec![],
+        link_parents: vec![None; links.len()],
+        link_names: links.clone(),
+        object_names: vec![],
+    };
+    let tip = links.iter().position(|l| l == "right/bhand/finger_2/tip_link").unwrap();
+    let snap = |time: f64, force: f64| {
+        let mut link_poses = vec![Iso3::identity(); links.len()];
+        link_poses[tip] = iso([0.5, -0.2, 0.9], [0.0, 0.0, 0.0]);
+        let fingertips = Arm::BOTH
+            .iter()
+            .flat_map(|&arm| {
+                (1..=3).map(move |finger| FingertipWrench {
+                    arm,
+                    finger,
+                    force: if arm == Arm::Right && finger == 2 {
+                        [0.0, force, 0.0]
+                    } else {
+                        [0.0; 3]
+                    },
+                    torque: [0.0; 3],
+                    in_contact: force > 0.0,
+                })
+            })
+            .collect();
+        Snapshot {
+            time,
+            q: vec![],
+            qd: vec![],
+            q_ref: vec![],
+            link_poses,
+            objects: vec![],
+            fingertips,
+            activity: String::new(),
+        }
+    };
+    let tmp = TempFile::new("robot");
+    let mut log = McapLog::create(&tmp.0).unwrap();
+    log.log_robot(&model, 0.0).unwrap();
+    // No force, 4 N, 4 N, then none twice: arrows while touching and one message to clear them.
+    for (i, f) in [0.0, 4.0, 4.0, 0.0, 0.0].into_iter().enumerate() {
+        log.log_snapshot(&header, &snap(0.1 * i as f64, f)).unwrap();
+    }
+    log.finish().unwrap();
+    let by_topic = messages_by_topic(&std::fs::read(&tmp.0).unwrap());
+
+    let robot = &by_topic[TOPIC_ROBOT];
+    assert_eq!(robot.len(), 1);
+    let entities = robot[0].1["entities"].as_array().unwrap();
+    assert!(entities.len() > 40);
+    for e in entities {
+        let frame = e["frame_id"].as_str().unwrap();
+        assert!(links.iter().any(|l| l == frame), "{frame} is a link frame");
+        assert_eq!(e["frame_locked"], true);
+    }
+
+    let arrows = &by_topic[TOPIC_FINGERTIP_ARROWS];
+    assert_eq!(arrows.len(), 3, "two with an arrow, one that clears it");
+    let drawn = |m: &Value| -> Vec<String> {
+        m["entities"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|e| !e["arrows"].as_array().unwrap().is_empty())
+            .map(|e| e["id"].as_str().unwrap().to_owned())
+            .collect()
+    };
+    assert_eq!(drawn(&arrows[0].1), ["fingertip/right/2"]);
+    assert!(drawn(&arrows[2].1).is_empty());
+    let e = &arrows[0].1["entities"][4];
+    assert_eq!(e["frame_id"], "world");
+    let a = &e["arrows"][0];
+    assert_eq!(
+        a["pose"]["position"],
+        serde_json::json!({ "x": 0.5, "y": -0.2, "z": 0.9 })
+    );
+    let length = a["shaft_length"].as_f64().unwrap() + a["head_length"].as_f64().unwrap();
+    assert!((length - 4.0 * ARROW_M_PER_N).abs() < 1e-12);
 }
