@@ -21,6 +21,8 @@ pub struct DemoArgs {
     /// Print the final execution report as JSON.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    live: crate::output::LiveArgs,
 }
 
 /// Runs `pbd demo`.
@@ -29,6 +31,7 @@ pub fn main(a: DemoArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         &DemoOptions {
             out: a.out,
             seed: a.seed,
+            live: a.live.bind(),
         },
         &Bars::new(a.json, true)?,
     )?;

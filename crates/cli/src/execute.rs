@@ -39,6 +39,8 @@ pub struct ExecuteArgs {
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    live: crate::output::LiveArgs,
 }
 
 /// Runs `pbd execute`.
@@ -52,6 +54,8 @@ pub fn main(a: ExecuteArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         library: a.library,
         seed: a.seed,
         output: a.output,
+        live: a.live.bind(),
+        live_view: None,
     };
     let report = execute(&options, &Bars::new(a.json, true)?)?;
     emit(a.json, &report, out)

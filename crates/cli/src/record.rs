@@ -84,6 +84,8 @@ pub struct RecordArgs {
     /// How images are stored: jpeg (quality 85), jpeg:QUALITY (1-100), png (lossless) or raw (rgb8).
     #[arg(long, value_name = "FORMAT", default_value = "jpeg")]
     image_format: pbd::mcap_log::ImageFormat,
+    #[command(flatten)]
+    live: crate::output::LiveArgs,
     /// Rate of /tf, joint states and fingertips (Hz of simulated time).
     #[arg(long, default_value_t = 30.0)]
     log_hz: f64,
@@ -123,6 +125,8 @@ pub fn main(a: RecordArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         save_teleop: a.save_teleop,
         images: a.images,
         image_format: a.image_format,
+        live: a.live.bind(),
+        live_view: None,
         log_hz: a.log_hz,
         percept_hz: a.percept_hz,
         max_seconds: a.max_seconds,

@@ -206,6 +206,7 @@ fn a_right_arm_demonstration_is_executed_with_the_left_arm_where_the_object_need
     assert_eq!(j["inference"]["instances"][0]["arm"], "right");
     // blue_mug-1 lies on the left edge of sorting-demo: only the left arm reaches it and bin-left. The
     // declarative schema is the demonstration's; the arm is bound now, in the new scene.
+    let run = dir().join("blue-mug-left.run.mcap");
     let o = pbd(&[
         "execute",
         "--demo",
@@ -216,6 +217,8 @@ fn a_right_arm_demonstration_is_executed_with_the_left_arm_where_the_object_need
         "blue_mug-1",
         "--place",
         "bin-left",
+        "--output",
+        run.to_str().unwrap(),
         "--json",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -224,6 +227,30 @@ fn a_right_arm_demonstration_is_executed_with_the_left_arm_where_the_object_need
     assert_eq!(obj["place"], "bin-left");
     assert_eq!(obj["arms"][0], "left", "{obj:#}");
     assert_eq!(obj["transfer"], false);
+
+    // The run's log: the robot drawn, the decision and the executive's state as plottable topics.
+    let bytes = std::fs::read(&run).unwrap();
+    let mut by_topic: HashMap<String, Vec<Value>> = HashMap::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        let v: Value = serde_json::from_slice(&m.data).unwrap();
+        by_topic.entry(m.channel.topic.clone()).or_default().push(v);
+    }
+    assert_eq!(by_topic["/robot"].len(), 1);
+    let decisions = &by_topic["/pbd/decision"];
+    assert_eq!(decisions.len(), 1, "{decisions:?}");
+    assert_eq!(decisions[0]["decision"], "execute");
+    assert_eq!(decisions[0]["place"], "bin-left");
+    assert_eq!(decisions[0]["pick_arm"], "left");
+    let states = &by_topic["/pbd/schema_state"];
+    assert!(states.len() >= 5, "{} steps", states.len());
+    assert_eq!(states[0]["state_index"], 0);
+    let last = states.last().unwrap();
+    assert_eq!(last["action"], "", "the last step is the goal: {last}");
+    assert!(last["x"].as_object().unwrap().values().all(Value::is_boolean));
+    for s in states {
+        assert!(s["timestamp"]["sec"].is_u64(), "{s}");
+    }
 }
 
 #[test]
@@ -253,6 +280,7 @@ fn recordings_pass_the_mcap_readers_validation_and_have_the_expected_topics() {
     for t in [
         "/tf",
         "/scene",
+        "/robot",
         "/joint_states",
         "/fingertips",
         "/pbd/percept",

@@ -35,11 +35,34 @@ pub trait RunLog {
     fn percept(&mut self, _t: f64, _percept: &Percept, _truth: &[(String, [f64; 3])]) {}
     /// The outcome of one object.
     fn outcome(&mut self, _t: f64, _object: &str, _success: bool) {}
+    /// The robot decided what to do with a seen segment (before it acts on it).
+    fn decision(&mut self, _t: f64, _decision: &DecisionEvent<'_>) {}
+    /// Where the schema executive stands, before each action and at a goal state.
+    fn step(&mut self, _t: f64, _event: &schema::StepEvent<'_>) {}
     /// Asked every control period: `true` stops the run (the robot's hardware reports
     /// [`control_basis::hardware::HardwareError::Interrupted`]).
     fn should_stop(&mut self) -> bool {
         false
     }
+}
+
+/// What the robot decided for one seen segment, from its own percepts ([`RunLog::decision`]).
+#[derive(Debug, Clone, Copy)]
+pub struct DecisionEvent<'a> {
+    /// The robot's segment (track id).
+    pub segment: u32,
+    /// `execute`, `ignore` (not part of the task) or `skip` (out of reach).
+    pub decision: &'a str,
+    /// The place chosen, if any.
+    pub place: Option<&'a str>,
+    /// Posterior over places (from a model; empty otherwise).
+    pub posterior: &'a BTreeMap<String, f64>,
+    /// ln B10 of task relevance (from a model).
+    pub log_bayes_factor: Option<f64>,
+    /// The arm that picks and the arm that places (the same unless it is a hand-to-hand transfer).
+    pub arms: Option<[&'a str; 2]>,
+    /// Why.
+    pub reason: &'a str,
 }
 
 /// A [`RunLog`] that ignores everything.
@@ -231,6 +254,10 @@ impl ExecSink for RobotSink<'_> {
             .collect();
         l.log.percept(hw.time_secs(), p, &truth);
     }
+
+    fn step(&mut self, hw: &dyn Hardware, event: &schema::StepEvent<'_>) {
+        self.0.borrow_mut().log.step(hw.time_secs(), event);
+    }
 }
 
 /// What to do with one seen segment: a place or a reason to leave it.
@@ -420,6 +447,19 @@ pub fn execute_scene(
             };
             let place = match d.place {
                 Err(why) => {
+                    let t = plant.hw.time_secs();
+                    logger.borrow_mut().log.decision(
+                        t,
+                        &DecisionEvent {
+                            segment: d.segment,
+                            decision: "ignore",
+                            place: None,
+                            posterior: &d.posterior,
+                            log_bayes_factor: d.log_bayes_factor,
+                            arms: None,
+                            reason: &why,
+                        },
+                    );
                     reports.push(ObjectReport::not_executed(
                         label,
                         Some(d.segment),
@@ -460,11 +500,25 @@ pub fn execute_scene(
             let handoff = plant.handoff();
             let policy = PickPlacePolicy::decide(&*plant.hw, &ws, &segment_now.to_string(), &at, &place, handoff)?;
             let Some(mut policy) = policy else {
+                let why = format!("no arm reaches segment {}, or none reaches `{place}`", d.segment);
+                let t = plant.hw.time_secs();
+                logger.borrow_mut().log.decision(
+                    t,
+                    &DecisionEvent {
+                        segment: d.segment,
+                        decision: "skip",
+                        place: Some(&place),
+                        posterior: &d.posterior,
+                        log_bayes_factor: d.log_bayes_factor,
+                        arms: None,
+                        reason: &why,
+                    },
+                );
                 reports.push(ObjectReport::not_executed(
                     label,
                     Some(d.segment),
                     "skip",
-                    format!("no arm reaches segment {}, or none reaches `{place}`", d.segment),
+                    why,
                     Some(place),
                     d.posterior,
                     d.log_bayes_factor,
@@ -474,6 +528,21 @@ pub fn execute_scene(
                 continue;
             };
             let transfer = policy.is_transfer();
+            {
+                let t = plant.hw.time_secs();
+                logger.borrow_mut().log.decision(
+                    t,
+                    &DecisionEvent {
+                        segment: d.segment,
+                        decision: "execute",
+                        place: Some(&place),
+                        posterior: &d.posterior,
+                        log_bayes_factor: d.log_bayes_factor,
+                        arms: Some([policy.pick_arm.prefix(), policy.place_arm.prefix()]),
+                        reason: &d.reason,
+                    },
+                );
+            }
             plant.bind_arms(&[policy.pick_arm, policy.place_arm]);
             let arms_before = plant.arms_used.len();
             let exec = schema::execute(library, &schema, &mut plant, &mut policy, 20)?;

@@ -15,7 +15,9 @@
 
 use control_basis::Hardware;
 use control_basis::math::{Iso3, Vec3};
-use schema::{ActionOutcome, Binding, Library, MonitorBank, MonitorConfig, Percept, PlacePercept, SchemaPlant};
+use schema::{
+    ActionOutcome, Binding, Library, MonitorBank, MonitorConfig, Percept, PlacePercept, SchemaPlant, StepEvent,
+};
 use serde::{Deserialize, Serialize};
 
 use crate::arm::Arm;
@@ -150,6 +152,8 @@ pub trait ExecSink {
     fn tick(&mut self, _hw: &dyn Hardware, _activity: &str) {}
     /// Every percept.
     fn percept(&mut self, _hw: &dyn Hardware, _eyes: &Eyes, _percept: &Percept) {}
+    /// Where the executive stands, before each action and at a goal state.
+    fn step(&mut self, _hw: &dyn Hardware, _event: &StepEvent<'_>) {}
 }
 
 /// A sink that ignores everything.
@@ -484,6 +488,10 @@ impl SchemaPlant for RobotPlant<'_> {
 
     fn observe(&mut self) -> Result<Vec<bool>, RobotError> {
         Ok(self.last_x.clone())
+    }
+
+    fn step(&mut self, event: &StepEvent<'_>) {
+        self.sink.step(&*self.hw, event);
     }
 
     fn run(&mut self, action: &str, binding: &Binding) -> Result<ActionOutcome, RobotError> {

@@ -34,6 +34,9 @@ pub struct DemoOptions {
     pub out: PathBuf,
     /// Seed of every random choice.
     pub seed: u64,
+    /// Serve the demonstration and the execution live to Foxglove on this address (`HOST:PORT`);
+    /// `None`: no network listener.
+    pub live: Option<String>,
 }
 
 impl Default for DemoOptions {
@@ -41,6 +44,7 @@ impl Default for DemoOptions {
         DemoOptions {
             out: PathBuf::from("pbd-demo"),
             seed: 1,
+            live: None,
         }
     }
 }
@@ -66,10 +70,16 @@ pub struct DemoReport {
 pub fn demo(args: &DemoOptions, progress: &dyn Progress) -> Result<DemoReport> {
     let wall = std::time::Instant::now();
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let live = crate::live::LiveView::from_options(args.live.as_deref(), None)?;
     let demo = args.out.join("demo.mcap");
     let infer = args.out.join("demo.infer.json");
     let model = args.out.join("model.json");
     let run = args.out.join("run.mcap");
+    // The Foxglove layout beside the logs, for Layouts → Import from file.
+    crate::files::write_atomic(
+        &args.out.join("pbd-layout.json"),
+        crate::mcap_log::FOXGLOVE_LAYOUT.as_bytes(),
+    )?;
 
     progress.phase("1/4 record", None);
     let record = crate::record::record(
@@ -81,6 +91,7 @@ pub fn demo(args: &DemoOptions, progress: &dyn Progress) -> Result<DemoReport> {
             output: demo.clone(),
             // The head cameras at the percept rate, as JPEG with their calibration.
             images: true,
+            live_view: live.clone(),
             ..RecordOptions::default()
         },
         progress,
@@ -115,6 +126,7 @@ pub fn demo(args: &DemoOptions, progress: &dyn Progress) -> Result<DemoReport> {
             model: Some(model),
             seed: Some(args.seed),
             output: Some(run),
+            live_view: live.clone(),
             ..ExecuteOptions::default()
         },
         progress,
@@ -182,7 +194,7 @@ impl fmt::Display for DemoReport {
         }
         writeln!(
             f,
-            "done in {:.0} s. Files in {}: demo.mcap (+ demo.infer.mcap: open both in Foxglove), demo.infer.json, model.json, run.mcap",
+            "done in {:.0} s. Files in {}: demo.mcap (+ demo.infer.mcap: open both in Foxglove with the layout pbd-layout.json), demo.infer.json, model.json, run.mcap",
             self.wall_time,
             self.out.display()
         )?;

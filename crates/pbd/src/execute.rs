@@ -44,6 +44,13 @@ pub struct ExecuteOptions {
     pub seed: Option<u64>,
     /// Record the execution to this MCAP file.
     pub output: Option<PathBuf>,
+    /// Serve the run live to Foxglove on this address (`HOST:PORT`, e.g. `127.0.0.1:8765`) as well
+    /// as writing the log; `None`: no network listener.
+    pub live: Option<String>,
+    /// A live view already running (shared by several steps, e.g. `pbd demo`'s); takes precedence
+    /// over `live`. Not part of the serialised options.
+    #[serde(skip)]
+    pub live_view: Option<crate::live::LiveView>,
 }
 
 impl Default for ExecuteOptions {
@@ -57,6 +64,8 @@ impl Default for ExecuteOptions {
             library: None,
             seed: None,
             output: None,
+            live: None,
+            live_view: None,
         }
     }
 }
@@ -154,6 +163,61 @@ impl RunLog for McapRunLog<'_> {
         self.progress.should_stop()
     }
 
+    fn step(&mut self, t: f64, e: &schema::StepEvent<'_>) {
+        let Some(log) = self.log.as_mut() else {
+            return;
+        };
+        let names = e.library.action_names();
+        let x: serde_json::Map<String, serde_json::Value> = names
+            .iter()
+            .zip(e.x)
+            .map(|(n, b)| ((*n).to_owned(), serde_json::Value::Bool(*b)))
+            .collect();
+        let b = e.binding;
+        let msg = serde_json::json!({
+            "timestamp": crate::mcap_log::foxglove_time(t),
+            "schema": e.schema.name,
+            "state": e.schema.states.get(e.state).map_or("", |s| s.name.as_str()),
+            "state_index": e.state,
+            "action": e.action,
+            "arm": b.and_then(|b| b.arm.as_deref()).unwrap_or(""),
+            "place": b.and_then(|b| b.place.as_deref()).unwrap_or(""),
+            "transfer": b.is_some_and(|b| b.transfer),
+            "contingency": e.contingency.unwrap_or(""),
+            "x": x,
+        });
+        let schema = crate::mcap_log::schema_state_schema(&names);
+        let r = log.log_json(crate::mcap_log::TOPIC_SCHEMA_STATE, "pbd.SchemaState", &schema, t, &msg);
+        self.keep(r);
+    }
+
+    fn decision(&mut self, t: f64, d: &dexter_sim::execute::DecisionEvent<'_>) {
+        let Some(log) = self.log.as_mut() else {
+            return;
+        };
+        let [pick, place_arm] = d.arms.unwrap_or(["", ""]);
+        let msg = serde_json::json!({
+            "timestamp": crate::mcap_log::foxglove_time(t),
+            "segment": d.segment,
+            "decision": d.decision,
+            "place": d.place.unwrap_or(""),
+            "log_bayes_factor": d.log_bayes_factor,
+            "pick_arm": pick,
+            "place_arm": place_arm,
+            "transfer": d.arms.is_some_and(|[a, b]| a != b),
+            "posterior": d.posterior,
+            "reason": d.reason,
+        });
+        let r = log.log_json(
+            crate::mcap_log::TOPIC_DECISION,
+            "pbd.Decision",
+            &crate::mcap_log::decision_schema(),
+            t,
+            &msg,
+        );
+        self.keep(r);
+    }
+
     fn outcome(&mut self, t: f64, object: &str, success: bool) {
         if let Some(log) = self.log.as_mut() {
             let r = log.log_text(
@@ -223,10 +287,21 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
         }
         (None, None) => bail!("pass --demo demo.infer.json or --model model.json"),
     };
+    anyhow::ensure!(
+        args.output.is_some() || (args.live.is_none() && args.live_view.is_none()),
+        "--live streams the execution's log: pass --output FILE.mcap too"
+    );
     let log = match &args.output {
         Some(p) => {
             let sim = DexterSim::new(&scene, SimSettings::default())?;
             let mut log = McapLog::create(p)?;
+            if let Some(live) = crate::live::LiveView::from_options(args.live.as_deref(), args.live_view.as_ref())? {
+                progress.message(&format!(
+                    "live view on {} (Foxglove: Open connection → Foxglove WebSocket)",
+                    live.url()
+                ));
+                log.stream_to(live)?;
+            }
             log.attach("dexter.urdf", "application/xml", DEXTER_URDF.as_bytes())?;
             let mut meta = BTreeMap::new();
             meta.insert("command".to_string(), "execute".to_string());

@@ -253,13 +253,7 @@ fn write_companion(path: &Path, engine: &Engine, obs: &[Observation], file: &Inf
     let visits = engine.composite_path(obs)?;
     let names = engine.library().action_names();
     let mut log = McapLog::create(path)?;
-    let schema = serde_json::json!({
-        "type": "object",
-        "properties": {
-            "schema": {"type": "string"}, "state": {"type": "string"},
-            "state_index": {"type": "integer"}, "x": {"type": "object"}, "converged": {"type": "array"}
-        }
-    });
+    let schema = crate::mcap_log::schema_state_schema(&names);
     let mut v = 0;
     for o in obs {
         while v + 1 < visits.len() && visits[v].t_end < o.t {
@@ -295,11 +289,18 @@ fn write_companion(path: &Path, engine: &Engine, obs: &[Observation], file: &Inf
             })
             .collect();
         log.log_json(
-            "/pbd/schema_state",
+            crate::mcap_log::TOPIC_SCHEMA_STATE,
             "pbd.SchemaState",
             &schema,
             o.t,
-            &serde_json::json!({"schema": sch, "state": st, "state_index": state_index, "x": x, "converged": converged}),
+            &serde_json::json!({
+                "timestamp": crate::mcap_log::foxglove_time(o.t),
+                "schema": sch,
+                "state": st,
+                "state_index": state_index,
+                "x": x,
+                "converged": converged
+            }),
         )?;
     }
     for (i, inst) in file.inference.instances.iter().enumerate() {

@@ -67,6 +67,7 @@ pub mod grasp;
 pub mod infer;
 pub mod learn;
 pub mod limits;
+pub mod live;
 pub mod mcap_log;
 pub mod parallel;
 pub mod progress;

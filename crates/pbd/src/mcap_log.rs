@@ -81,6 +81,33 @@ pub const TOPIC_ROBOT: &str = "/robot";
 /// Fingertip forces as arrows (`foxglove.SceneUpdate`).
 pub const TOPIC_FINGERTIP_ARROWS: &str = "/fingertips/arrows";
 
+/// The Foxglove layout for pbd's logs (`assets/foxglove/pbd-layout.json`): the robot, scene and
+/// fingertip arrows in 3D, the left head camera, the schema state and ln B10 as plots, fingertip
+/// forces, the decisions and the log. Import it in Foxglove with Layouts → Import from file.
+pub const FOXGLOVE_LAYOUT: &str = include_str!("../../../assets/foxglove/pbd-layout.json");
+
+/// Where a schema stands, with its monitor observation (`pbd.SchemaState`): the inferred state
+/// of a demonstration (`pbd infer`'s companion log) or the executive's during an execution.
+pub const TOPIC_SCHEMA_STATE: &str = "/pbd/schema_state";
+/// The robot's decision per seen segment: relevance, place, arms (`pbd.Decision`).
+pub const TOPIC_DECISION: &str = "/pbd/decision";
+
+/// The JSON Schema of [`TOPIC_SCHEMA_STATE`] for a library with these action names.
+pub fn schema_state_schema(action_names: &[&str]) -> serde_json::Value {
+    schemas::schema_state(action_names)
+}
+
+/// Simulated time `t` (s) as a Foxglove `time` (`{sec, nsec}`), for messages written with
+/// [`McapLog::log_json`].
+pub fn foxglove_time(t: f64) -> serde_json::Value {
+    serde_json::to_value(Time::from_ns(time_ns(t))).unwrap_or(serde_json::Value::Null)
+}
+
+/// The JSON Schema of [`TOPIC_DECISION`].
+pub fn decision_schema() -> serde_json::Value {
+    schemas::decision()
+}
+
 /// The topic of a camera's images (`foxglove.CompressedImage` or `foxglove.RawImage`).
 pub fn camera_topic(camera_name: &str) -> String {
     format!("/camera/{camera_name}/image")
@@ -259,10 +286,20 @@ struct Channels {
 /// Schema ids of the camera topics, and each camera's channels (image, calibration).
 #[derive(Debug, Clone, Default)]
 struct CameraChannels {
-    raw: u16,
-    compressed: u16,
-    calibration: u16,
+    /// Schema ids and texts.
+    raw: (u16, Vec<u8>),
+    compressed: (u16, Vec<u8>),
+    calibration: (u16, Vec<u8>),
     by_name: HashMap<String, (u16, u16)>,
+}
+
+/// A channel as declared: what a live view needs to declare it too.
+#[derive(Debug, Clone)]
+struct ChannelInfo {
+    id: u16,
+    topic: String,
+    schema_name: String,
+    schema: Vec<u8>,
 }
 
 /// The fingertip arrows: sensor ids, their tip links in the frame tree, the arrows of this
@@ -288,6 +325,11 @@ pub struct McapLog {
     arrows: Arrows,
     /// Reused encoded-image buffer.
     image: Vec<u8>,
+    /// Every channel declared so far.
+    declared: Vec<ChannelInfo>,
+    /// Where messages are streamed too, and its channel for each of ours (by id).
+    live: Option<crate::live::LiveView>,
+    live_channels: Vec<Option<std::sync::Arc<foxglove::RawChannel>>>,
     /// Channels of [`McapLog::log_json`], by topic.
     json_channels: HashMap<String, u16>,
     /// Resolved from the last snapshot header.
@@ -346,10 +388,18 @@ impl McapLog {
         let mut writer = Writer::with_options(NoSeek::new(BufWriter::with_capacity(1 << 16, file)), write_options)
             .with_context(|| write_context(&path))?;
 
+        let mut declared: Vec<ChannelInfo> = Vec::new();
         let mut add = |topic: &str, schema_name: &str, schema: serde_json::Value| -> Result<u16> {
             let data = serde_json::to_vec(&schema)?;
             let schema_id = writer.add_schema(schema_name, "jsonschema", &data)?;
-            Ok(writer.add_channel(schema_id, topic, "json", &BTreeMap::new())?)
+            let id = writer.add_channel(schema_id, topic, "json", &BTreeMap::new())?;
+            declared.push(ChannelInfo {
+                id,
+                topic: topic.to_owned(),
+                schema_name: schema_name.to_owned(),
+                schema: data,
+            });
+            Ok(id)
         };
         let channels = (|| -> Result<Channels> {
             Ok(Channels {
@@ -365,8 +415,9 @@ impl McapLog {
         })()
         .with_context(|| write_context(&path))?;
         let cameras = (|| -> Result<CameraChannels> {
-            let mut schema = |name: &str, value: serde_json::Value| -> Result<u16> {
-                Ok(writer.add_schema(name, "jsonschema", &serde_json::to_vec(&value)?)?)
+            let mut schema = |name: &str, value: serde_json::Value| -> Result<(u16, Vec<u8>)> {
+                let data = serde_json::to_vec(&value)?;
+                Ok((writer.add_schema(name, "jsonschema", &data)?, data))
             };
             Ok(CameraChannels {
                 raw: schema("foxglove.RawImage", schemas::raw_image())?,
@@ -388,6 +439,9 @@ impl McapLog {
             tf_policy,
             arrows: Arrows::default(),
             image: Vec::new(),
+            declared,
+            live: None,
+            live_channels: Vec::new(),
             json_channels: HashMap::new(),
             frame_tree: None,
             last_activity: None,
@@ -402,6 +456,35 @@ impl McapLog {
     /// The file being written.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// Streams every message from now on to `live` as well (its clients see the same channels,
+    /// schemas and messages as the file).
+    pub fn stream_to(&mut self, live: crate::live::LiveView) -> Result<()> {
+        self.live = Some(live);
+        self.live_channels.clear();
+        for info in self.declared.clone() {
+            self.declare_live(&info)?;
+        }
+        Ok(())
+    }
+
+    /// Notes a new channel (and declares it to the live view).
+    fn declare(&mut self, info: ChannelInfo) -> Result<()> {
+        self.declare_live(&info)?;
+        self.declared.push(info);
+        Ok(())
+    }
+
+    fn declare_live(&mut self, info: &ChannelInfo) -> Result<()> {
+        let Some(live) = &self.live else { return Ok(()) };
+        let channel = live.channel(&info.topic, &info.schema_name, &info.schema)?;
+        let i = usize::from(info.id);
+        if self.live_channels.len() <= i {
+            self.live_channels.resize(i + 1, None);
+        }
+        self.live_channels[i] = Some(channel);
+        Ok(())
     }
 
     /// Logs one simulator snapshot: `/tf` (the links and objects that moved, all of them at a
@@ -617,14 +700,14 @@ impl McapLog {
             None => {
                 let writer = self.writer.as_mut().context("the MCAP log is finished")?;
                 let schema = match format {
-                    ImageFormat::Raw => self.cameras.raw,
-                    _ => self.cameras.compressed,
+                    ImageFormat::Raw => &self.cameras.raw,
+                    _ => &self.cameras.compressed,
                 };
                 let channels = writer
-                    .add_channel(schema, &camera_topic(camera_name), "json", &BTreeMap::new())
+                    .add_channel(schema.0, &camera_topic(camera_name), "json", &BTreeMap::new())
                     .and_then(|image| {
                         let calibration = writer.add_channel(
-                            self.cameras.calibration,
+                            self.cameras.calibration.0,
                             &calibration_topic(camera_name),
                             "json",
                             &BTreeMap::new(),
@@ -633,6 +716,27 @@ impl McapLog {
                     })
                     .with_context(|| write_context(&self.path))?;
                 self.cameras.by_name.insert(camera_name.to_owned(), channels);
+                let image_schema = match format {
+                    ImageFormat::Raw => ("foxglove.RawImage", &self.cameras.raw.1),
+                    _ => ("foxglove.CompressedImage", &self.cameras.compressed.1),
+                };
+                let infos = [
+                    ChannelInfo {
+                        id: channels.0,
+                        topic: camera_topic(camera_name),
+                        schema_name: image_schema.0.to_owned(),
+                        schema: image_schema.1.clone(),
+                    },
+                    ChannelInfo {
+                        id: channels.1,
+                        topic: calibration_topic(camera_name),
+                        schema_name: "foxglove.CameraCalibration".to_owned(),
+                        schema: self.cameras.calibration.1.clone(),
+                    },
+                ];
+                for info in infos {
+                    self.declare(info)?;
+                }
                 channels
             }
         };
@@ -721,6 +825,12 @@ impl McapLog {
                     .and_then(|id| writer.add_channel(id, topic, "json", &BTreeMap::new()))
                     .with_context(|| write_context(&self.path))?;
                 self.json_channels.insert(topic.to_owned(), c);
+                self.declare(ChannelInfo {
+                    id: c,
+                    topic: topic.to_owned(),
+                    schema_name: schema_name.to_owned(),
+                    schema: data,
+                })?;
                 c
             }
         };
@@ -788,6 +898,11 @@ impl McapLog {
         writer
             .write_to_known_channel(&header, &self.json)
             .with_context(|| write_context(&self.path))?;
+        if let Some(live) = &self.live
+            && let Some(Some(channel)) = self.live_channels.get(usize::from(channel_id))
+        {
+            live.publish(channel, log_time, &self.json);
+        }
         self.sequence = self.sequence.wrapping_add(1);
         self.last_time_ns = self.last_time_ns.max(log_time);
         let (opened, bytes) = self.open_chunk.get_or_insert_with(|| (Instant::now(), 0));

@@ -90,6 +90,13 @@ pub struct RecordOptions {
     pub percept_hz: f64,
     /// Longest recording (s of simulated time).
     pub max_seconds: f64,
+    /// Serve the run live to Foxglove on this address (`HOST:PORT`, e.g. `127.0.0.1:8765`) as well
+    /// as writing the log; `None`: no network listener.
+    pub live: Option<String>,
+    /// A live view already running (shared by several steps, e.g. `pbd demo`'s); takes precedence
+    /// over `live`. Not part of the serialised options.
+    #[serde(skip)]
+    pub live_view: Option<crate::live::LiveView>,
 }
 
 impl Default for RecordOptions {
@@ -111,6 +118,8 @@ impl Default for RecordOptions {
             log_hz: 30.0,
             percept_hz: 10.0,
             max_seconds: 600.0,
+            live: None,
+            live_view: None,
         }
     }
 }
@@ -469,6 +478,13 @@ pub fn record(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordRep
             ..Default::default()
         },
     )?;
+    if let Some(live) = crate::live::LiveView::from_options(args.live.as_deref(), args.live_view.as_ref())? {
+        progress.message(&format!(
+            "live view on {} (Foxglove: Open connection → Foxglove WebSocket)",
+            live.url()
+        ));
+        log.stream_to(live)?;
+    }
     log.attach("dexter.urdf", "application/xml", DEXTER_URDF.as_bytes())?;
     let mut meta: BTreeMap<String, String> = BTreeMap::new();
     meta.insert("command".into(), "record".into());

@@ -18,6 +18,7 @@ fn same_seed_gives_identical_files_on_two_runs_and_any_number_of_threads() {
     let options = DemoOptions {
         out: out.clone(),
         seed: 3,
+        ..DemoOptions::default()
     };
     let first = demo(&options, &Quiet).unwrap();
     let (infer_1, model_1) = (read(&out.join("demo.infer.json")), read(&out.join("model.json")));

@@ -41,6 +41,30 @@ pub trait SchemaPlant {
     fn observe(&mut self) -> Result<Vec<bool>, Self::Error>;
     /// Runs `action` with `binding` until it converges, fails or times out.
     fn run(&mut self, action: &str, binding: &Binding) -> Result<ActionOutcome, Self::Error>;
+    /// Told where the executive stands before each action (and once at a goal state), for logs
+    /// and viewers. The default ignores it.
+    fn step(&mut self, _event: &StepEvent<'_>) {}
+}
+
+/// Where the executive stands: the state it found the world in from observation `x`, and what it
+/// is about to do there (see [`SchemaPlant::step`]).
+#[derive(Debug, Clone, Copy)]
+pub struct StepEvent<'a> {
+    /// The library (its actions name the entries of `x`).
+    pub library: &'a Library,
+    /// The schema being executed.
+    pub schema: &'a Schema,
+    /// Index of the state into `schema.states`.
+    pub state: usize,
+    /// The observation the state was judged from (one entry per library action: its monitor
+    /// set converged).
+    pub x: &'a [bool],
+    /// The action π chose; empty at a goal state.
+    pub action: &'a str,
+    /// ψ's binding (`None` at a goal state).
+    pub binding: Option<&'a Binding>,
+    /// The contingency edge taken into this state, if any.
+    pub contingency: Option<&'a str>,
 }
 
 /// The procedural policy ψ: binds an abstract action in a schema state to resources.
@@ -145,6 +169,15 @@ pub fn execute<P: SchemaPlant>(
             }
         }
         if schema.is_goal(state) {
+            plant.step(&StepEvent {
+                library,
+                schema,
+                state,
+                x: &x,
+                action: "",
+                binding: None,
+                contingency: entered_by.as_deref(),
+            });
             return Ok(ExecReport {
                 schema: schema.name.clone(),
                 steps,
@@ -156,6 +189,15 @@ pub fn execute<P: SchemaPlant>(
         let action = &library.actions[schema.policy[state]].name;
         let binding = policy.bind(schema, &schema.states[state].name, action);
         last_transfer = binding.transfer;
+        plant.step(&StepEvent {
+            library,
+            schema,
+            state,
+            x: &x,
+            action,
+            binding: Some(&binding),
+            contingency: entered_by.as_deref(),
+        });
         let outcome = plant.run(action, &binding).map_err(plant_error)?;
         steps.push(ExecStep {
             state: schema.states[state].name.clone(),

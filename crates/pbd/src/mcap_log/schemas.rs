@@ -549,3 +549,91 @@ pub(super) fn camera_calibration() -> Value {
         ],
     )
 }
+
+/// `pbd.SchemaState`: where a schema stands (inferred from a demonstration, or the executive's own
+/// during an execution), with the monitor observation `x` it was judged from, one boolean per
+/// library action (named in `action_names`), so that each plots as a 0/1 line.
+pub(super) fn schema_state(action_names: &[&str]) -> Value {
+    let x: Vec<(&str, Value)> = action_names.iter().map(|n| (*n, boolean())).collect();
+    described(
+        object(
+            "pbd.SchemaState",
+            &[
+                ("timestamp", described(time(), "Simulated time")),
+                ("schema", described(string(), "The schema (`gap` between instances)")),
+                ("state", described(string(), "The state's name")),
+                (
+                    "state_index",
+                    described(
+                        json!({ "type": "integer" }),
+                        "Index of the state in the schema; -1 in a gap",
+                    ),
+                ),
+                (
+                    "action",
+                    described(
+                        string(),
+                        "The action chosen in this state (executions; empty at a goal)",
+                    ),
+                ),
+                ("arm", described(string(), "ψ's arm (executions)")),
+                ("place", described(string(), "ψ's place (executions)")),
+                (
+                    "transfer",
+                    described(boolean(), "ψ bound a hand-to-hand transfer (executions)"),
+                ),
+                (
+                    "contingency",
+                    described(string(), "The contingency edge taken into this state, if any"),
+                ),
+                (
+                    "x",
+                    described(
+                        object("", &x, &[]),
+                        "Monitor observation: which actions' predicates hold",
+                    ),
+                ),
+            ],
+            &["timestamp", "schema", "state", "state_index", "x"],
+        ),
+        "Where a schema stands",
+    )
+}
+
+/// `pbd.Decision`: what the robot decided for one seen segment, before acting on it.
+pub(super) fn decision() -> Value {
+    described(
+        object(
+            "pbd.Decision",
+            &[
+                ("timestamp", described(time(), "Simulated time")),
+                ("segment", described(uint(), "The robot's segment (track id)")),
+                (
+                    "decision",
+                    described(
+                        string(),
+                        "`execute`, `ignore` (not part of the task) or `skip` (out of reach)",
+                    ),
+                ),
+                ("place", described(string(), "The place chosen (empty if none)")),
+                (
+                    "log_bayes_factor",
+                    described(number(), "ln B10 of task relevance (a model's decision)"),
+                ),
+                ("pick_arm", described(string(), "The arm that picks")),
+                (
+                    "place_arm",
+                    described(string(), "The arm that places (differs for a hand-to-hand transfer)"),
+                ),
+                ("transfer", described(boolean(), "A hand-to-hand transfer")),
+                (
+                    "posterior",
+                    described(json!({ "type": "object" }), "Posterior over places"),
+                ),
+                ("reason", described(string(), "Why")),
+            ],
+            &["timestamp", "segment", "decision", "reason"],
+        ),
+        "A decision of the robot on one seen segment",
+    )
+}

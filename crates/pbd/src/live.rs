@@ -1,0 +1,185 @@
+//! # Live view: a run streamed to Foxglove over its WebSocket protocol while it happens
+//!
+//! A [`LiveView`] is a Foxglove WebSocket server (the `foxglove` SDK, protocol
+//! `foxglove.sdk.v1`, the successor of `foxglove.websocket.v1`) that carries the same channels, schemas and JSON messages as the MCAP
+//! log: every [`McapLog`](crate::mcap_log::McapLog) it is attached to with
+//! [`McapLog::stream_to`](crate::mcap_log::McapLog::stream_to) sends each message both to the file
+//! and to the connected clients. Writing the file does not change. In Foxglove: *Open connection →
+//! Foxglove WebSocket → `ws://127.0.0.1:8765`*, then import `assets/foxglove/pbd-layout.json`.
+//!
+//! - **Off unless asked**: nothing listens until [`LiveView::start`]. The CLI binds `127.0.0.1`
+//!   (this machine only) unless `--bind` says otherwise.
+//! - **Late joiners see the world**: the robot and the scene are written once per run (`/robot`,
+//!   `/scene`); the live view keeps the last message of each and sends it again
+//!   [`LATCHED_HZ`] times per second of wall-clock time, so a client that connects in the middle
+//!   of a run draws the robot and the table at once.
+//! - **Time**: messages carry the simulated time (ns from the start of the run) as their log
+//!   time, as in the file.
+//! - One view may serve several logs in turn (`pbd demo`: the demonstration, then the
+//!   execution): channels are shared by topic.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context as _, Result};
+use foxglove::{ChannelBuilder, Context, PartialMetadata, RawChannel, Schema, WebSocketServer, WebSocketServerHandle};
+
+/// How often the latched topics (`/robot`, `/scene`) are sent again (per second of wall-clock time).
+pub const LATCHED_HZ: f64 = 30.0;
+
+/// Topics whose last message is sent again to clients (see the module documentation).
+const LATCHED: [&str; 2] = [crate::mcap_log::TOPIC_ROBOT, crate::mcap_log::TOPIC_SCENE];
+
+/// The default address of `--live`: this machine only, Foxglove's usual port.
+pub const DEFAULT_BIND: &str = "127.0.0.1:8765";
+
+/// A running Foxglove WebSocket server that logs stream to; cheap to clone (all clones are the
+/// same server). The server stops when the last clone is dropped.
+#[derive(Clone)]
+pub struct LiveView {
+    inner: Arc<Mutex<Inner>>,
+    port: u16,
+    host: String,
+}
+
+struct Inner {
+    context: Arc<Context>,
+    server: Option<WebSocketServerHandle>,
+    /// Channels by topic.
+    channels: HashMap<String, Arc<RawChannel>>,
+    /// The last message of each latched topic, with its log time.
+    latched: HashMap<String, (Vec<u8>, u64)>,
+    last_latched: Option<Instant>,
+}
+
+impl Drop for Inner {
+    fn drop(&mut self) {
+        if let Some(server) = self.server.take() {
+            // Closes the listener and the client connections; do not wait for them.
+            drop(server.stop());
+        }
+    }
+}
+
+impl std::fmt::Debug for LiveView {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LiveView")
+            .field("url", &self.url())
+            .finish_non_exhaustive()
+    }
+}
+
+impl PartialEq for LiveView {
+    /// The same server.
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.inner, &other.inner)
+    }
+}
+
+impl LiveView {
+    /// Starts a server on `bind` (`host:port`; port 0 picks a free one, see [`LiveView::port`]).
+    pub fn start(bind: &str) -> Result<Self> {
+        let (host, port) = bind
+            .rsplit_once(':')
+            .and_then(|(h, p)| Some((h.trim_start_matches('[').trim_end_matches(']'), p.parse::<u16>().ok()?)))
+            .with_context(|| format!("--bind `{bind}`: expected HOST:PORT, e.g. {DEFAULT_BIND}"))?;
+        anyhow::ensure!(!host.is_empty(), "--bind `{bind}`: no host; e.g. {DEFAULT_BIND}");
+        let context = Context::new();
+        let server = WebSocketServer::new()
+            .name("pbd")
+            .bind(host, port)
+            .context(&context)
+            .start_blocking()
+            .with_context(|| format!("cannot start the live view on {bind}"))?;
+        let port = server.port();
+        Ok(Self {
+            inner: Arc::new(Mutex::new(Inner {
+                context,
+                server: Some(server),
+                channels: HashMap::new(),
+                latched: HashMap::new(),
+                last_latched: None,
+            })),
+            port,
+            host: host.to_owned(),
+        })
+    }
+
+    /// The view to stream to: `view` if given, else a new one on `bind`, else none.
+    pub fn from_options(bind: Option<&str>, view: Option<&LiveView>) -> Result<Option<LiveView>> {
+        match (view, bind) {
+            (Some(v), _) => Ok(Some(v.clone())),
+            (None, Some(b)) => Self::start(b).map(Some),
+            (None, None) => Ok(None),
+        }
+    }
+
+    /// The port the server listens on.
+    pub fn port(&self) -> u16 {
+        self.port
+    }
+
+    /// `ws://host:port`, what a Foxglove client connects to.
+    pub fn url(&self) -> String {
+        if self.host.contains(':') {
+            format!("ws://[{}]:{}", self.host, self.port)
+        } else {
+            format!("ws://{}:{}", self.host, self.port)
+        }
+    }
+
+    /// Connected clients.
+    pub fn clients(&self) -> usize {
+        self.lock().server.as_ref().map_or(0, |s| s.client_count())
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Inner> {
+        // A panic while holding the lock leaves plain data behind: keep serving.
+        self.inner.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Declares a channel (once per topic; later declarations of the same topic reuse it).
+    pub(crate) fn channel(&self, topic: &str, schema_name: &str, schema: &[u8]) -> Result<Arc<RawChannel>> {
+        let mut inner = self.lock();
+        if let Some(c) = inner.channels.get(topic) {
+            return Ok(c.clone());
+        }
+        let channel = ChannelBuilder::new(topic)
+            .message_encoding("json")
+            .schema(Schema::new(schema_name, "jsonschema", schema.to_vec()))
+            .context(&inner.context)
+            .build_raw()
+            .with_context(|| format!("live view: cannot declare {topic}"))?;
+        inner.channels.insert(topic.to_owned(), channel.clone());
+        Ok(channel)
+    }
+
+    /// Sends one message on `channel` to the subscribed clients; keeps the latest message of
+    /// the latched topics and sends those again when they are due.
+    pub(crate) fn publish(&self, channel: &RawChannel, log_time: u64, data: &[u8]) {
+        channel.log_with_meta(data, PartialMetadata::with_log_time(log_time));
+        let mut inner = self.lock();
+        let topic = channel.topic();
+        if LATCHED.contains(&topic) {
+            let entry = inner.latched.entry(topic.to_owned()).or_default();
+            entry.0.clear();
+            entry.0.extend_from_slice(data);
+            entry.1 = log_time;
+            return;
+        }
+        let due = inner
+            .last_latched
+            .is_none_or(|t| t.elapsed() >= Duration::from_secs_f64(1.0 / LATCHED_HZ));
+        if due && !inner.latched.is_empty() {
+            inner.last_latched = Some(Instant::now());
+            let Inner { channels, latched, .. } = &*inner;
+            for (topic, (msg, _)) in latched {
+                if let Some(c) = channels.get(topic) {
+                    // Stamped now (the latest log time), so that the client keeps them current.
+                    c.log_with_meta(msg, PartialMetadata::with_log_time(log_time));
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,127 @@
+//! The live view: a Foxglove WebSocket client on 127.0.0.1 sees the log's channels and receives
+//! `/tf`, and the latched `/scene` and `/robot` again while the run goes on.
+
+use std::collections::HashMap;
+use std::net::TcpStream;
+use std::time::Duration;
+
+use dexter_sim::physics::{DexterSim, SimSettings};
+use dexter_sim::scene::Scene;
+use pbd::live::LiveView;
+use pbd::mcap_log::{McapLog, TOPIC_ROBOT, TOPIC_SCENE, TOPIC_TF};
+use serde_json::Value;
+use tungstenite::client::IntoClientRequest;
+use tungstenite::http::HeaderValue;
+use tungstenite::stream::MaybeTlsStream;
+use tungstenite::{Message, WebSocket};
+
+type Client = WebSocket<MaybeTlsStream<TcpStream>>;
+
+fn connect(live: &LiveView) -> Client {
+    let mut request = live.url().into_client_request().unwrap();
+    request
+        .headers_mut()
+        .insert("Sec-WebSocket-Protocol", HeaderValue::from_static("foxglove.sdk.v1"));
+    let (client, response) = tungstenite::connect(request).expect("the live view accepts a client");
+    assert_eq!(
+        response
+            .headers()
+            .get("Sec-WebSocket-Protocol")
+            .map(|v| v.to_str().unwrap()),
+        Some("foxglove.sdk.v1")
+    );
+    if let MaybeTlsStream::Plain(s) = client.get_ref() {
+        s.set_read_timeout(Some(Duration::from_millis(200))).unwrap();
+    }
+    client
+}
+
+/// Reads until nothing arrives for a read timeout; text messages are parsed, binary message-data
+/// frames (opcode 1, subscription id, log time, payload) are counted by subscription.
+fn drain(client: &mut Client, texts: &mut Vec<Value>, counts: &mut HashMap<u32, usize>) {
+    loop {
+        match client.read() {
+            Ok(Message::Text(t)) => texts.push(serde_json::from_str(&t).unwrap()),
+            Ok(Message::Binary(b)) => {
+                assert_eq!(b[0], 1, "message data");
+                let sub = u32::from_le_bytes(b[1..5].try_into().unwrap());
+                serde_json::from_slice::<Value>(&b[13..]).expect("the payload is the log's JSON");
+                *counts.entry(sub).or_default() += 1;
+            }
+            Ok(_) => {}
+            Err(tungstenite::Error::Io(e))
+                if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) =>
+            {
+                return;
+            }
+            Err(e) => panic!("{e}"),
+        }
+    }
+}
+
+#[test]
+fn a_foxglove_client_watches_the_run_as_it_is_logged() {
+    let live = LiveView::start("127.0.0.1:0").unwrap();
+    assert!(live.url().starts_with("ws://127.0.0.1:"));
+    let scene = Scene::builtin("sorting").unwrap();
+    let sim = DexterSim::new(&scene, SimSettings::default()).unwrap();
+    let path = std::env::temp_dir().join(format!("pbd-live-{}.mcap", std::process::id()));
+    let mut log = McapLog::create(&path).unwrap();
+    log.stream_to(live.clone()).unwrap();
+    log.log_scene(&scene, sim.header(), 0.0).unwrap();
+    log.log_robot(sim.model(), 0.0).unwrap();
+
+    // A client that joins after the robot and the scene were written.
+    let mut client = connect(&live);
+    let (mut texts, mut counts) = (Vec::new(), HashMap::new());
+    drain(&mut client, &mut texts, &mut counts);
+    let channels: HashMap<String, u64> = texts
+        .iter()
+        .filter(|t| t["op"] == "advertise")
+        .flat_map(|t| t["channels"].as_array().unwrap().clone())
+        .map(|c| (c["topic"].as_str().unwrap().to_owned(), c["id"].as_u64().unwrap()))
+        .collect();
+    for t in [TOPIC_TF, TOPIC_SCENE, TOPIC_ROBOT] {
+        assert!(channels.contains_key(t), "{t} advertised: {channels:?}");
+    }
+    let subscriptions: Vec<Value> = [TOPIC_TF, TOPIC_SCENE, TOPIC_ROBOT]
+        .iter()
+        .enumerate()
+        .map(|(i, t)| serde_json::json!({ "id": i, "channelId": channels[*t] }))
+        .collect();
+    let subscribe = serde_json::json!({ "op": "subscribe", "subscriptions": subscriptions });
+    client.send(Message::text(subscribe.to_string())).unwrap();
+    drain(&mut client, &mut texts, &mut counts);
+
+    // 20 snapshots a second of simulated time apart (each a /tf keyframe), 50 ms of wall time apart.
+    let header = sim.header().clone();
+    let mut snap = sim.snapshot("");
+    for i in 0..20 {
+        snap.time = f64::from(i);
+        log.log_snapshot(&header, &snap).unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    drain(&mut client, &mut texts, &mut counts);
+    log.finish().unwrap();
+    let _ = std::fs::remove_file(&path);
+
+    assert_eq!(
+        counts.get(&0).copied().unwrap_or(0),
+        20,
+        "every /tf message: {counts:?}"
+    );
+    // Written once each, sent again while the run goes on (up to 30 times a second).
+    for (sub, topic) in [(1, TOPIC_SCENE), (2, TOPIC_ROBOT)] {
+        let n = counts.get(&sub).copied().unwrap_or(0);
+        assert!(n >= 5, "{topic} received {n} times: {counts:?}");
+    }
+    assert_eq!(live.clients(), 1);
+}
+
+#[test]
+fn a_bad_bind_address_is_refused_with_a_message() {
+    for bad in ["nonsense", "127.0.0.1:99999", ":8765", "127.0.0.1:"] {
+        let e = LiveView::start(bad).unwrap_err();
+        assert!(format!("{e:#}").contains(bad), "{bad}: {e:#}");
+    }
+}
