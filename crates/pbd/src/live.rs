@@ -10,9 +10,9 @@
 //! - **Off unless asked**: nothing listens until [`LiveView::start`]. The CLI binds `127.0.0.1`
 //!   (this machine only) unless `--bind` says otherwise.
 //! - **Late joiners see the world**: the robot and the scene are written once per run (`/robot`,
-//!   `/scene`); the live view keeps the last message of each and sends it again
+//!   `/scene`); the live view keeps the last message of each and a thread sends it again
 //!   [`LATCHED_HZ`] times per second of wall-clock time, so a client that connects in the middle
-//!   of a run draws the robot and the table at once.
+//!   of a run (or between its steps) draws the robot and the table at once.
 //! - **Time**: messages carry the simulated time (ns from the start of the run) as their log
 //!   time, as in the file.
 //! - One view may serve several logs in turn (`pbd demo`: the demonstration, then the
@@ -25,11 +25,15 @@ use std::time::{Duration, Instant};
 use anyhow::{Context as _, Result};
 use foxglove::{ChannelBuilder, Context, PartialMetadata, RawChannel, Schema, WebSocketServer, WebSocketServerHandle};
 
-/// How often the latched topics (`/robot`, `/scene`) are sent again (per second of wall-clock time).
-pub const LATCHED_HZ: f64 = 30.0;
+/// How often the latched topics (`/robot`, `/scene`) are sent again (per second of wall-clock time),
+/// by a thread of the live view, whether or not the run is logging at that moment.
+pub const LATCHED_HZ: f64 = 40.0;
 
 /// Topics whose last message is sent again to clients (see the module documentation).
 const LATCHED: [&str; 2] = [crate::mcap_log::TOPIC_ROBOT, crate::mcap_log::TOPIC_SCENE];
+
+/// Messages queued per client; a viewer slower than the run loses the oldest beyond this.
+pub const MESSAGE_BACKLOG: usize = 4096;
 
 /// The default address of `--live`: this machine only, Foxglove's usual port.
 pub const DEFAULT_BIND: &str = "127.0.0.1:8765";
@@ -48,9 +52,21 @@ struct Inner {
     server: Option<WebSocketServerHandle>,
     /// Channels by topic.
     channels: HashMap<String, Arc<RawChannel>>,
-    /// The last message of each latched topic, with its log time.
-    latched: HashMap<String, (Vec<u8>, u64)>,
-    last_latched: Option<Instant>,
+    /// The last message of each latched topic.
+    latched: HashMap<String, Vec<u8>>,
+    /// The latest log time sent (ns).
+    last_time: u64,
+}
+
+impl Inner {
+    /// Sends the latched messages again, stamped with the latest log time.
+    fn resend_latched(&self) {
+        for (topic, msg) in &self.latched {
+            if let Some(c) = self.channels.get(topic) {
+                c.log_with_meta(msg, PartialMetadata::with_log_time(self.last_time));
+            }
+        }
+    }
 }
 
 impl Drop for Inner {
@@ -89,18 +105,38 @@ impl LiveView {
         let server = WebSocketServer::new()
             .name("pbd")
             .bind(host, port)
+            .message_backlog_size(MESSAGE_BACKLOG)
             .context(&context)
             .start_blocking()
             .with_context(|| format!("cannot start the live view on {bind}"))?;
         let port = server.port();
+        let inner = Arc::new(Mutex::new(Inner {
+            context,
+            server: Some(server),
+            channels: HashMap::new(),
+            latched: HashMap::new(),
+            last_time: 0,
+        }));
+        // Re-sends the latched topics until the last clone of the view is dropped.
+        let weak = Arc::downgrade(&inner);
+        std::thread::Builder::new()
+            .name("pbd-live-latched".into())
+            .spawn(move || {
+                let period = Duration::from_secs_f64(1.0 / LATCHED_HZ);
+                let mut next = Instant::now() + period;
+                while let Some(inner) = weak.upgrade() {
+                    inner
+                        .lock()
+                        .unwrap_or_else(std::sync::PoisonError::into_inner)
+                        .resend_latched();
+                    drop(inner);
+                    std::thread::sleep(next.saturating_duration_since(Instant::now()));
+                    next += period;
+                }
+            })
+            .context("live view: cannot start its thread")?;
         Ok(Self {
-            inner: Arc::new(Mutex::new(Inner {
-                context,
-                server: Some(server),
-                channels: HashMap::new(),
-                latched: HashMap::new(),
-                last_latched: None,
-            })),
+            inner,
             port,
             host: host.to_owned(),
         })
@@ -155,31 +191,17 @@ impl LiveView {
         Ok(channel)
     }
 
-    /// Sends one message on `channel` to the subscribed clients; keeps the latest message of
-    /// the latched topics and sends those again when they are due.
+    /// Sends one message on `channel` to the subscribed clients; keeps the latest message of the
+    /// latched topics for the thread that sends them again.
     pub(crate) fn publish(&self, channel: &RawChannel, log_time: u64, data: &[u8]) {
         channel.log_with_meta(data, PartialMetadata::with_log_time(log_time));
         let mut inner = self.lock();
+        inner.last_time = log_time;
         let topic = channel.topic();
         if LATCHED.contains(&topic) {
-            let entry = inner.latched.entry(topic.to_owned()).or_default();
-            entry.0.clear();
-            entry.0.extend_from_slice(data);
-            entry.1 = log_time;
-            return;
-        }
-        let due = inner
-            .last_latched
-            .is_none_or(|t| t.elapsed() >= Duration::from_secs_f64(1.0 / LATCHED_HZ));
-        if due && !inner.latched.is_empty() {
-            inner.last_latched = Some(Instant::now());
-            let Inner { channels, latched, .. } = &*inner;
-            for (topic, (msg, _)) in latched {
-                if let Some(c) = channels.get(topic) {
-                    // Stamped now (the latest log time), so that the client keeps them current.
-                    c.log_with_meta(msg, PartialMetadata::with_log_time(log_time));
-                }
-            }
+            let msg = inner.latched.entry(topic.to_owned()).or_default();
+            msg.clear();
+            msg.extend_from_slice(data);
         }
     }
 }
