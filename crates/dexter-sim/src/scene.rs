@@ -1068,7 +1068,7 @@ fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result
     }
     let parse_error = |e: toml::de::Error| SimError::Parse {
         path: path.to_path_buf(),
-        message: e.to_string().trim_end().to_string(),
+        message: toml_error_line(&e, text),
     };
     let head: Versioned = toml::from_str(text).map_err(parse_error)?;
     if let Some(toml::Value::Integer(v)) = head.version
@@ -1077,6 +1077,32 @@ fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result
         return Err(Check { path }.version_error(v));
     }
     toml::from_str(text).map_err(parse_error)
+}
+
+/// A TOML error on one line, `line L, column C: message (at `the source line`)`: toml's own text
+/// quotes the source over several lines, which a one-line `error:` cannot hold.
+fn toml_error_line(e: &toml::de::Error, text: &str) -> String {
+    let message = e.message().split_whitespace().collect::<Vec<_>>().join(" ");
+    match e.span().and_then(|span| text.get(..span.start)) {
+        Some(before) => {
+            let line = before.matches('\n').count() + 1;
+            let column = before.rsplit('\n').next().unwrap_or("").chars().count() + 1;
+            let source: String = text
+                .lines()
+                .nth(line - 1)
+                .unwrap_or("")
+                .trim()
+                .chars()
+                .take(80)
+                .collect();
+            if source.is_empty() {
+                format!("line {line}, column {column}: {message}")
+            } else {
+                format!("line {line}, column {column}: {message} (at `{source}`)")
+            }
+        }
+        None => message,
+    }
 }
 
 /// Appends "(in `name`)" to an [`SimError::Invalid`] message.

@@ -105,11 +105,18 @@ impl TeleopStream {
             path: path.to_path_buf(),
             source: e,
         })?;
+        TeleopStream::parse(&text, path)
+    }
+
+    /// Parses and validates a teleop stream held in memory; `path` names it in errors and picks the
+    /// format as [`TeleopStream::load`] does (`.csv`: CSV, anything else: JSON lines).
+    pub fn parse(text: &str, path: impl AsRef<Path>) -> Result<TeleopStream, SimError> {
+        let path = path.as_ref();
         let csv = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
         let (stream, lines) = if csv {
-            Self::parse_csv(&text, path)?
+            Self::parse_csv(text, path)?
         } else {
-            Self::parse_jsonl(&text, path)?
+            Self::parse_jsonl(text, path)?
         };
         stream.validate_lines(path, &lines)?;
         Ok(stream)

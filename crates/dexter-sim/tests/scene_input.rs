@@ -844,3 +844,24 @@ fn no_input_makes_the_loaders_panic() {
         }
     }
 }
+
+/// toml's error text quotes the source over several lines; `pbd` prints one `error:` line
+/// (issue 18's bad-input sweep found the multi-line ones).
+#[test]
+fn toml_errors_are_one_line_with_line_column_and_source() {
+    for text in [
+        "[[[ = = ]]]",
+        "",
+        "version = 1\nmass = \"heavy\"\n",
+        "version = 1\n[table\n",
+    ] {
+        let e = Scene::from_toml_str(text, "s.toml").unwrap_err().to_string();
+        assert_eq!(e.lines().count(), 1, "{e}");
+        let e = Catalog::from_toml_str(text, Path::new("c.toml"))
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
+    let e = Scene::from_toml_str("version = 1\nseed = \"x\"\n", "s.toml").unwrap_err();
+    assert_parse(&e, "s.toml", &["line 2", "seed"]);
+}

@@ -246,18 +246,7 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
     let decider = match (&args.demo, &args.model) {
         (Some(path), _) => {
             let text = bayes::input::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
-            let file: InferFile =
-                serde_json::from_str(&text).with_context(|| format!("{} is not an inference file", path.display()))?;
-            if file.format != crate::infer::INFER_FORMAT || file.version != crate::infer::INFER_VERSION {
-                bail!(
-                    "{}: format {} v{} is not {} v{}",
-                    path.display(),
-                    file.format,
-                    file.version,
-                    crate::infer::INFER_FORMAT,
-                    crate::infer::INFER_VERSION
-                );
-            }
+            let file = InferFile::from_json(&text, &path.display().to_string())?;
             let schema = file.inference.posterior.map.clone();
             if schema != "pick_and_place" {
                 bail!(

@@ -15,7 +15,7 @@ use anyhow::{Context, Result, bail};
 use schema::{Engine, Inference, InferenceConfig, Library, MonitorBank, MonitorConfig, Observation, Percept};
 use serde::{Deserialize, Serialize};
 
-use crate::mcap_log::{FileStatus, LogLevel, McapLog, read_recording};
+use crate::mcap_log::{FileStatus, LogLevel, McapLog, Recording, read_recording};
 use crate::progress::Progress;
 use crate::record::{TOPIC_PERCEPT, TOPIC_TRUTH};
 
@@ -79,6 +79,23 @@ pub struct InferFile {
     pub truth: Vec<Option<TruthNote>>,
 }
 
+impl InferFile {
+    /// Parses and validates an inference file (`pbd infer`'s output); `origin` names it in errors.
+    pub fn from_json(text: &str, origin: &str) -> Result<InferFile> {
+        let file: InferFile = serde_json::from_str(text)
+            .with_context(|| format!("{origin} is not an inference file (from `pbd infer`)"))?;
+        if file.format != INFER_FORMAT || file.version != INFER_VERSION {
+            bail!(
+                "{origin}: format `{}` version {} is not `{INFER_FORMAT}` version {INFER_VERSION}",
+                file.format,
+                file.version,
+            );
+        }
+        file.inference.check(origin)?;
+        Ok(file)
+    }
+}
+
 /// True object positions over time: (t, [(label, position)]).
 pub type TruthTrack = Vec<(f64, Vec<(String, [f64; 3])>)>;
 
@@ -94,6 +111,12 @@ struct Truth {
 /// Reads percepts (and ground truth, if present) from a recording.
 pub fn read_percepts(path: &Path) -> Result<Demonstration> {
     let rec = read_recording(path, &[TOPIC_PERCEPT, TOPIC_TRUTH])?;
+    demonstration_from(&rec, path)
+}
+
+/// The percepts, truth, metadata and warnings of a recording already read (the topics
+/// [`TOPIC_PERCEPT`] and [`TOPIC_TRUTH`] at least); `path` names it in errors and warnings.
+pub fn demonstration_from(rec: &Recording, path: &Path) -> Result<Demonstration> {
     let mut warnings = Vec::new();
     if let Some(FileStatus::Recovered { messages, reason }) = &rec.status {
         warnings.push(format!(

@@ -106,19 +106,7 @@ pub fn examples_from(path: &Path, progress: &dyn Progress) -> Result<Vec<Example
         }
     } else {
         let text = bayes::input::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
-        let file: InferFile = serde_json::from_str(&text)
-            .with_context(|| format!("{} is not an inference file (from `pbd infer`)", path.display()))?;
-        if file.format != INFER_FORMAT || file.version != crate::infer::INFER_VERSION {
-            bail!(
-                "{}: format `{}` version {} is not `{INFER_FORMAT}` version {}",
-                path.display(),
-                file.format,
-                file.version,
-                crate::infer::INFER_VERSION
-            );
-        }
-        file.inference.check(&path.display().to_string())?;
-        file
+        InferFile::from_json(&text, &path.display().to_string())?
     };
     let mut out = Vec::new();
     for (i, inst) in file.inference.instances.iter().enumerate() {

@@ -1025,7 +1025,33 @@ const READ_RECORD_LIMIT: usize = 1 << 30;
 /// summarised and [`Summary::status`] says [`FileStatus::Recovered`]. Errors are for files that
 /// cannot be opened or read, or are not MCAP at all.
 pub fn read_summary(path: impl AsRef<Path>) -> Result<Summary> {
-    let path = path.as_ref();
+    summarise(Source::File(path.as_ref()))
+}
+
+/// [`read_summary`] of an MCAP file held in memory (`bytes` is the whole file); errors name it
+/// `<memory>`. For fuzzing and for callers that already hold the bytes.
+pub fn read_summary_bytes(bytes: &[u8]) -> Result<Summary> {
+    summarise(Source::Bytes(bytes))
+}
+
+/// Where [`scan`] reads an MCAP file from.
+#[derive(Debug, Clone, Copy)]
+enum Source<'a> {
+    File(&'a Path),
+    Bytes(&'a [u8]),
+}
+
+impl Source<'_> {
+    /// The name errors give the input.
+    fn name(&self) -> String {
+        match self {
+            Source::File(path) => path.display().to_string(),
+            Source::Bytes(_) => "<memory>".to_owned(),
+        }
+    }
+}
+
+fn summarise(source: Source<'_>) -> Result<Summary> {
     let mut schemas: HashMap<u16, String> = HashMap::new();
     // channel id -> index into `channels`
     let mut channel_index: HashMap<u16, usize> = HashMap::new();
@@ -1042,7 +1068,7 @@ pub fn read_summary(path: impl AsRef<Path>) -> Result<Summary> {
         skipped_chunks: Vec::new(),
     };
     let mut stats = None;
-    let (file_bytes, status, skipped) = scan(path, &mut |record| match record {
+    let (file_bytes, status, skipped) = scan(source, &mut |record| match record {
         Record::Schema { header, .. } => {
             schemas.insert(header.id, header.name);
         }
@@ -1121,17 +1147,38 @@ pub fn read_summary(path: impl AsRef<Path>) -> Result<Summary> {
 /// return value, and reading goes on with the next one. Returns the file size, how the file ended
 /// (`Recovered` carries 0 messages; callers count their own) and the skipped chunks. Errors: the file
 /// cannot be read, or not one record could be parsed (not MCAP).
-fn scan(path: &Path, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStatus, Vec<String>)> {
-    let context = || format!("cannot read MCAP log {}", path.display());
-    let mut file = File::open(path).with_context(context)?;
-    let file_bytes = file.metadata().with_context(context)?.len();
+fn scan(source: Source<'_>, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStatus, Vec<String>)> {
+    match source {
+        Source::File(path) => {
+            let context = || format!("cannot read MCAP log {}", path.display());
+            let mut file = File::open(path).with_context(context)?;
+            let file_bytes = file.metadata().with_context(context)?.len();
+            scan_from(&mut file, file_bytes, &source.name(), visit)
+        }
+        Source::Bytes(bytes) => scan_from(
+            &mut std::io::Cursor::new(bytes),
+            bytes.len() as u64,
+            &source.name(),
+            visit,
+        ),
+    }
+}
+
+fn scan_from<R: Read + std::io::Seek>(
+    file: &mut R,
+    file_bytes: u64,
+    name: &str,
+    visit: &mut dyn FnMut(Record<'_>),
+) -> Result<(u64, FileStatus, Vec<String>)> {
+    let context = || format!("cannot read MCAP log {name}");
     // Chunks are handed to us whole, so that one bad chunk costs its own messages only; the data
     // section CRC would fail for any bad chunk, so the chunks' own CRCs are the check.
     let options = LinearReaderOptions::default()
         .with_emit_chunks(true)
         .with_validate_data_section_crc(false)
         .with_validate_summary_section_crc(true)
-        .with_record_length_limit(READ_RECORD_LIMIT);
+        // No record is longer than the file: a corrupt length fails here, before a buffer is grown.
+        .with_record_length_limit(READ_RECORD_LIMIT.min(usize::try_from(file_bytes).unwrap_or(usize::MAX)));
     let mut reader = LinearReader::new_with_options(options);
     let mut records_read = 0_u64;
     let mut chunks = 0_usize;
@@ -1144,7 +1191,7 @@ fn scan(path: &Path, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStat
                 reader.notify_read(n);
                 continue;
             }
-            Ok(LinearReadEvent::Record { opcode, data }) => mcap::parse_record(opcode, data),
+            Ok(LinearReadEvent::Record { opcode, data }) => parse_record(opcode, data),
             Err(e) => Err(e),
         };
         match record {
@@ -1172,12 +1219,12 @@ fn scan(path: &Path, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStat
     if records_read == 0
         && let Some(e) = &stop
     {
-        return Err(anyhow::anyhow!("{e}")).with_context(|| format!("{} is not an MCAP file", path.display()));
+        return Err(anyhow::anyhow!("{}", describe(e))).with_context(|| format!("{name} is not an MCAP file"));
     }
     // A complete file ends with the magic right after its footer: bytes after it are not MCAP
     // (an append, a concatenation) and are reported, never read.
     if stop.is_none() && file_bytes >= 8 {
-        use std::io::{Seek, SeekFrom};
+        use std::io::SeekFrom;
         let mut tail = [0u8; 8];
         file.seek(SeekFrom::End(-8)).with_context(context)?;
         file.read_exact(&mut tail).with_context(context)?;
@@ -1197,11 +1244,175 @@ fn scan(path: &Path, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStat
                 mcap::McapError::UnexpectedEof => {
                     "the file ends before its footer (the writer did not finish)".to_owned()
                 }
-                e => e.to_string(),
+                // The length limit is the file size: the last record was cut short.
+                mcap::McapError::RecordTooLarge { len, .. } if len > file_bytes => {
+                    format!("the file ends before its footer (a record of {len} bytes runs past its end)")
+                }
+                e => describe(&e),
             },
         },
     };
     Ok((file_bytes, status, skipped))
+}
+
+/// `mcap::parse_record` after [`check_lengths`]: the crate reserves a string's or a byte array's
+/// declared length before reading it, so a corrupt 4-byte length once asked for 4 GB.
+fn parse_record(opcode: u8, body: &[u8]) -> std::result::Result<Record<'_>, mcap::McapError> {
+    check_lengths(opcode, body)
+        .map_err(|why| mcap::McapError::Io(std::io::Error::new(std::io::ErrorKind::InvalidData, why)))?;
+    mcap::parse_record(opcode, body)
+}
+
+/// An MCAP error as a reason: our own length errors (an `Io` of kind `InvalidData`) with their text.
+fn describe(e: &mcap::McapError) -> String {
+    match e {
+        mcap::McapError::Io(io) if io.kind() == std::io::ErrorKind::InvalidData => io.to_string(),
+        e => e.to_string(),
+    }
+}
+
+/// Checks that every length prefix in a record body (strings, byte arrays, maps, and the strings
+/// inside string maps) fits in the body, following the record layouts of the MCAP specification.
+/// Unknown opcodes are not checked (the crate keeps their bodies as they are).
+fn check_lengths(opcode: u8, body: &[u8]) -> std::result::Result<(), String> {
+    #[derive(Clone, Copy)]
+    enum F {
+        /// A fixed-size integer of this many bytes.
+        Int(usize),
+        /// A string or byte array with a u32 length.
+        Bytes32,
+        /// A byte array with a u64 length.
+        Bytes64,
+        /// A map or array with a u32 byte length, of fixed-size entries.
+        Table,
+        /// A map<string, string> with a u32 byte length.
+        StringMap,
+    }
+    use F::*;
+    let (record, fields): (&str, &[(&str, F)]) = match opcode {
+        0x01 => ("header", &[("profile", Bytes32), ("library", Bytes32)]),
+        0x03 => (
+            "schema",
+            &[
+                ("id", Int(2)),
+                ("name", Bytes32),
+                ("encoding", Bytes32),
+                ("data", Bytes32),
+            ],
+        ),
+        0x04 => (
+            "channel",
+            &[
+                ("id", Int(2)),
+                ("schema_id", Int(2)),
+                ("topic", Bytes32),
+                ("message_encoding", Bytes32),
+                ("metadata", StringMap),
+            ],
+        ),
+        0x06 => (
+            "chunk",
+            &[
+                ("message_start_time", Int(8)),
+                ("message_end_time", Int(8)),
+                ("uncompressed_size", Int(8)),
+                ("uncompressed_crc", Int(4)),
+                ("compression", Bytes32),
+                ("records", Bytes64),
+            ],
+        ),
+        0x07 => ("message index", &[("channel_id", Int(2)), ("records", Table)]),
+        0x08 => (
+            "chunk index",
+            &[
+                ("times", Int(16)),
+                ("chunk_start_offset", Int(8)),
+                ("chunk_length", Int(8)),
+                ("message_index_offsets", Table),
+                ("message_index_length", Int(8)),
+                ("compression", Bytes32),
+                ("sizes", Int(16)),
+            ],
+        ),
+        0x09 => (
+            "attachment",
+            &[
+                ("times", Int(16)),
+                ("name", Bytes32),
+                ("media_type", Bytes32),
+                ("data", Bytes64),
+                ("crc", Int(4)),
+            ],
+        ),
+        0x0A => (
+            "attachment index",
+            &[
+                ("offsets and times", Int(40)),
+                ("name", Bytes32),
+                ("media_type", Bytes32),
+            ],
+        ),
+        0x0B => (
+            "statistics",
+            &[
+                ("counts", Int(26)),
+                ("times", Int(16)),
+                ("channel_message_counts", Table),
+            ],
+        ),
+        0x0C => ("metadata", &[("name", Bytes32), ("metadata", StringMap)]),
+        0x0D => ("metadata index", &[("offset and length", Int(16)), ("name", Bytes32)]),
+        _ => return Ok(()),
+    };
+    let mut rest = body;
+    let take = |rest: &mut &[u8], n: u64, field: &str| -> std::result::Result<(), String> {
+        match usize::try_from(n).ok().filter(|&n| n <= rest.len()) {
+            Some(n) => {
+                *rest = &rest[n..];
+                Ok(())
+            }
+            None => Err(format!(
+                "{record} record: field `{field}` claims {n} bytes, {} are left in the record",
+                rest.len()
+            )),
+        }
+    };
+    let read_len = |rest: &mut &[u8], width: usize, field: &str| -> std::result::Result<u64, String> {
+        if rest.len() < width {
+            return Err(format!("{record} record: field `{field}` is cut short"));
+        }
+        let mut b = [0u8; 8];
+        b[..width].copy_from_slice(&rest[..width]);
+        *rest = &rest[width..];
+        Ok(u64::from_le_bytes(b))
+    };
+    for &(field, kind) in fields {
+        match kind {
+            Int(n) => take(&mut rest, n as u64, field)?,
+            Bytes32 | Table => {
+                let n = read_len(&mut rest, 4, field)?;
+                take(&mut rest, n, field)?;
+            }
+            Bytes64 => {
+                let n = read_len(&mut rest, 8, field)?;
+                take(&mut rest, n, field)?;
+            }
+            StringMap => {
+                let n = read_len(&mut rest, 4, field)?;
+                let mut map = rest;
+                take(&mut map, n, field)?;
+                let mut entries = &rest[..rest.len() - map.len()];
+                rest = map;
+                while !entries.is_empty() {
+                    for part in ["key", "value"] {
+                        let n = read_len(&mut entries, 4, &format!("{field} {part}"))?;
+                        take(&mut entries, n, &format!("{field} {part}"))?;
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Decompresses one chunk, checks its CRC and hands its records to `visit`; nothing is visited when
@@ -1261,7 +1472,7 @@ fn visit_chunk(
         let body = rest
             .get(9..9usize.saturating_add(len))
             .ok_or_else(|| "a record runs past the chunk's end".to_string())?;
-        records.push(mcap::parse_record(opcode, body).map_err(|e| e.to_string())?);
+        records.push(parse_record(opcode, body).map_err(|e| describe(&e))?);
         rest = &rest[9 + len..];
     }
     for r in records {
@@ -1287,7 +1498,7 @@ pub fn repair(path: impl AsRef<Path>, out: impl AsRef<Path>) -> Result<u64> {
     let mut channel_ids: HashMap<u16, u16> = HashMap::new();
     let mut count = 0u64;
     let mut failure: Option<anyhow::Error> = None;
-    let scanned = scan(path, &mut |record| {
+    let scanned = scan(Source::File(path), &mut |record| {
         if failure.is_some() {
             return;
         }
@@ -1376,11 +1587,20 @@ impl Recording {
 /// MCAP file at `path`. A file cut short keeps everything up to its last complete chunk;
 /// [`Recording::status`] says so.
 pub fn read_recording(path: impl AsRef<Path>, topics: &[&str]) -> Result<Recording> {
-    let path = path.as_ref();
+    record_of(Source::File(path.as_ref()), topics)
+}
+
+/// [`read_recording`] of an MCAP file held in memory (`bytes` is the whole file); errors name it
+/// `<memory>`.
+pub fn read_recording_bytes(bytes: &[u8], topics: &[&str]) -> Result<Recording> {
+    record_of(Source::Bytes(bytes), topics)
+}
+
+fn record_of(source: Source<'_>, topics: &[&str]) -> Result<Recording> {
     let mut wanted: HashMap<u16, String> = HashMap::new();
     let mut schemas: HashMap<u16, (String, String)> = HashMap::new();
     let mut rec = Recording::default();
-    let (_, status, skipped) = scan(path, &mut |record| match record {
+    let (_, status, skipped) = scan(source, &mut |record| match record {
         Record::Schema { header, .. } => {
             schemas.insert(header.id, (header.name, header.encoding));
         }

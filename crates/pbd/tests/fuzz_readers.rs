@@ -1,6 +1,6 @@
 //! Every reader driven with generated bad input (proptest, on stable): valid files of each format
 //! mutated — bytes flipped, the file cut, bytes inserted or deleted, numbers replaced by extremes,
-//! NaN, infinities, wrong types. Each read ends in `Ok` or a typed error, never a panic; a read never
+//! NaN, infinities, wrong types, lines (keys, rows) dropped or repeated — and arbitrary bytes. Each read ends in `Ok` or a typed error, never a panic; a read never
 //! changes its input; `learn` leaves either a complete model file or none.
 //!
 //! 48 cases per reader run in `cargo test`; `PBD_FUZZ_CASES=5000 cargo test --release -p pbd --test
@@ -45,6 +45,10 @@ enum Edit {
     Delete(usize, usize),
     /// Replace the k-th number (digit run) by a weird token.
     Number(usize, usize),
+    /// Drop the k-th line (a key of a TOML table or of pretty-printed JSON, a CSV row).
+    DropLine(usize),
+    /// Duplicate the k-th line (a key given twice, a repeated row).
+    DuplicateLine(usize),
 }
 
 fn edit() -> impl Strategy<Value = Edit> {
@@ -54,6 +58,8 @@ fn edit() -> impl Strategy<Value = Edit> {
         (any::<usize>(), proptest::collection::vec(any::<u8>(), 1..16)).prop_map(|(p, b)| Edit::Insert(p, b)),
         (any::<usize>(), 1usize..64).prop_map(|(p, n)| Edit::Delete(p, n)),
         (any::<usize>(), 0..WEIRD.len()).prop_map(|(k, w)| Edit::Number(k, w)),
+        any::<usize>().prop_map(Edit::DropLine),
+        any::<usize>().prop_map(Edit::DuplicateLine),
     ]
 }
 
@@ -86,9 +92,35 @@ fn apply(base: &[u8], edits: &[Edit]) -> Vec<u8> {
                     v.splice(a..b, WEIRD[*w].bytes());
                 }
             }
+            Edit::DropLine(k) | Edit::DuplicateLine(k) => {
+                let lines = line_spans(&v);
+                let (a, b) = lines[k % lines.len()];
+                if matches!(e, Edit::DropLine(_)) {
+                    v.drain(a..b);
+                } else {
+                    let line = v[a..b].to_vec();
+                    v.splice(b..b, line);
+                }
+            }
         }
     }
     v
+}
+
+/// Byte ranges of the lines, each with its newline (at least one, maybe empty).
+fn line_spans(v: &[u8]) -> Vec<(usize, usize)> {
+    let mut spans = Vec::new();
+    let mut a = 0;
+    for (i, &b) in v.iter().enumerate() {
+        if b == b'\n' {
+            spans.push((a, i + 1));
+            a = i + 1;
+        }
+    }
+    if a < v.len() || spans.is_empty() {
+        spans.push((a, v.len()));
+    }
+    spans
 }
 
 fn digit_runs(v: &[u8]) -> Vec<(usize, usize)> {
@@ -257,5 +289,95 @@ proptest! {
     fn urdf_never_panics(edits in proptest::collection::vec(edit(), 1..3)) {
         let bytes = apply(DEXTER_URDF.as_bytes(), &edits);
         let _ = pbd::control_basis::RobotModel::from_urdf_str(&String::from_utf8_lossy(&bytes));
+    }
+
+    /// The in-memory readers the fuzz targets drive (`fuzz/`), on mutated files: MCAP read from
+    /// bytes, then the demonstration in it; inference JSON parsed and checked.
+    #[test]
+    fn in_memory_readers_never_panic(edits in proptest::collection::vec(edit(), 1..4)) {
+        let bytes = apply(&recorded().0, &edits);
+        let _ = pbd::mcap_log::read_summary_bytes(&bytes);
+        if let Ok(rec) = pbd::mcap_log::read_recording_bytes(&bytes, &[]) {
+            let _ = pbd::infer::demonstration_from(&rec, Path::new("fuzz.mcap"));
+        }
+        let json = apply(&recorded().1, &edits);
+        let _ = pbd::infer::InferFile::from_json(&String::from_utf8_lossy(&json), "fuzz.infer.json");
+    }
+
+    /// `doctor --repair` of a damaged recording: a complete copy or an error, and no file left
+    /// behind on an error.
+    #[test]
+    fn repair_never_panics(edits in proptest::collection::vec(edit(), 1..3)) {
+        let p = file("demo.mcap", &apply(&recorded().0, &edits));
+        let out = p.with_file_name("repaired.mcap");
+        match read_unchanged(&p, |p| pbd::mcap_log::repair(p, &out)) {
+            Ok(_) => prop_assert!(pbd::mcap_log::read_summary(&out).is_ok()),
+            Err(_) => prop_assert!(!out.exists()),
+        }
+    }
+}
+
+/// Valid seeds of every text format, for the arbitrary-bytes tests to splice from.
+fn text_seeds() -> Vec<Vec<u8>> {
+    vec![
+        text("assets/scenes/pick-place.toml"),
+        text("assets/objects/household.toml"),
+        text("crates/py/tests/data/sorting-model.json"),
+        recorded().1.clone(),
+        format!(
+            "{}\n0.0,right,0.5,-0.2,1.0,0,0,0,1,0.3\n",
+            pbd::dexter_sim::teleop::CSV_HEADER
+        )
+        .into_bytes(),
+    ]
+}
+
+/// Every in-memory reader on `bytes`.
+fn read_all(bytes: &[u8]) {
+    let _ = pbd::mcap_log::read_summary_bytes(bytes);
+    if let Ok(rec) = pbd::mcap_log::read_recording_bytes(bytes, &[]) {
+        let _ = pbd::infer::demonstration_from(&rec, Path::new("fuzz.mcap"));
+    }
+    let text = String::from_utf8_lossy(bytes);
+    let _ = Scene::from_toml_str(&text, repo().join("assets/scenes/fuzz.toml"));
+    let _ = Catalog::from_toml_str(&text, Path::new("fuzz-catalog.toml"));
+    if let Ok(model) = pbd::schema::procedural::ProceduralModel::from_json(&text, "fuzz.json") {
+        let _ = model.explain();
+    }
+    let _ = pbd::grasp_topics::GraspModel::from_json_str(&text);
+    let _ = pbd::grasp_topics::Corpus::from_json_str(&text);
+    let _ = pbd::infer::InferFile::from_json(&text, "fuzz.infer.json");
+    let _ = TeleopStream::parse(&text, "fuzz.csv");
+    let _ = TeleopStream::parse(&text, "fuzz.jsonl");
+    let _ = pbd::control_basis::RobotModel::from_urdf_str(&text);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PBD_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(128),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    /// Arbitrary bytes through every reader.
+    #[test]
+    fn arbitrary_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..512)) {
+        read_all(&bytes);
+    }
+
+    /// Arbitrary bytes after the start of a valid file of each format (the reader gets past the
+    /// header or first keys), and the MCAP magic followed by garbage.
+    #[test]
+    fn valid_prefix_then_garbage_never_panics(
+        which in 0usize..6,
+        cut in any::<usize>(),
+        tail in proptest::collection::vec(any::<u8>(), 0..256),
+    ) {
+        let mut seeds = text_seeds();
+        seeds.push(recorded().0[..recorded().0.len().min(4096)].to_vec());
+        let seed = &seeds[which];
+        let mut bytes = seed[..cut % (seed.len() + 1)].to_vec();
+        bytes.extend_from_slice(&tail);
+        read_all(&bytes);
     }
 }

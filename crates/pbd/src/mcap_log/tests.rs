@@ -943,3 +943,42 @@ fn the_robot_is_drawn_and_fingertip_forces_are_arrows_at_the_tips() {
     let length = a["shaft_length"].as_f64().unwrap() + a["head_length"].as_f64().unwrap();
     assert!((length - 4.0 * ARROW_M_PER_N).abs() < 1e-12);
 }
+
+/// A record whose string length says 4 GB once made the `mcap` crate reserve 4 GB before reading
+/// it (found by `cargo fuzz run mcap_reader`): the lengths are checked against the record first.
+#[test]
+fn huge_string_lengths_are_refused_before_any_allocation() {
+    let record = |opcode: u8, body: &[u8]| {
+        let mut r = vec![opcode];
+        r.extend_from_slice(&(body.len() as u64).to_le_bytes());
+        r.extend_from_slice(body);
+        r
+    };
+    // A header whose profile claims 0xF3000000 bytes: not one record parses, so not MCAP.
+    let mut bytes = mcap::MAGIC.to_vec();
+    bytes.extend(record(0x01, &[0x00, 0x00, 0x00, 0xF3, 0, 0, 0, 0]));
+    let e = format!("{:#}", read_summary_bytes(&bytes).unwrap_err());
+    assert!(
+        e.contains("header record: field `profile` claims 4076863488 bytes"),
+        "{e}"
+    );
+    // A valid header, then metadata whose map entry claims 4 GB: the file is read up to it.
+    let mut bytes = mcap::MAGIC.to_vec();
+    bytes.extend(record(0x01, &[0; 8]));
+    let mut metadata = vec![1, 0, 0, 0, b'm'];
+    metadata.extend_from_slice(&8u32.to_le_bytes());
+    metadata.extend_from_slice(&[0xFF, 0xFF, 0xFF, 0xFF, 0, 0, 0, 0]);
+    bytes.extend(record(0x0C, &metadata));
+    let s = read_summary_bytes(&bytes).unwrap();
+    match s.status {
+        FileStatus::Recovered { reason, .. } => {
+            assert!(
+                reason.contains("metadata record: field `metadata key` claims"),
+                "{reason}"
+            )
+        }
+        other => panic!("{other:?}"),
+    }
+    let r = read_recording_bytes(&bytes, &[]).unwrap();
+    assert!(r.metadata.is_empty());
+}
