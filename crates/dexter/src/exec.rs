@@ -111,6 +111,10 @@ const CLEAR_RADIUS: f64 = 0.25;
 /// rolling object is not let go on the wall.
 const WALL_ROOM: f64 = 0.03;
 
+/// Smallest horizontal distance (m) from the handoff spot to where a reach did not converge: the
+/// arm that failed there may have to take the object at the handoff spot.
+const UNREACHED_CLEARANCE: f64 = 0.25;
+
 /// Segments within this distance (m) of the transferred object's position are that object.
 const MERGE_RADIUS: f64 = 0.05;
 
@@ -177,6 +181,9 @@ pub struct RobotPlant<'a> {
     /// The arms the procedural policy bound (None: all); see [`RobotPlant::bind_arms`].
     bound_arms: Option<Vec<String>>,
     handoff: [f64; 2],
+    /// Where reaches to an object did not converge (x, y): a transfer's handoff spot keeps clear
+    /// of them.
+    unreached: Vec<[f64; 2]>,
     sink: &'a mut dyn ExecSink,
     t0: f64,
     next_percept: f64,
@@ -228,6 +235,7 @@ impl<'a> RobotPlant<'a> {
             held: None,
             bound_arms: None,
             handoff: [workspace.table_center[0].min(0.55), 0.0],
+            unreached: Vec::new(),
             sink,
             t0,
             next_percept: 0.0,
@@ -344,6 +352,10 @@ impl<'a> RobotPlant<'a> {
                 let free = others
                     .iter()
                     .all(|o| (o[0] - c[0]).hypot(o[1] - c[1]) >= HANDOFF_CLEARANCE)
+                    && self
+                        .unreached
+                        .iter()
+                        .all(|o| (o[0] - c[0]).hypot(o[1] - c[1]) >= UNREACHED_CLEARANCE)
                     && ws.places.iter().all(|p| {
                         (c[0] - p.center[0]).abs() > p.size[0] / 2.0 + p.wall_thickness + 0.08
                             || (c[1] - p.center[1]).abs() > p.size[1] / 2.0 + p.wall_thickness + 0.08
@@ -488,6 +500,12 @@ impl SchemaPlant for RobotPlant<'_> {
 
     fn run(&mut self, action: &str, binding: &Binding) -> Result<ActionOutcome, RobotError> {
         let table_z = self.workspace.table_z;
+        // ψ bound another arm (after a failure): observe its monitors too.
+        if let (Some(bound), Some(arm)) = (self.bound_arms.as_mut(), binding.arm.as_ref())
+            && !bound.contains(arm)
+        {
+            bound.push(arm.clone());
+        }
         let outcome = match action {
             "search_track" => ActionOutcome::Converged,
             "reach_object" => {
@@ -540,7 +558,12 @@ impl SchemaPlant for RobotPlant<'_> {
                         self.plan = Some(p);
                         ActionOutcome::Converged
                     }
-                    Err(why) => ActionOutcome::Failed(why),
+                    Err(why) => {
+                        if why.contains("not reached") || why.contains("out of reach") {
+                            self.unreached.push([target.x, target.y]);
+                        }
+                        ActionOutcome::Failed(why)
+                    }
                 }
             }
             "grasp" => {
@@ -555,7 +578,14 @@ impl SchemaPlant for RobotPlant<'_> {
                             self.grasp_palm = Some(self.reach[k].tool_pose(self.hw));
                             ActionOutcome::Converged
                         }
-                        Err(why) => ActionOutcome::Failed(why),
+                        Err(why) => {
+                            // Closed on nothing (the object is not where it was seen): open and back
+                            // off, so that the next reach starts above the table with an open hand.
+                            self.with_observer(|hw, reach, hand, obs| {
+                                release_and_retreat(hw, &mut reach[k], &hand[k], obs)
+                            })?;
+                            ActionOutcome::Failed(why)
+                        }
                     }
                 }
             }
@@ -595,6 +625,12 @@ impl SchemaPlant for RobotPlant<'_> {
                     return Ok(ActionOutcome::Failed("nothing held to place (no hold yet)".into()));
                 };
                 let (target, wall) = if binding.transfer {
+                    if !self.unreached.is_empty() {
+                        // A reach failed somewhere: the handoff spot must keep clear of there (the
+                        // arm that failed may be the one to take the object).
+                        let palm = self.reach[k].tool_pose(self.hw).translation.vector;
+                        self.plan_handoff(&palm)?;
+                    }
                     (self.handoff, 0.0)
                 } else {
                     let name = binding.place.as_deref().ok_or_else(|| RobotError::Binding {
@@ -702,6 +738,14 @@ pub struct PickPlacePolicy {
     /// The arm that places (differs from `pick_arm` for a transfer).
     pub place_arm: Arm,
     transferred: bool,
+    /// Arms whose palm reaches above the object, the place and the handoff spot (when decided).
+    at_object: Vec<Arm>,
+    at_place: Vec<Arm>,
+    at_handoff: Vec<Arm>,
+    /// Arms whose reach to the object did not converge.
+    failed_arms: Vec<Arm>,
+    /// ψ's rebindings after failures, in order (`other_arm`, `hand_over`, `gave_up: …`).
+    pub rebindings: Vec<String>,
 }
 
 impl PickPlacePolicy {
@@ -723,33 +767,50 @@ impl PickPlacePolicy {
             table_z,
             &Vec3::new(p.center[0], p.center[1], table_z + p.wall_height),
         )?;
-        let both: Vec<Arm> = at_object.iter().copied().filter(|a| at_place.contains(a)).collect();
-        // Prefer the arm on the object's side.
-        let side = if object_at.y >= 0.0 { Arm::Left } else { Arm::Right };
-        let pick = |v: &[Arm]| v.iter().copied().find(|&a| a == side).or_else(|| v.first().copied());
-        if let Some(arm) = pick(&both) {
-            return Ok(Some(PickPlacePolicy {
-                object: object.into(),
-                place: place.into(),
-                pick_arm: arm,
-                place_arm: arm,
-                transferred: false,
-            }));
-        }
         let hand_spot = Vec3::new(handoff[0], handoff[1], table_z);
         let at_handoff = arms_reaching(hw, table_z, &hand_spot)?;
-        let a = at_object.iter().copied().find(|a| at_handoff.contains(a));
-        let b = at_place.iter().copied().find(|b| at_handoff.contains(b));
-        Ok(match (a, b) {
-            (Some(a), Some(b)) => Some(PickPlacePolicy {
-                object: object.into(),
-                place: place.into(),
-                pick_arm: a,
-                place_arm: b,
-                transferred: false,
-            }),
-            _ => None,
-        })
+        let mut policy = PickPlacePolicy {
+            object: object.into(),
+            place: place.into(),
+            pick_arm: Arm::Left,
+            place_arm: Arm::Left,
+            transferred: false,
+            at_object,
+            at_place,
+            at_handoff,
+            failed_arms: Vec::new(),
+            rebindings: Vec::new(),
+        };
+        // Prefer the arm on the object's side.
+        let side = if object_at.y >= 0.0 { Arm::Left } else { Arm::Right };
+        Ok(policy.assign(side).map(|_| policy))
+    }
+
+    /// Assigns the arms among those not known to fail: one arm that reaches both the object and the
+    /// place (`side`'s first), else a transfer through the handoff spot. `None` if neither exists.
+    fn assign(&mut self, side: Arm) -> Option<()> {
+        let usable: Vec<Arm> = self
+            .at_object
+            .iter()
+            .copied()
+            .filter(|a| !self.failed_arms.contains(a))
+            .collect();
+        let both: Vec<Arm> = usable.iter().copied().filter(|a| self.at_place.contains(a)).collect();
+        if let Some(arm) = both
+            .iter()
+            .copied()
+            .find(|&a| a == side)
+            .or_else(|| both.first().copied())
+        {
+            self.pick_arm = arm;
+            self.place_arm = arm;
+            return Some(());
+        }
+        let a = usable.iter().copied().find(|a| self.at_handoff.contains(a))?;
+        let b = self.at_place.iter().copied().find(|b| self.at_handoff.contains(b))?;
+        self.pick_arm = a;
+        self.place_arm = b;
+        Some(())
     }
 
     /// Whether this assignment needs a transfer.
@@ -759,6 +820,35 @@ impl PickPlacePolicy {
 }
 
 impl schema::ProceduralPolicy for PickPlacePolicy {
+    /// A reach to the object that did not converge (the arm could not get there: its path is
+    /// blocked, or the object is out of its reach) binds another arm that reaches the object — the
+    /// same arm for the place if it reaches that too, else a hand-over through the handoff spot to
+    /// an arm that reaches the place (§3.3.3, 5.31–5.32).
+    fn failed(&mut self, _schema: &schema::Schema, _state: &str, action: &str, binding: &Binding, why: &str) {
+        let not_reached = why.contains("not reached") || why.contains("out of reach");
+        if action != "reach_object" || !not_reached || self.transferred {
+            return;
+        }
+        let Some(arm) = binding.arm.as_deref().and_then(Arm::parse) else {
+            return;
+        };
+        if arm != self.pick_arm || self.failed_arms.contains(&arm) {
+            return;
+        }
+        self.failed_arms.push(arm);
+        let (pick, place) = (self.pick_arm, self.place_arm);
+        match self.assign(arm) {
+            Some(()) if self.pick_arm == self.place_arm => self.rebindings.push("other_arm".into()),
+            Some(()) => self.rebindings.push("hand_over".into()),
+            None => {
+                self.pick_arm = pick;
+                self.place_arm = place;
+                self.rebindings
+                    .push(format!("gave_up: no other arm reaches the object ({why})"));
+            }
+        }
+    }
+
     fn bind(&mut self, _schema: &schema::Schema, state: &str, action: &str) -> Binding {
         if state == "transfer_placed" {
             self.transferred = true;
