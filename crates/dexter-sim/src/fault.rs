@@ -657,3 +657,114 @@ pub fn fault_trial(
         sim_time: report.sim_time,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hardware::parked_sim;
+    use crate::physics::SimSettings;
+    use control_basis::Hardware;
+
+    fn world(xy: [f64; 2]) -> (Scene, DexterSim) {
+        let base = Scene::builtin("pick-place").unwrap();
+        let scene = base
+            .with_objects(vec![crate::scene::ObjectPlacement {
+                presentation: "jif".into(),
+                xy,
+                yaw_deg: 0.0,
+                z: None,
+            }])
+            .unwrap();
+        let sim = parked_sim(&scene, SimSettings::default()).unwrap();
+        (scene, sim)
+    }
+
+    fn moved(sim: &mut DexterSim, dx: f64, dz: f64) {
+        let mut p = sim.object_state(0).pose;
+        p.translation.vector.x += dx;
+        p.translation.vector.z += dz;
+        sim.teleport_object(0, &p);
+    }
+
+    #[test]
+    fn kinds_parse_from_their_names() {
+        for k in FaultKind::ALL {
+            assert_eq!(FaultKind::parse(k.name()), Some(k));
+        }
+        assert_eq!(FaultKind::parse("blocked-arm"), Some(FaultKind::BlockedArm));
+        assert_eq!(FaultKind::parse("fire"), None);
+    }
+
+    #[test]
+    fn a_drop_fires_once_the_lifted_object_moves_sideways_and_puts_it_on_the_table() {
+        let (scene, mut sim) = world([0.6, 0.0]);
+        let rest = sim.object_state(0).pose.translation.vector;
+        let mut f = Fault::new(FaultSpec::new(FaultKind::Drop, 0, 3), &sim, &scene).unwrap();
+        f.after_advance(&mut sim);
+        assert!(!f.record().fired, "on the table");
+        moved(&mut sim, 0.0, 0.08);
+        f.after_advance(&mut sim);
+        assert!(!f.record().fired, "lifted, not yet carried");
+        moved(&mut sim, 0.05, 0.0);
+        f.after_advance(&mut sim);
+        assert!(f.record().fired, "{:?}", f.record());
+        let now = sim.object_state(0).pose.translation.vector;
+        assert!(
+            (now.z - rest.z).abs() < 1e-9 && (now.xy() - rest.xy()).norm() < 0.09,
+            "{now:?}"
+        );
+    }
+
+    #[test]
+    fn a_blocked_arm_keeps_its_references_outside_the_region() {
+        // Near the left arm's parked palm (0.42, 0.32): the left arm is the one blocked.
+        let (scene, mut sim) = world([0.5, 0.22]);
+        let spec = FaultSpec::new(FaultKind::BlockedArm, 0, 1);
+        let fault = Fault::new(spec, &sim, &scene).unwrap();
+        let mut hw = crate::hardware::SimRobot::new(&mut sim, &scene, 1)
+            .unwrap()
+            .with_fault(fault);
+        hw.advance(0.005).unwrap();
+        let f = hw.fault().unwrap();
+        assert!(f.record().fired, "{:?}", f.record());
+        assert_eq!(f.blocked_arm(), Some(Arm::Left));
+        // Every reference of the left arm is the fault's to pass on or hold; the right arm's are not.
+        let (l, r) = (
+            hw.sim().dof("left/base_yaw_joint").unwrap(),
+            hw.sim().dof("right/base_yaw_joint").unwrap(),
+        );
+        let (ql, qr) = (hw.sim().joint_targets()[l], hw.sim().joint_targets()[r]);
+        hw.set_joint_reference(l, ql + 0.1, 0.0);
+        hw.set_joint_reference(r, qr + 0.1, 0.0);
+        assert_eq!(
+            hw.sim().joint_targets()[l],
+            ql,
+            "kept by the fault until the next advance"
+        );
+        assert_eq!(hw.sim().joint_targets()[r], qr + 0.1);
+    }
+
+    #[test]
+    fn a_noise_burst_fires_as_the_object_rises_and_ends() {
+        let (scene, mut sim) = world([0.6, 0.0]);
+        let spec = FaultSpec::new(FaultKind::SensorNoise, 0, 2);
+        let fault = Fault::new(spec, &sim, &scene).unwrap();
+        let mut hw = crate::hardware::SimRobot::new(&mut sim, &scene, 1)
+            .unwrap()
+            .with_fault(fault);
+        let mut p = hw.sim().object_state(0).pose;
+        p.translation.vector.z += 0.08;
+        hw.sim_mut().teleport_object(0, &p);
+        hw.advance(0.001).unwrap();
+        assert!(hw.fault().unwrap().record().fired);
+        let truth = hw.sim().joint_positions().to_vec();
+        let noisy = hw.joint_positions().to_vec();
+        let rms = (truth.iter().zip(&noisy).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / truth.len() as f64).sqrt();
+        assert!(rms > 0.003, "{rms}");
+        let mut ft = vec![ForceTorque::default(); 6];
+        hw.read_force_torque(&mut ft);
+        assert!(ft.iter().any(|w| w.force_norm() > 0.3));
+        hw.advance(0.7).unwrap();
+        assert_eq!(hw.joint_positions(), hw.sim().joint_positions());
+    }
+}
