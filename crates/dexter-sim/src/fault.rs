@@ -153,8 +153,9 @@ pub struct Fault {
     /// The object's pose and height at the start.
     rest: Iso3,
     height: f64,
-    /// The two palms' links.
+    /// The two palms' links, and the six fingertips' (left F1–F3, right F1–F3).
     palms: [usize; 2],
+    tips: [usize; 6],
     /// Table and places (x, y centre and half size), for where a pushed or dropped object may land.
     table: ([f64; 2], [f64; 2]),
     places: Vec<([f64; 2], [f64; 2])>,
@@ -194,6 +195,13 @@ impl Fault {
         let height = (2.0 * (rest.translation.z - table_z)).max(0.02);
         let palm = |arm: Arm| sim.model().link(&dexter::control::tool_link(arm));
         let palms = [palm(Arm::Left)?, palm(Arm::Right)?];
+        let mut tips = [0; 6];
+        for (k, t) in tips.iter_mut().enumerate() {
+            let arm = Arm::BOTH[k / 3];
+            *t = sim
+                .model()
+                .link(&format!("{}/bhand/finger_{}/tip_link", arm.prefix(), k % 3 + 1))?;
+        }
         let t = &scene.spec.table;
         let n = sim.joint_names().len();
         let (q_noisy, ft_noise) = if spec.kind == FaultKind::SensorNoise {
@@ -207,6 +215,7 @@ impl Fault {
             rest,
             height,
             palms,
+            tips,
             table: (t.center, [t.size[0] / 2.0, t.size[1] / 2.0]),
             places: scene
                 .spec
@@ -393,24 +402,38 @@ impl Fault {
                 }
                 let r = 0.5 * self.height.min(0.1);
                 let (lo, hi) = self.spec.bump;
+                // Pushed clear of the descending hand's fingertips (a push under a fingertip would
+                // be a collision of the hand with the object, not a missed grasp): of 16 random
+                // pushes on the table, the one farthest from the fingertips.
+                let tips: [Vec3; 3] = std::array::from_fn(|f| sim.link_pose(self.tips[3 * k + f]).translation.vector);
+                let mut best: Option<(f64, [f64; 2], f64)> = None;
                 for _ in 0..16 {
                     let a = std::f64::consts::TAU * self.rng.uniform();
                     let d = lo + (hi - lo) * self.rng.uniform();
                     let c = [at.x + d * a.cos(), at.y + d * a.sin()];
-                    if self.free_on_table(c, r) {
-                        self.rest_at(sim, c);
-                        self.fire(
-                            t,
-                            format!(
-                                "pushed {:.1} cm to ({:.3}, {:.3}) as the {} hand arrived above it",
-                                100.0 * d,
-                                c[0],
-                                c[1],
-                                Arm::BOTH[k]
-                            ),
-                        );
-                        return;
+                    if !self.free_on_table(c, r) {
+                        continue;
                     }
+                    let clear = tips
+                        .iter()
+                        .map(|t| (t.x - c[0]).hypot(t.y - c[1]))
+                        .fold(f64::INFINITY, f64::min);
+                    if best.is_none_or(|b| clear > b.0) {
+                        best = Some((clear, c, d));
+                    }
+                }
+                if let Some((_, c, d)) = best {
+                    self.rest_at(sim, c);
+                    self.fire(
+                        t,
+                        format!(
+                            "pushed {:.1} cm to ({:.3}, {:.3}) as the {} hand arrived above it",
+                            100.0 * d,
+                            c[0],
+                            c[1],
+                            Arm::BOTH[k]
+                        ),
+                    );
                 }
             }
             FaultKind::BlockedArm => {

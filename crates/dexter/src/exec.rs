@@ -118,6 +118,10 @@ const UNREACHED_CLEARANCE: f64 = 0.25;
 /// Segments within this distance (m) of the transferred object's position are that object.
 const MERGE_RADIUS: f64 = 0.05;
 
+/// After a grasp closed on nothing, the seen segment nearer than this (m) to where the target
+/// was is the target (it was pushed).
+const REACQUIRE_GATE: f64 = 0.2;
+
 /// The tracked segment nearer than this (m) to where the target was last seen is the target.
 const TARGET_GATE: f64 = 0.08;
 
@@ -184,6 +188,8 @@ pub struct RobotPlant<'a> {
     /// Where reaches to an object did not converge (x, y): a transfer's handoff spot keeps clear
     /// of them.
     unreached: Vec<[f64; 2]>,
+    /// The last grasp closed on nothing (the object may have moved).
+    missed: bool,
     sink: &'a mut dyn ExecSink,
     t0: f64,
     next_percept: f64,
@@ -236,6 +242,7 @@ impl<'a> RobotPlant<'a> {
             bound_arms: None,
             handoff: [workspace.table_center[0].min(0.55), 0.0],
             unreached: Vec::new(),
+            missed: false,
             sink,
             t0,
             next_percept: 0.0,
@@ -461,8 +468,31 @@ impl<'a> RobotPlant<'a> {
         let table_z = self.workspace.table_z;
         let id: Option<u32> = binding.object.as_deref().and_then(|s| s.parse().ok());
         let segments = self.percepts.last().map(|p| p.segments.as_slice()).unwrap_or(&[]);
-        if let Some(s) = segments.iter().find(|s| Some(s.id) == id) {
+        let by_id = segments.iter().find(|s| Some(s.id) == id);
+        if let Some(s) = by_id
+            && (s.seen || !self.missed)
+        {
             return Ok((id, SeenObject::from_percept(s, table_z)));
+        }
+        // A grasp closed on nothing where the object was seen, and its track is not seen now: the
+        // object moved. Take the seen segment nearest where it was, within a wider gate.
+        if self.missed {
+            let last = by_id
+                .map(|s| Vec3::from(s.centroid))
+                .or_else(|| self.target.as_ref().map(|t| t.1.centroid));
+            if let Some(c) = last
+                && let Some((_, s)) = segments
+                    .iter()
+                    .filter(|s| s.seen)
+                    .map(|s| ((Vec3::from(s.centroid) - c).xy().norm(), s))
+                    .filter(|(d, _)| *d < REACQUIRE_GATE)
+                    .min_by(|a, b| a.0.total_cmp(&b.0))
+            {
+                return Ok((Some(s.id), SeenObject::from_percept(s, table_z)));
+            }
+            if let Some(s) = by_id {
+                return Ok((id, SeenObject::from_percept(s, table_z)));
+            }
         }
         if let Some((tid, seen)) = &self.target
             && (id.is_none() || *tid == id)
@@ -482,6 +512,21 @@ impl<'a> RobotPlant<'a> {
                 Some(o) => format!("no tracked segment `{o}` (objects are the segments the robot sees)"),
                 None => "no object".into(),
             },
+        })
+    }
+
+    /// After a grasp closed on nothing or a descent stopped short: the object is not where it was
+    /// seen. Open, back off and return to the parked pose — out of the cameras' view of where the
+    /// object was, so that the next look sees where it is — and take the next target as the seen
+    /// segment nearest where it was ([`REACQUIRE_GATE`]).
+    fn back_off(&mut self, arm: Arm) -> Result<(), RobotError> {
+        self.missed = true;
+        let k = arm.index();
+        let park = park_pose(arm, self.workspace.table_z);
+        self.with_observer(|hw, reach, hand, obs| {
+            release_and_retreat(hw, &mut reach[k], &hand[k], obs);
+            reach[k].set_goal(hw, park);
+            run_until(hw, &mut reach[k], obs, 3.0, |h, r| r.at_goal(h, 0.02, 0.1));
         })
     }
 
@@ -559,7 +604,11 @@ impl SchemaPlant for RobotPlant<'_> {
                         ActionOutcome::Converged
                     }
                     Err(why) => {
-                        if why.contains("not reached") || why.contains("out of reach") {
+                        if why.starts_with("grasp pose") {
+                            // The descent stopped short, on something where the fingers should
+                            // have passed: the object is not where it was seen.
+                            self.back_off(arm)?;
+                        } else if why.contains("not reached") || why.contains("out of reach") {
                             self.unreached.push([target.x, target.y]);
                         }
                         ActionOutcome::Failed(why)
@@ -576,14 +625,12 @@ impl SchemaPlant for RobotPlant<'_> {
                     match r {
                         Ok(()) => {
                             self.grasp_palm = Some(self.reach[k].tool_pose(self.hw));
+                            self.missed = false;
                             ActionOutcome::Converged
                         }
                         Err(why) => {
-                            // Closed on nothing (the object is not where it was seen): open and back
-                            // off, so that the next reach starts above the table with an open hand.
-                            self.with_observer(|hw, reach, hand, obs| {
-                                release_and_retreat(hw, &mut reach[k], &hand[k], obs)
-                            })?;
+                            // Closed on nothing: the object is not where it was seen.
+                            self.back_off(arm)?;
                             ActionOutcome::Failed(why)
                         }
                     }
@@ -825,7 +872,10 @@ impl schema::ProceduralPolicy for PickPlacePolicy {
     /// same arm for the place if it reaches that too, else a hand-over through the handoff spot to
     /// an arm that reaches the place (§3.3.3, 5.31–5.32).
     fn failed(&mut self, _schema: &schema::Schema, _state: &str, action: &str, binding: &Binding, why: &str) {
-        let not_reached = why.contains("not reached") || why.contains("out of reach");
+        // The approach (hover, pre-grasp) failed; a descent stopped short (on the object) is not the
+        // arm's failure.
+        let not_reached =
+            (why.contains("not reached") || why.contains("out of reach")) && !why.starts_with("grasp pose");
         if action != "reach_object" || !not_reached || self.transferred {
             return;
         }
