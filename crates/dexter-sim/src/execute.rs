@@ -600,6 +600,21 @@ fn failure_cause(exec: &ExecReport, matched: bool) -> String {
         }
         .to_string()
     };
+    // The executive gave up on an action that converged by the robot's own predicate while the
+    // monitors did not see the state change.
+    if !exec.reached_goal
+        && let Some(last) = exec.steps.last()
+        && last.outcome == schema::ActionOutcome::Converged
+        && exec.steps.len() >= 3
+        && exec.steps[exec.steps.len() - 3..]
+            .iter()
+            .all(|s| s.action == last.action && s.state == last.state)
+    {
+        return format!(
+            "executive: `{}` converged three times in state `{}` but the monitors did not see the state change",
+            last.action, last.state
+        );
+    }
     match exec.steps.iter().rev().find_map(|s| match &s.outcome {
         schema::ActionOutcome::Failed(why) => Some((phase(&s.action), why.clone())),
         _ => None,

@@ -148,6 +148,19 @@ pub fn execute<P: SchemaPlant>(
                 contingencies.push(c.clone());
             }
         }
+        // The same action, bound alike, three times in a row in this state, and the world is still
+        // in it: that changed nothing, give up.
+        let n = steps.len();
+        if n >= 3
+            && !schema.is_goal(state)
+            && steps[n - 3..].iter().all(|s| {
+                s.state == schema.states[state].name
+                    && s.action == steps[n - 1].action
+                    && s.binding == steps[n - 1].binding
+            })
+        {
+            break;
+        }
         if schema.is_goal(state) {
             return Ok(ExecReport {
                 schema: schema.name.clone(),
@@ -171,16 +184,6 @@ pub fn execute<P: SchemaPlant>(
             outcome,
             contingency: entered_by.take(),
         });
-        // The same action, bound alike, three times in a row in the same state changed nothing:
-        // give up.
-        let n = steps.len();
-        if n >= 3
-            && steps[n - 3..].iter().all(|s| {
-                s.state == steps[n - 1].state && s.action == steps[n - 1].action && s.binding == steps[n - 1].binding
-            })
-        {
-            break;
-        }
     }
     Ok(ExecReport {
         schema: schema.name.clone(),
