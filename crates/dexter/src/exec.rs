@@ -115,6 +115,22 @@ const WALL_ROOM: f64 = 0.03;
 /// arm that failed there may have to take the object at the handoff spot.
 const UNREACHED_CLEARANCE: f64 = 0.25;
 
+/// Smallest horizontal distance (m) from where an arm's reach failed to that arm's straight path
+/// from its parked pose to the handoff spot.
+const UNREACHED_PATH_CLEARANCE: f64 = 0.16;
+
+/// Horizontal distance from `p` to the segment from `a` to `b`.
+fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let l2 = dx * dx + dy * dy;
+    let t = if l2 > 0.0 {
+        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
+}
+
 /// Segments within this distance (m) of the transferred object's position are that object.
 const MERGE_RADIUS: f64 = 0.05;
 
@@ -187,7 +203,7 @@ pub struct RobotPlant<'a> {
     handoff: [f64; 2],
     /// Where reaches to an object did not converge (x, y): a transfer's handoff spot keeps clear
     /// of them.
-    unreached: Vec<[f64; 2]>,
+    unreached: Vec<(Arm, [f64; 2])>,
     /// The last grasp closed on nothing (the object may have moved).
     missed: bool,
     sink: &'a mut dyn ExecSink,
@@ -359,10 +375,13 @@ impl<'a> RobotPlant<'a> {
                 let free = others
                     .iter()
                     .all(|o| (o[0] - c[0]).hypot(o[1] - c[1]) >= HANDOFF_CLEARANCE)
-                    && self
-                        .unreached
-                        .iter()
-                        .all(|o| (o[0] - c[0]).hypot(o[1] - c[1]) >= UNREACHED_CLEARANCE)
+                    && self.unreached.iter().all(|(arm, o)| {
+                        // Clear of where the reach failed, and the arm that failed there can get
+                        // from its parked pose to the spot without passing over it.
+                        let park = park_pose(*arm, table_z).translation.vector;
+                        (o[0] - c[0]).hypot(o[1] - c[1]) >= UNREACHED_CLEARANCE
+                            && distance_to_segment(*o, [park.x, park.y], c) >= UNREACHED_PATH_CLEARANCE
+                    })
                     && ws.places.iter().all(|p| {
                         (c[0] - p.center[0]).abs() > p.size[0] / 2.0 + p.wall_thickness + 0.08
                             || (c[1] - p.center[1]).abs() > p.size[1] / 2.0 + p.wall_thickness + 0.08
@@ -609,7 +628,7 @@ impl SchemaPlant for RobotPlant<'_> {
                             // have passed: the object is not where it was seen.
                             self.back_off(arm)?;
                         } else if why.contains("not reached") || why.contains("out of reach") {
-                            self.unreached.push([target.x, target.y]);
+                            self.unreached.push((arm, [target.x, target.y]));
                         }
                         ActionOutcome::Failed(why)
                     }
