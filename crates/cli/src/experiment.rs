@@ -6,7 +6,9 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use clap::{Args, Subcommand, ValueEnum};
+use pbd::dexter_sim::fault::FaultKind;
 use pbd::experiment::execute::ExecuteExperimentOptions;
+use pbd::experiment::faults::FaultsOptions;
 use pbd::experiment::{Feature, SortingOptions};
 use pbd::figure::Figure;
 
@@ -21,6 +23,9 @@ pub enum ExperimentCommand {
     /// A learned model executed by the robot on N random new scenes drawn from a catalog: per-object
     /// decisions and outcomes, placed fraction with a 95 % interval, failure causes by phase.
     Execute(ExecuteExperimentArgs),
+    /// Injected faults (drop, bump, blocked arm, occlusion, sensor noise): N seeded scenes per kind,
+    /// recovered fraction with 95 % intervals and what the executive did.
+    Faults(FaultsArgs),
 }
 
 /// Which experiment.
@@ -126,12 +131,69 @@ pub struct ExecuteExperimentArgs {
     json: bool,
 }
 
+/// `pbd experiment faults` arguments.
+#[derive(Debug, Args)]
+pub struct FaultsArgs {
+    /// Fault kinds, comma-separated: drop, bump, blocked_arm, occlusion, sensor_noise (default: all).
+    #[arg(long, value_delimiter = ',', value_parser = parse_kind)]
+    kinds: Vec<FaultKind>,
+    /// Base scene: its table, bins and catalog (built-in name or TOML file).
+    #[arg(long, default_value = "pick-place")]
+    scene: String,
+    /// Scenes per fault kind.
+    #[arg(long, default_value_t = 30)]
+    scenes: usize,
+    /// Random seed (scenes, faults and runs).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output directory (faults.csv, summary.md, recovered.svg).
+    #[arg(short, long, visible_alias = "out", default_value = "experiment-faults")]
+    output: PathBuf,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_kind(s: &str) -> Result<FaultKind, String> {
+    FaultKind::parse(s).ok_or_else(|| {
+        format!(
+            "unknown fault kind `{s}`; known: {}",
+            FaultKind::ALL.map(|k| k.name()).join(", ")
+        )
+    })
+}
+
 /// Runs a `pbd experiment` subcommand.
 pub fn main(cmd: ExperimentCommand, out: &mut dyn Write) -> anyhow::Result<()> {
     match cmd {
         ExperimentCommand::Sorting(a) => sorting(a, out),
         ExperimentCommand::Execute(a) => execute(a, out),
+        ExperimentCommand::Faults(a) => faults(a, out),
     }
+}
+
+fn faults(a: FaultsArgs, out: &mut dyn Write) -> anyhow::Result<()> {
+    let options = FaultsOptions {
+        kinds: if a.kinds.is_empty() {
+            FaultKind::ALL.to_vec()
+        } else {
+            a.kinds
+        },
+        scene: a.scene,
+        scenes: a.scenes,
+        seed: a.seed,
+        output: a.output,
+    };
+    let report = pbd::experiment::faults::run(&options, &Bars::new(a.json, true)?)?;
+    for (path, figure) in &report.figures {
+        pbd::figure::draw(path, figure)?;
+    }
+    if a.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
+    } else {
+        write!(out, "{report}")?;
+    }
+    Ok(())
 }
 
 fn sorting(a: SortingArgs, out: &mut dyn Write) -> anyhow::Result<()> {
@@ -203,6 +265,7 @@ fn execute(a: ExecuteExperimentArgs, out: &mut dyn Write) -> anyhow::Result<()> 
         y_max: (placed[0].max(failed.iter().copied().fold(0.0, f64::max)) * 1.15).max(1.0),
         categories,
         groups: vec![("placed".into(), placed), ("failed".into(), failed)],
+        intervals: vec![],
     };
     pbd::figure::draw(&run.output.join("outcomes.svg"), &figure)?;
     if a.json {

@@ -19,6 +19,7 @@ use schema::{ExecReport, Library, Percept};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SimError, from_robot};
+use crate::fault::{Fault, FaultRecord, FaultSpec};
 use crate::hardware::{SimRobot, parked_sim, workspace};
 use crate::physics::{DexterSim, SimSettings};
 use crate::scene::Scene;
@@ -158,6 +159,9 @@ pub struct ExecuteReport {
     pub wall_time: f64,
     /// The MCAP log.
     pub mcap: Option<String>,
+    /// The injected fault and what it did (the evaluator's record), if one was armed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fault: Option<FaultRecord>,
 }
 
 /// The report as a table: per object the decision, place, arms, transfer, contingencies, outcome.
@@ -355,6 +359,22 @@ pub fn execute_scene(
     only: Option<&str>,
     log: &mut dyn RunLog,
 ) -> Result<ExecuteReport, SimError> {
+    execute_scene_with_fault(scene, scene_name, library, decider, seed, only, None, log)
+}
+
+/// [`execute_scene`] with `fault` armed in the world ([`crate::fault`]); the report carries what
+/// the fault did.
+#[allow(clippy::too_many_arguments)]
+pub fn execute_scene_with_fault(
+    scene: &Scene,
+    scene_name: &str,
+    library: &Library,
+    decider: &Decider<'_>,
+    seed: u64,
+    only: Option<&str>,
+    fault: Option<&FaultSpec>,
+    log: &mut dyn RunLog,
+) -> Result<ExecuteReport, SimError> {
     let schema_name = "pick_and_place".to_string();
     let schema = library.schema(&schema_name)?.clone();
     let mut sim = parked_sim(
@@ -382,6 +402,10 @@ pub fn execute_scene(
     let mut hw = SimRobot::new(&mut sim, scene, seed)?
         .with_hook(Box::new(move |s: &DexterSim| hook_logger.borrow_mut().world(s)))
         .with_stop(Box::new(move || stop_logger.borrow_mut().log.should_stop()));
+    if let Some(spec) = fault {
+        let armed = Fault::new(spec.clone(), hw.sim(), scene)?;
+        hw = hw.with_fault(armed);
+    }
     let mut sink = RobotSink(logger.clone());
     let mut reports = Vec::new();
     {
@@ -527,7 +551,6 @@ pub fn execute_scene(
                 ));
                 continue;
             };
-            let transfer = policy.is_transfer();
             {
                 let t = plant.hw.time_secs();
                 logger.borrow_mut().log.decision(
@@ -546,6 +569,7 @@ pub fn execute_scene(
             plant.bind_arms(&[policy.pick_arm, policy.place_arm]);
             let arms_before = plant.arms_used.len();
             let exec = schema::execute(library, &schema, &mut plant, &mut policy, 20)?;
+            let transfer = policy.is_transfer();
             let arms: Vec<String> = plant.arms_used[arms_before..]
                 .iter()
                 .map(|a| a.prefix().to_string())
@@ -579,7 +603,7 @@ pub fn execute_scene(
                 log_bayes_factor: d.log_bayes_factor,
                 arms,
                 transfer,
-                contingencies: exec.contingencies.clone(),
+                contingencies: exec.contingencies.iter().chain(&policy.rebindings).cloned().collect(),
                 execution: Some(exec),
                 final_position,
                 success,
@@ -607,6 +631,7 @@ pub fn execute_scene(
         }
     }
     let sim_time = hw.sim().time() - t_start;
+    let fault_record = hw.fault().map(|f| f.record().clone());
     drop(hw);
     drop(sink);
     let relevant = reports
@@ -623,6 +648,7 @@ pub fn execute_scene(
         sim_time,
         wall_time: wall.elapsed().as_secs_f64(),
         mcap: None,
+        fault: fault_record,
     })
 }
 
@@ -643,6 +669,21 @@ fn failure_cause(exec: &ExecReport, matched: bool) -> String {
         }
         .to_string()
     };
+    // The executive gave up on an action that converged by the robot's own predicate while the
+    // monitors did not see the state change.
+    if !exec.reached_goal
+        && let Some(last) = exec.steps.last()
+        && last.outcome == schema::ActionOutcome::Converged
+        && exec.steps.len() >= 3
+        && exec.steps[exec.steps.len() - 3..]
+            .iter()
+            .all(|s| s.action == last.action && s.state == last.state)
+    {
+        return format!(
+            "executive: `{}` converged three times in state `{}` but the monitors did not see the state change",
+            last.action, last.state
+        );
+    }
     match exec.steps.iter().rev().find_map(|s| match &s.outcome {
         schema::ActionOutcome::Failed(why) => Some((phase(&s.action), why.clone())),
         _ => None,

@@ -16,6 +16,7 @@ use control_basis::{CbError, Plant, RobotModel};
 
 use crate::convert::iso_from_glam;
 use crate::error::SimError;
+use crate::fault::Fault;
 use crate::physics::DexterSim;
 use crate::scene::Scene;
 use crate::snapshot::{Arm, FingertipWrench};
@@ -177,6 +178,7 @@ pub struct SimRobot<'a> {
     ft_frames: Vec<String>,
     hook: Option<WorldHook<'a>>,
     stop: Option<StopRequest<'a>>,
+    fault: Option<Fault>,
 }
 
 /// Asked before every advance: `true` ends the run with [`HardwareError::Interrupted`].
@@ -213,7 +215,19 @@ impl<'a> SimRobot<'a> {
             ft_frames,
             hook: None,
             stop: None,
+            fault: None,
         })
+    }
+
+    /// Arms a fault ([`crate::fault`]): the world injects it when its trigger fires.
+    pub fn with_fault(mut self, fault: Fault) -> Self {
+        self.fault = Some(fault);
+        self
+    }
+
+    /// The armed fault (for the evaluator's report — never for the robot side).
+    pub fn fault(&self) -> Option<&Fault> {
+        self.fault.as_ref()
     }
 
     /// Asks `stop` before every [`Hardware::advance`]; when it says `true`, the hardware refuses to
@@ -268,12 +282,18 @@ impl Hardware for SimRobot<'_> {
         self.sim.model()
     }
     fn joint_positions(&self) -> &[f64] {
-        self.sim.joint_positions()
+        match self.fault.as_ref().and_then(Fault::joint_positions) {
+            Some(q) => q,
+            None => self.sim.joint_positions(),
+        }
     }
     fn joint_velocities(&self) -> &[f64] {
         self.sim.joint_velocities()
     }
     fn set_joint_reference(&mut self, dof: usize, q: f64, qd: f64) {
+        if self.fault.as_mut().is_some_and(|f| f.command(dof, q, qd)) {
+            return;
+        }
         self.sim.set_joint_target(dof, q, qd);
     }
     /// Whole physics steps (at least one).
@@ -291,8 +311,14 @@ impl Hardware for SimRobot<'_> {
             return Err(HardwareError::Interrupted);
         }
         let n = ((dt_secs / self.sim.settings().dt).round() as usize).max(1);
+        if let Some(f) = self.fault.as_mut() {
+            f.before_advance(self.sim);
+        }
         for _ in 0..n {
             self.sim.step();
+        }
+        if let Some(f) = self.fault.as_mut() {
+            f.after_advance(self.sim);
         }
         if let Some(h) = self.hook.as_mut() {
             h(self.sim);
@@ -318,6 +344,9 @@ impl Hardware for SimRobot<'_> {
                 in_contact: t.in_contact,
             };
         }
+        if let Some(f) = self.fault.as_ref() {
+            f.perturb_force_torque(self.sim.steps(), out);
+        }
     }
     fn cameras(&self) -> &[CameraInfo] {
         self.cameras.infos()
@@ -330,7 +359,13 @@ impl Hardware for SimRobot<'_> {
                 count: CAMERAS.len(),
             });
         }
-        self.cameras.capture(self.sim, camera, out, self_mask).map_err(hw_error)
+        self.cameras
+            .capture(self.sim, camera, out, self_mask)
+            .map_err(hw_error)?;
+        if self.fault.as_ref().is_some_and(|f| f.occludes(camera)) {
+            Fault::cover(out);
+        }
+        Ok(())
     }
     fn capture_background(&mut self, camera: usize, out: &mut Image) -> Result<(), HardwareError> {
         if camera >= CAMERAS.len() {

@@ -28,6 +28,7 @@ pub mod convert;
 pub mod error;
 pub mod execute;
 pub mod experiment;
+pub mod fault;
 pub mod geometry;
 pub mod grasp_trial;
 pub mod hardware;

@@ -113,8 +113,32 @@ const CLEAR_RADIUS: f64 = 0.25;
 /// rolling object is not let go on the wall.
 const WALL_ROOM: f64 = 0.03;
 
+/// Smallest horizontal distance (m) from the handoff spot to where a reach did not converge: the
+/// arm that failed there may have to take the object at the handoff spot.
+const UNREACHED_CLEARANCE: f64 = 0.25;
+
+/// Smallest horizontal distance (m) from where an arm's reach failed to that arm's straight path
+/// from its parked pose to the handoff spot.
+const UNREACHED_PATH_CLEARANCE: f64 = 0.16;
+
+/// Horizontal distance from `p` to the segment from `a` to `b`.
+fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let l2 = dx * dx + dy * dy;
+    let t = if l2 > 0.0 {
+        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
+}
+
 /// Segments within this distance (m) of the transferred object's position are that object.
 const MERGE_RADIUS: f64 = 0.05;
+
+/// After a grasp closed on nothing, the seen segment nearer than this (m) to where the target
+/// was is the target (it was pushed).
+const REACQUIRE_GATE: f64 = 0.2;
 
 /// The tracked segment nearer than this (m) to where the target was last seen is the target.
 const TARGET_GATE: f64 = 0.08;
@@ -181,6 +205,11 @@ pub struct RobotPlant<'a> {
     /// The arms the procedural policy bound (None: all); see [`RobotPlant::bind_arms`].
     bound_arms: Option<Vec<String>>,
     handoff: [f64; 2],
+    /// Where reaches to an object did not converge (x, y): a transfer's handoff spot keeps clear
+    /// of them.
+    unreached: Vec<(Arm, [f64; 2])>,
+    /// The last grasp closed on nothing (the object may have moved).
+    missed: bool,
     sink: &'a mut dyn ExecSink,
     t0: f64,
     next_percept: f64,
@@ -232,6 +261,8 @@ impl<'a> RobotPlant<'a> {
             held: None,
             bound_arms: None,
             handoff: [workspace.table_center[0].min(0.55), 0.0],
+            unreached: Vec::new(),
+            missed: false,
             sink,
             t0,
             next_percept: 0.0,
@@ -348,6 +379,13 @@ impl<'a> RobotPlant<'a> {
                 let free = others
                     .iter()
                     .all(|o| (o[0] - c[0]).hypot(o[1] - c[1]) >= HANDOFF_CLEARANCE)
+                    && self.unreached.iter().all(|(arm, o)| {
+                        // Clear of where the reach failed, and the arm that failed there can get
+                        // from its parked pose to the spot without passing over it.
+                        let park = park_pose(*arm, table_z).translation.vector;
+                        (o[0] - c[0]).hypot(o[1] - c[1]) >= UNREACHED_CLEARANCE
+                            && distance_to_segment(*o, [park.x, park.y], c) >= UNREACHED_PATH_CLEARANCE
+                    })
                     && ws.places.iter().all(|p| {
                         (c[0] - p.center[0]).abs() > p.size[0] / 2.0 + p.wall_thickness + 0.08
                             || (c[1] - p.center[1]).abs() > p.size[1] / 2.0 + p.wall_thickness + 0.08
@@ -453,8 +491,31 @@ impl<'a> RobotPlant<'a> {
         let table_z = self.workspace.table_z;
         let id: Option<u32> = binding.object.as_deref().and_then(|s| s.parse().ok());
         let segments = self.percepts.last().map(|p| p.segments.as_slice()).unwrap_or(&[]);
-        if let Some(s) = segments.iter().find(|s| Some(s.id) == id) {
+        let by_id = segments.iter().find(|s| Some(s.id) == id);
+        if let Some(s) = by_id
+            && (s.seen || !self.missed)
+        {
             return Ok((id, SeenObject::from_percept(s, table_z)));
+        }
+        // A grasp closed on nothing where the object was seen, and its track is not seen now: the
+        // object moved. Take the seen segment nearest where it was, within a wider gate.
+        if self.missed {
+            let last = by_id
+                .map(|s| Vec3::from(s.centroid))
+                .or_else(|| self.target.as_ref().map(|t| t.1.centroid));
+            if let Some(c) = last
+                && let Some((_, s)) = segments
+                    .iter()
+                    .filter(|s| s.seen)
+                    .map(|s| ((Vec3::from(s.centroid) - c).xy().norm(), s))
+                    .filter(|(d, _)| *d < REACQUIRE_GATE)
+                    .min_by(|a, b| a.0.total_cmp(&b.0))
+            {
+                return Ok((Some(s.id), SeenObject::from_percept(s, table_z)));
+            }
+            if let Some(s) = by_id {
+                return Ok((id, SeenObject::from_percept(s, table_z)));
+            }
         }
         if let Some((tid, seen)) = &self.target
             && (id.is_none() || *tid == id)
@@ -477,6 +538,21 @@ impl<'a> RobotPlant<'a> {
         })
     }
 
+    /// After a grasp closed on nothing or a descent stopped short: the object is not where it was
+    /// seen. Open, back off and return to the parked pose — out of the cameras' view of where the
+    /// object was, so that the next look sees where it is — and take the next target as the seen
+    /// segment nearest where it was ([`REACQUIRE_GATE`]).
+    fn back_off(&mut self, arm: Arm) -> Result<(), RobotError> {
+        self.missed = true;
+        let k = arm.index();
+        let park = park_pose(arm, self.workspace.table_z);
+        self.with_observer(|hw, reach, hand, obs| {
+            release_and_retreat(hw, &mut reach[k], &hand[k], obs);
+            reach[k].set_goal(hw, park);
+            run_until(hw, &mut reach[k], obs, 3.0, |h, r| r.at_goal(h, 0.02, 0.1));
+        })
+    }
+
     fn touch(&self, arm: Arm) -> TouchState {
         let mut buf = Vec::new();
         TouchState::of(&hand_fingertips(self.hw, arm, &mut buf))
@@ -496,6 +572,12 @@ impl SchemaPlant for RobotPlant<'_> {
 
     fn run(&mut self, action: &str, binding: &Binding) -> Result<ActionOutcome, RobotError> {
         let table_z = self.workspace.table_z;
+        // ψ bound another arm (after a failure): observe its monitors too.
+        if let (Some(bound), Some(arm)) = (self.bound_arms.as_mut(), binding.arm.as_ref())
+            && !bound.contains(arm)
+        {
+            bound.push(arm.clone());
+        }
         let outcome = match action {
             "search_track" => ActionOutcome::Converged,
             "reach_object" => {
@@ -548,7 +630,16 @@ impl SchemaPlant for RobotPlant<'_> {
                         self.plan = Some(p);
                         ActionOutcome::Converged
                     }
-                    Err(why) => ActionOutcome::Failed(why),
+                    Err(why) => {
+                        if why.starts_with("grasp pose") {
+                            // The descent stopped short, on something where the fingers should
+                            // have passed: the object is not where it was seen.
+                            self.back_off(arm)?;
+                        } else if why.contains("not reached") || why.contains("out of reach") {
+                            self.unreached.push((arm, [target.x, target.y]));
+                        }
+                        ActionOutcome::Failed(why)
+                    }
                 }
             }
             "grasp" => {
@@ -561,9 +652,14 @@ impl SchemaPlant for RobotPlant<'_> {
                     match r {
                         Ok(()) => {
                             self.grasp_palm = Some(self.reach[k].tool_pose(self.hw));
+                            self.missed = false;
                             ActionOutcome::Converged
                         }
-                        Err(why) => ActionOutcome::Failed(why),
+                        Err(why) => {
+                            // Closed on nothing: the object is not where it was seen.
+                            self.back_off(arm)?;
+                            ActionOutcome::Failed(why)
+                        }
                     }
                 }
             }
@@ -603,6 +699,12 @@ impl SchemaPlant for RobotPlant<'_> {
                     return Ok(ActionOutcome::Failed("nothing held to place (no hold yet)".into()));
                 };
                 let (target, wall) = if binding.transfer {
+                    if !self.unreached.is_empty() {
+                        // A reach failed somewhere: the handoff spot must keep clear of there (the
+                        // arm that failed may be the one to take the object).
+                        let palm = self.reach[k].tool_pose(self.hw).translation.vector;
+                        self.plan_handoff(&palm)?;
+                    }
                     (self.handoff, 0.0)
                 } else {
                     let name = binding.place.as_deref().ok_or_else(|| RobotError::Binding {
@@ -710,6 +812,14 @@ pub struct PickPlacePolicy {
     /// The arm that places (differs from `pick_arm` for a transfer).
     pub place_arm: Arm,
     transferred: bool,
+    /// Arms whose palm reaches above the object, the place and the handoff spot (when decided).
+    at_object: Vec<Arm>,
+    at_place: Vec<Arm>,
+    at_handoff: Vec<Arm>,
+    /// Arms whose reach to the object did not converge.
+    failed_arms: Vec<Arm>,
+    /// ψ's rebindings after failures, in order (`other_arm`, `hand_over`, `gave_up: …`).
+    pub rebindings: Vec<String>,
 }
 
 impl PickPlacePolicy {
@@ -731,33 +841,50 @@ impl PickPlacePolicy {
             table_z,
             &Vec3::new(p.center[0], p.center[1], table_z + p.wall_height),
         )?;
-        let both: Vec<Arm> = at_object.iter().copied().filter(|a| at_place.contains(a)).collect();
-        // Prefer the arm on the object's side.
-        let side = if object_at.y >= 0.0 { Arm::Left } else { Arm::Right };
-        let pick = |v: &[Arm]| v.iter().copied().find(|&a| a == side).or_else(|| v.first().copied());
-        if let Some(arm) = pick(&both) {
-            return Ok(Some(PickPlacePolicy {
-                object: object.into(),
-                place: place.into(),
-                pick_arm: arm,
-                place_arm: arm,
-                transferred: false,
-            }));
-        }
         let hand_spot = Vec3::new(handoff[0], handoff[1], table_z);
         let at_handoff = arms_reaching(hw, table_z, &hand_spot)?;
-        let a = at_object.iter().copied().find(|a| at_handoff.contains(a));
-        let b = at_place.iter().copied().find(|b| at_handoff.contains(b));
-        Ok(match (a, b) {
-            (Some(a), Some(b)) => Some(PickPlacePolicy {
-                object: object.into(),
-                place: place.into(),
-                pick_arm: a,
-                place_arm: b,
-                transferred: false,
-            }),
-            _ => None,
-        })
+        let mut policy = PickPlacePolicy {
+            object: object.into(),
+            place: place.into(),
+            pick_arm: Arm::Left,
+            place_arm: Arm::Left,
+            transferred: false,
+            at_object,
+            at_place,
+            at_handoff,
+            failed_arms: Vec::new(),
+            rebindings: Vec::new(),
+        };
+        // Prefer the arm on the object's side.
+        let side = if object_at.y >= 0.0 { Arm::Left } else { Arm::Right };
+        Ok(policy.assign(side).map(|_| policy))
+    }
+
+    /// Assigns the arms among those not known to fail: one arm that reaches both the object and the
+    /// place (`side`'s first), else a transfer through the handoff spot. `None` if neither exists.
+    fn assign(&mut self, side: Arm) -> Option<()> {
+        let usable: Vec<Arm> = self
+            .at_object
+            .iter()
+            .copied()
+            .filter(|a| !self.failed_arms.contains(a))
+            .collect();
+        let both: Vec<Arm> = usable.iter().copied().filter(|a| self.at_place.contains(a)).collect();
+        if let Some(arm) = both
+            .iter()
+            .copied()
+            .find(|&a| a == side)
+            .or_else(|| both.first().copied())
+        {
+            self.pick_arm = arm;
+            self.place_arm = arm;
+            return Some(());
+        }
+        let a = usable.iter().copied().find(|a| self.at_handoff.contains(a))?;
+        let b = self.at_place.iter().copied().find(|b| self.at_handoff.contains(b))?;
+        self.pick_arm = a;
+        self.place_arm = b;
+        Some(())
     }
 
     /// Whether this assignment needs a transfer.
@@ -767,6 +894,38 @@ impl PickPlacePolicy {
 }
 
 impl schema::ProceduralPolicy for PickPlacePolicy {
+    /// A reach to the object that did not converge (the arm could not get there: its path is
+    /// blocked, or the object is out of its reach) binds another arm that reaches the object — the
+    /// same arm for the place if it reaches that too, else a hand-over through the handoff spot to
+    /// an arm that reaches the place (§3.3.3, 5.31–5.32).
+    fn failed(&mut self, _schema: &schema::Schema, _state: &str, action: &str, binding: &Binding, why: &str) {
+        // The approach (hover, pre-grasp) failed; a descent stopped short (on the object) is not the
+        // arm's failure.
+        let not_reached =
+            (why.contains("not reached") || why.contains("out of reach")) && !why.starts_with("grasp pose");
+        if action != "reach_object" || !not_reached || self.transferred {
+            return;
+        }
+        let Some(arm) = binding.arm.as_deref().and_then(Arm::parse) else {
+            return;
+        };
+        if arm != self.pick_arm || self.failed_arms.contains(&arm) {
+            return;
+        }
+        self.failed_arms.push(arm);
+        let (pick, place) = (self.pick_arm, self.place_arm);
+        match self.assign(arm) {
+            Some(()) if self.pick_arm == self.place_arm => self.rebindings.push("other_arm".into()),
+            Some(()) => self.rebindings.push("hand_over".into()),
+            None => {
+                self.pick_arm = pick;
+                self.place_arm = place;
+                self.rebindings
+                    .push(format!("gave_up: no other arm reaches the object ({why})"));
+            }
+        }
+    }
+
     fn bind(&mut self, _schema: &schema::Schema, state: &str, action: &str) -> Binding {
         if state == "transfer_placed" {
             self.transferred = true;

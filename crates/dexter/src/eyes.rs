@@ -120,6 +120,12 @@ impl Eyes {
         for k in 0..2 {
             hw.capture(p.cameras[k], &mut p.images[k], &mut p.masks[k])?;
         }
+        // A covered (or dead) camera sees nothing — not one object filling the view: no blobs from
+        // this frame, so the tracker loses the objects until the view clears.
+        if p.images.iter().any(covered) {
+            self.blobs.clear();
+            return Ok(&self.blobs);
+        }
         let frames = [
             Frame {
                 image: &p.images[0],
@@ -149,6 +155,14 @@ impl Eyes {
     pub fn pipeline(&self, pair: Pair) -> &StereoPipeline {
         &self.pairs[pair.index()].pipeline
     }
+}
+
+/// Whether an image is (nearly) black throughout — the lens covered: mean brightness below 4 of
+/// 255.
+pub fn covered(image: &Image) -> bool {
+    let n = image.rgb.len().max(1) as u64;
+    let sum: u64 = image.rgb.iter().map(|&b| u64::from(b)).sum();
+    sum < 4 * n
 }
 
 /// Search-Track on the head (§3.2.2.1): foveate a blob with pan, tilt and vergence.

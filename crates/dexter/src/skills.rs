@@ -671,19 +671,36 @@ pub fn transport_over(
     up.translation.vector.z = up.translation.vector.z.max(safe_z);
     reach.max_speed = 0.3;
     reach.set_goal(hw, up);
-    run_until(hw, reach, obs, 3.0, |h, r| r.at_goal(h, 0.01, 0.05));
+    // Reach ◁ Grasp: the carry stops as soon as the grasp constraint is lost — the fingertips
+    // have not felt the object's load for 0.1 s (a short glitch of the sensors is not a drop).
+    let mut buf = Vec::new();
+    let lost = |h: &dyn Hardware, buf: &mut Vec<ForceTorque>| {
+        let touch = TouchState::of(&hand_fingertips(h, arm, buf));
+        !touch.holding() || touch.load < 0.3 * held.load.max(MIN_LOAD)
+    };
+    let mut unloaded = 0usize;
+    let dropped = std::cell::Cell::new(false);
+    let mut carry = |h: &mut dyn Hardware, r: &mut ReachControl| {
+        unloaded = if lost(h, &mut buf) { unloaded + 1 } else { 0 };
+        dropped.set(dropped.get() || unloaded >= 20);
+        dropped.get() || r.at_goal(h, 0.01, 0.05)
+    };
+    run_until(hw, reach, obs, 3.0, &mut carry);
     // Over the target: object centre above it.
     let mut over = up;
     over.translation.vector.x = target[0] - held.offset_xy[0];
     over.translation.vector.y = target[1] - held.offset_xy[1];
-    reach.set_goal(hw, over);
-    let straight = run_until(hw, reach, obs, 6.0, |h, r| r.at_goal(h, 0.01, 0.05));
-    if !straight && reach.set_goal_via_ik(hw, over, 23).unwrap_or(false) {
-        run_until(hw, reach, obs, 8.0, |h, r| r.at_goal(h, 0.01, 0.05));
+    if !dropped.get() {
+        reach.set_goal(hw, over);
+        let straight = run_until(hw, reach, obs, 6.0, &mut carry);
+        if !straight && !dropped.get() && reach.set_goal_via_ik(hw, over, 23).unwrap_or(false) {
+            run_until(hw, reach, obs, 8.0, &mut carry);
+        }
     }
-    let mut buf = Vec::new();
-    let touch = TouchState::of(&hand_fingertips(hw, arm, &mut buf));
-    if !touch.holding() || touch.load < 0.3 * held.load.max(MIN_LOAD) {
+    if dropped.get() || lost(hw, &mut buf) {
+        // Stop where the hand is.
+        let here = reach.tool_pose(hw);
+        reach.set_goal(hw, here);
         return Err("object dropped during transport (the fingertips lost the load)".into());
     }
     if !reach.at_goal(hw, 0.01, 0.05) {

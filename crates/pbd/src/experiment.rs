@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 pub mod execute;
+pub mod faults;
 pub mod features;
 pub mod sorting;
 

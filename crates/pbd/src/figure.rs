@@ -80,6 +80,8 @@ pub enum Figure {
         categories: Vec<String>,
         /// (group legend, value per category).
         groups: Vec<(String, Vec<f64>)>,
+        /// Interval whiskers (low, high) per group and category; empty for none.
+        intervals: Vec<Vec<(f64, f64)>>,
     },
 }
 

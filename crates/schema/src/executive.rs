@@ -71,6 +71,10 @@ pub struct StepEvent<'a> {
 pub trait ProceduralPolicy {
     /// The binding of `action` in `state` (of schema `schema`).
     fn bind(&mut self, schema: &Schema, state: &str, action: &str) -> Binding;
+
+    /// `action`, bound as `binding` in `state`, did not converge (`why`): ψ may bind other resources
+    /// next time (another arm, a hand-over; §3.3.3). The default keeps the binding.
+    fn failed(&mut self, _schema: &Schema, _state: &str, _action: &str, _binding: &Binding, _why: &str) {}
 }
 
 /// One step of an execution.
@@ -168,6 +172,19 @@ pub fn execute<P: SchemaPlant>(
                 contingencies.push(c.clone());
             }
         }
+        // The same action, bound alike, three times in a row in this state, and the world is still
+        // in it: that changed nothing, give up.
+        let n = steps.len();
+        if n >= 3
+            && !schema.is_goal(state)
+            && steps[n - 3..].iter().all(|s| {
+                s.state == schema.states[state].name
+                    && s.action == steps[n - 1].action
+                    && s.binding == steps[n - 1].binding
+            })
+        {
+            break;
+        }
         if schema.is_goal(state) {
             plant.step(&StepEvent {
                 library,
@@ -199,6 +216,9 @@ pub fn execute<P: SchemaPlant>(
             contingency: entered_by.as_deref(),
         });
         let outcome = plant.run(action, &binding).map_err(plant_error)?;
+        if let ActionOutcome::Failed(why) = &outcome {
+            policy.failed(schema, &schema.states[state].name, action, &binding, why);
+        }
         steps.push(ExecStep {
             state: schema.states[state].name.clone(),
             action: action.clone(),
@@ -206,15 +226,6 @@ pub fn execute<P: SchemaPlant>(
             outcome,
             contingency: entered_by.take(),
         });
-        // The same action three times in a row in the same state changed nothing: give up.
-        let n = steps.len();
-        if n >= 3
-            && steps[n - 3..]
-                .iter()
-                .all(|s| s.state == steps[n - 1].state && s.action == steps[n - 1].action)
-        {
-            break;
-        }
     }
     Ok(ExecReport {
         schema: schema.name.clone(),

@@ -39,11 +39,13 @@ pub fn draw(path: &Path, figure: &Figure) -> anyhow::Result<()> {
             y_max,
             categories,
             groups,
-        } => grouped_bars(path, title, y_label, *y_max, categories, groups),
+            intervals,
+        } => grouped_bars(path, title, y_label, *y_max, categories, groups, intervals),
     }
 }
 
-/// Grouped bars: per category one bar per group, category names rotated under the bars (Fig. 6.7).
+/// Grouped bars: per category one bar per group, category names rotated under the bars (Fig. 6.7),
+/// with interval whiskers where given.
 fn grouped_bars(
     path: &Path,
     title: &str,
@@ -51,6 +53,7 @@ fn grouped_bars(
     y_max: f64,
     categories: &[String],
     groups: &[(String, Vec<f64>)],
+    intervals: &[Vec<(f64, f64)>],
 ) -> anyhow::Result<()> {
     let n = categories.len();
     let width = (140 + 60 * n as u32).max(480);
@@ -80,6 +83,22 @@ fn grouped_bars(
             }))?
             .label(label.as_str())
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
+        if let Some(whiskers) = intervals.get(g) {
+            for (i, &(lo, hi)) in whiskers.iter().enumerate() {
+                let x = i as f64 + x0 + w * 0.475;
+                let cap = w * 0.2;
+                chart.draw_series(std::iter::once(PathElement::new(
+                    vec![(x, lo), (x, hi)],
+                    BLACK.stroke_width(2),
+                )))?;
+                for y in [lo, hi] {
+                    chart.draw_series(std::iter::once(PathElement::new(
+                        vec![(x - cap, y), (x + cap, y)],
+                        BLACK.stroke_width(2),
+                    )))?;
+                }
+            }
+        }
     }
     chart
         .configure_series_labels()

@@ -212,6 +212,7 @@ pub fn figure(summary: &EvalSummary) -> Figure {
                 summary.objects.iter().map(|o| o.model as f64).collect(),
             ),
         ],
+        intervals: vec![],
     }
 }
 
