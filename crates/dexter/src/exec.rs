@@ -143,6 +143,10 @@ const REACQUIRE_GATE: f64 = 0.2;
 /// The tracked segment nearer than this (m) to where the target was last seen is the target.
 const TARGET_GATE: f64 = 0.08;
 
+/// Before a grasp closes: the target seen farther than this (m, horizontally) from where the grasp
+/// was planned has moved (a bump moves it 4–8 cm; a resting object's track wanders < 1 cm).
+const MOVED_GATE: f64 = 0.03;
+
 /// Arms whose palm can reach 15 cm above `point` pointing down (IK within limits).
 pub fn arms_reaching(hw: &dyn Hardware, table_z: f64, point: &Vec3) -> Result<Vec<Arm>, RobotError> {
     let mut out = Vec::new();
@@ -199,6 +203,8 @@ pub struct RobotPlant<'a> {
     /// The object being manipulated (its track id and what was seen of it), once a reach bound it.
     target: Option<(Option<u32>, SeenObject)>,
     plan: Option<GraspPlan>,
+    /// The first track id not yet given when the grasp was planned (tracks from then on are new).
+    plan_next_id: u32,
     /// Palm pose when the last grasp converged.
     grasp_palm: Option<Iso3>,
     held: Option<Held>,
@@ -263,6 +269,7 @@ impl<'a> RobotPlant<'a> {
             handoff: [workspace.table_center[0].min(0.55), 0.0],
             unreached: Vec::new(),
             missed: false,
+            plan_next_id: 0,
             sink,
             t0,
             next_percept: 0.0,
@@ -553,6 +560,43 @@ impl<'a> RobotPlant<'a> {
         })
     }
 
+    /// Whether the target moved since the grasp was planned, judged from the head cameras before
+    /// the hand closes (closing on where it was would knock it over or away): its track is seen
+    /// more than [`MOVED_GATE`] from the planned grasp; or it is not seen and a new segment, one
+    /// that appeared after the plan, is seen within [`REACQUIRE_GATE`] of the plan. The reason, if so.
+    fn object_moved(&self) -> Option<String> {
+        let plan = self.plan.as_ref()?;
+        let (id, _) = self.target.as_ref()?;
+        let p = self.percepts.last()?;
+        let g = plan.grasp.translation.vector;
+        let off = |s: &schema::SegmentPercept| (s.centroid[0] - g.x).hypot(s.centroid[1] - g.y);
+        let track = id.and_then(|id| p.segments.iter().find(|s| s.id == id));
+        match track {
+            Some(s) if s.seen => {
+                let d = off(s);
+                (d > MOVED_GATE).then(|| {
+                    format!(
+                        "grasp: the object moved before the hand closed (seen {:.1} cm from the planned grasp)",
+                        100.0 * d
+                    )
+                })
+            }
+            _ => p
+                .segments
+                .iter()
+                .filter(|s| s.seen && s.id >= self.plan_next_id)
+                .map(off)
+                .filter(|d| *d < REACQUIRE_GATE)
+                .min_by(f64::total_cmp)
+                .map(|d| {
+                    format!(
+                        "grasp: the object is not seen under the hand and a new segment is {:.1} cm away",
+                        100.0 * d
+                    )
+                }),
+        }
+    }
+
     fn touch(&self, arm: Arm) -> TouchState {
         let mut buf = Vec::new();
         TouchState::of(&hand_fingertips(self.hw, arm, &mut buf))
@@ -596,16 +640,22 @@ impl SchemaPlant for RobotPlant<'_> {
                 };
                 let target = seen.centroid;
                 let k = arm.index();
-                // The other arm, if it hovers near the object (it just let go of it at the handoff),
-                // is in this arm's way and in the head's view: back to its parked pose first.
-                let other = 1 - k;
-                let other_palm = self.reach[other].tool_pose(self.hw).translation.vector;
-                if (other_palm.x - target.x).hypot(other_palm.y - target.y) < CLEAR_RADIUS {
-                    let park = park_pose(Arm::BOTH[other], table_z);
-                    self.with_observer(|hw, reach, _, obs| {
-                        reach[other].set_goal(hw, park);
-                        run_until(hw, &mut reach[other], obs, 3.0, |h, r| r.at_goal(h, 0.02, 0.1));
-                    })?;
+                // An arm that hovers near the object — the other (it just let go of it at the
+                // handoff), or this one (its reach is asked for again: the monitors did not see it
+                // arrive) — is in the way and in the head's view: back to its parked pose first,
+                // so that the look below sees the object whole.
+                for a in [1 - k, k] {
+                    let palm = self.reach[a].tool_pose(self.hw).translation.vector;
+                    if (palm.x - target.x).hypot(palm.y - target.y) < CLEAR_RADIUS {
+                        let park = park_pose(Arm::BOTH[a], table_z);
+                        self.with_observer(|hw, reach, hand, obs| {
+                            if a == k {
+                                release_and_retreat(hw, &mut reach[a], &hand[a], obs);
+                            }
+                            reach[a].set_goal(hw, park);
+                            run_until(hw, &mut reach[a], obs, 3.0, |h, r| r.at_goal(h, 0.02, 0.1));
+                        })?;
+                    }
                 }
                 // Look at it and let the tracker refresh what is seen there.
                 self.look(&target, 0.5)?;
@@ -622,6 +672,11 @@ impl SchemaPlant for RobotPlant<'_> {
                 let arc = finger_arc(self.hw.model(), arm)?;
                 let current = self.reach[k].tool_pose(self.hw);
                 let plan = plan_top_grasp(&arc, &seen, table_z, &current);
+                self.plan_next_id = self
+                    .percepts
+                    .last()
+                    .and_then(|p| p.segments.iter().map(|s| s.id + 1).max())
+                    .unwrap_or(0);
                 let r = self.with_observer(|hw, reach, hand, obs| {
                     approach_grasp(hw, &mut reach[k], &hand[k], &plan, obs, &mut |_, _| {})
                 })?;
@@ -647,6 +702,9 @@ impl SchemaPlant for RobotPlant<'_> {
                 let k = arm.index();
                 if self.target.is_none() {
                     ActionOutcome::Failed("no object to grasp (no reach yet)".into())
+                } else if let Some(why) = self.object_moved() {
+                    self.back_off(arm)?;
+                    ActionOutcome::Failed(why)
                 } else {
                     let r = self.with_observer(|hw, reach, hand, obs| close_grasp(hw, &mut reach[k], &hand[k], obs))?;
                     match r {
@@ -783,8 +841,8 @@ impl SchemaPlant for RobotPlant<'_> {
             }
             for h in &p.hands {
                 eprintln!(
-                    "  hand {} palm {:?} speed {:.3} load {:.2}",
-                    h.arm, h.palm, h.palm_speed, h.load
+                    "  hand {} palm {:?} speed {:.3} load {:.2} flex {:.2} forces {:.2?}",
+                    h.arm, h.palm, h.palm_speed, h.load, h.flexion, h.finger_force
                 );
             }
             for sg in &p.segments {

@@ -55,6 +55,14 @@ const FOREARM_RADIUS: f64 = 0.10;
 /// A segment near an arm showing fewer than this share of the largest pixel count (both cameras) its
 /// track had with no arm near is taken as partly hidden by the arm (pixel noise is ≈ ±5 %).
 const OCCLUDED_SHARE: f64 = 0.85;
+/// A view near an arm whose centroid is this far (m) outside the track's footprint may show the
+/// object moved ([`moved_clear`]; partial views measured up to 2.2 cm outside from stereo noise).
+const MOVED_FOOTPRINT: f64 = 0.03;
+/// … if it shows at least this share of the track's whole view …
+const MOVED_SHARE: f64 = 0.55;
+/// … and its centroid is within this height (m) of the track's (mismatched stereo pairs of a
+/// partly hidden object measured 4–7 cm high).
+const MOVED_DZ: f64 = 0.035;
 /// A carried track stays latched to its hand until the hand has not held for this many frames.
 const UNHELD_FRAMES: u32 = 3;
 /// An unmatched segment this close (m) to a palm that carries something is a piece of that object.
@@ -140,7 +148,8 @@ impl Tracker {
             used_t[j] = true;
             let id = self.tracks[j].id;
             let px = pixels(&seen[i]);
-            if near_palm[j] && px < OCCLUDED_SHARE * self.whole_pixels[j] {
+            let moved = near_palm[j] && moved_clear(&self.tracks[j], &seen[i], px / self.whole_pixels[j]);
+            if near_palm[j] && px < OCCLUDED_SHARE * self.whole_pixels[j] && !moved {
                 // Partly hidden by the hand: keep what was seen whole.
                 self.tracks[j].seen = true;
             } else {
@@ -218,6 +227,34 @@ fn retain_mask<T>(v: &mut Vec<T>, keep: &[bool]) {
         i += 1;
         keep[i - 1]
     });
+}
+
+/// Whether `blob`, matched to `track` while an arm is near, shows the object moved rather than
+/// partly hidden. The centroid of any part of a convex object lies inside its footprint, so a view
+/// whose centroid is clearly outside the track's footprint ([`MOVED_FOOTPRINT`]) is the object
+/// somewhere else — if the view is trustworthy: most of the object's pixels (`share` of its whole
+/// view ≥ [`MOVED_SHARE`]), alike in both cameras (a stereo pair of two different visible parts
+/// triangulates to a wrong point, typically centimetres above the object) and at the track's
+/// height ([`MOVED_DZ`]).
+fn moved_clear(track: &SegmentPercept, blob: &SegmentPercept, share: f64) -> bool {
+    let Some(e) = track.extent.as_ref() else {
+        return false;
+    };
+    let [l, r] = blob.pixels.map(f64::from);
+    let lr = l / r.max(1.0);
+    footprint_distance(e, [blob.centroid[0], blob.centroid[1]]) > MOVED_FOOTPRINT
+        && share >= MOVED_SHARE
+        && (blob.centroid[2] - track.centroid[2]).abs() < MOVED_DZ
+        && (0.75..=1.0 / 0.75).contains(&lr)
+}
+
+/// Horizontal distance (m) from `p` to the footprint `e` (0 inside).
+fn footprint_distance(e: &schema::SeenExtent, p: [f64; 2]) -> f64 {
+    let d = [p[0] - e.center[0], p[1] - e.center[1]];
+    let [ax, ay] = e.major_axis;
+    let u = (d[0] * ax + d[1] * ay).abs() - e.half_major;
+    let v = (-d[0] * ay + d[1] * ax).abs() - e.half_minor;
+    u.max(0.0).hypot(v.max(0.0))
 }
 
 /// Distance from `p` to the line of sight from `eye` to `target` (the segment between them).

@@ -47,6 +47,15 @@ pub struct MonitorConfig {
     pub release_clear: f64,
     /// Flexion below which a hand counts as opening (rad).
     pub open_flexion: f64,
+    /// All three fingertips above this force (N) is a grasp at any flexion: a wide object stops
+    /// the fingers before [`MonitorConfig::open_flexion`] (a pre-shaped hand that merely touches
+    /// loads one or two fingertips lightly).
+    #[serde(default = "default_firm_force")]
+    pub firm_force: f64,
+}
+
+fn default_firm_force() -> f64 {
+    5.0
 }
 
 impl Default for MonitorConfig {
@@ -62,6 +71,7 @@ impl Default for MonitorConfig {
             place_load_fraction: 0.4,
             release_clear: 0.15,
             open_flexion: 1.0,
+            firm_force: default_firm_force(),
         }
     }
 }
@@ -201,9 +211,10 @@ impl MonitorBank {
             // Grasp: latch on onset, keep while any two fingers stay loaded.
             match mem.grasp {
                 None => {
+                    let firm = h.finger_force.iter().all(|&v| v > c.firm_force);
                     if opposing
                         && still
-                        && h.flexion >= c.open_flexion
+                        && (h.flexion >= c.open_flexion || firm)
                         && let Some(seg) = near(1.5 * c.reach_radius)
                     {
                         mem.grasp = Some((seg, h.palm[2], 0.0));
@@ -228,7 +239,9 @@ impl MonitorBank {
                         mem.grasp = None;
                         // Let go with the hand opening: Release; with the fingers still closed (or closing
                         // further) the object slipped out: a drop.
-                        if h.flexion < c.open_flexion || h.flexion < mem.grasp_flexion - 0.02 {
+                        // (A wide grasp never reached `open_flexion`: only opening counts.)
+                        let opened = mem.grasp_flexion >= c.open_flexion && h.flexion < c.open_flexion;
+                        if opened || h.flexion < mem.grasp_flexion - 0.02 {
                             mem.released_at = Some(h.palm);
                         }
                     }
