@@ -331,20 +331,6 @@ pub fn decide(
     Ok(("pick_and_place".into(), out))
 }
 
-/// Gaze points (x, y) that cover the table in front of the robot.
-fn scan_points(ws: &dexter::exec::Workspace) -> Vec<Vec3> {
-    let mut out = Vec::new();
-    let (cx, cy) = (ws.table_center[0], ws.table_center[1]);
-    let hy = (ws.table_size[1] / 2.0 - 0.1).max(0.0);
-    for x in [cx - 0.08, cx + 0.1] {
-        for k in 0..4 {
-            let y = cy - hy + 2.0 * hy * f64::from(k) / 3.0;
-            out.push(Vec3::new(x, y, ws.table_z + 0.03));
-        }
-    }
-    out
-}
-
 /// Executes the task in `scene` as the robot: look over the table, decide per seen segment, run
 /// the schema with ψ on each relevant one; the evaluator matches segments to objects by the truth at
 /// the start and judges each outcome by the truth at the end. `only`: restrict to the segment
@@ -411,7 +397,7 @@ pub fn execute_scene_with_fault(
     {
         let mut plant = RobotPlant::new(&mut hw, &ws, library, &mut sink).map_err(from_robot)?;
         // Look over the table: the tracker gathers what is there.
-        for at in scan_points(&ws) {
+        for at in ws.scan_points() {
             plant.look(&at, 0.6).map_err(from_robot)?;
         }
         let seen: Vec<schema::SegmentPercept> = plant

@@ -626,10 +626,13 @@ pub fn fault_trial(
         &mut crate::execute::NoLog,
     )?;
     let record = report.fault.clone().unwrap_or_default();
+    // The faulted object's report (the robot may also have acted on a segment that is no object).
+    let label = scene.resolved.get(spec.object).map(|r| r.label.as_str());
     let o = report
         .objects
         .iter()
-        .find(|o| o.decision == "execute")
+        .find(|o| o.decision == "execute" && Some(o.object.as_str()) == label)
+        .or_else(|| report.objects.iter().find(|o| o.decision == "execute"))
         .or(report.objects.first());
     let success = o.is_some_and(|o| o.success);
     let contingencies = o.map(|o| o.contingencies.clone()).unwrap_or_default();

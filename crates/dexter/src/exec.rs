@@ -67,6 +67,20 @@ pub struct Workspace {
 }
 
 impl Workspace {
+    /// Where the head looks to scan the table: two rows of four points across its width.
+    pub fn scan_points(&self) -> Vec<Vec3> {
+        let mut out = Vec::new();
+        let (cx, cy) = (self.table_center[0], self.table_center[1]);
+        let hy = (self.table_size[1] / 2.0 - 0.1).max(0.0);
+        for x in [cx - 0.08, cx + 0.1] {
+            for k in 0..4 {
+                let y = cy - hy + 2.0 * hy * f64::from(k) / 3.0;
+                out.push(Vec3::new(x, y, self.table_z + 0.03));
+            }
+        }
+        out
+    }
+
     /// The place named `name`.
     pub fn place(&self, name: &str) -> Result<&Place, RobotError> {
         self.places.iter().find(|p| p.name == name).ok_or_else(|| {
@@ -142,6 +156,9 @@ const REACQUIRE_GATE: f64 = 0.2;
 
 /// The tracked segment nearer than this (m) to where the target was last seen is the target.
 const TARGET_GATE: f64 = 0.08;
+
+/// A lost target is searched for this far (m) from where it was last seen.
+const SEARCH_GATE: f64 = 0.5;
 
 /// Before a grasp closes: the target seen farther than this (m, horizontally) from where the grasp
 /// was planned has moved (a bump moves it 4–8 cm; a resting object's track wanders < 1 cm).
@@ -597,6 +614,42 @@ impl<'a> RobotPlant<'a> {
         }
     }
 
+    /// Whether the latest percept sees the track `id`.
+    fn seen_now(&self, id: Option<u32>) -> bool {
+        let Some(p) = self.percepts.last() else {
+            return false;
+        };
+        id.is_some_and(|id| p.segments.iter().any(|s| s.id == id && s.seen))
+    }
+
+    /// Scans the table with the head ([`Workspace::scan_points`]) for a lost target: the seen
+    /// segment nearest `last` (where it was last seen) within [`SEARCH_GATE`], on the table (not in
+    /// a place, not carried, at the table's height). `None` if nothing is seen there.
+    fn search(&mut self, last: &Vec3) -> Result<Option<(Option<u32>, SeenObject)>, RobotError> {
+        let table_z = self.workspace.table_z;
+        let mut best: Option<(f64, u32, SeenObject)> = None;
+        for at in self.workspace.scan_points() {
+            self.look(&at, 0.6)?;
+            let Some(p) = self.percepts.last() else {
+                continue;
+            };
+            for s in p.segments.iter().filter(|s| s.seen) {
+                let c = Vec3::from(s.centroid);
+                let d = (c - last).xy().norm();
+                let on_table = c.z > table_z && c.z < table_z + 0.4;
+                let in_place = self.workspace.places.iter().any(|pl| pl.contains([c.x, c.y]));
+                let carried = p
+                    .hands
+                    .iter()
+                    .any(|h| (Vec3::from(h.palm) - c).norm() < 0.12 && h.load.abs() > 0.5);
+                if d < SEARCH_GATE && on_table && !in_place && !carried && best.as_ref().is_none_or(|b| d < b.0) {
+                    best = Some((d, s.id, SeenObject::from_percept(s, table_z)));
+                }
+            }
+        }
+        Ok(best.map(|(_, id, seen)| (Some(id), seen)))
+    }
+
     fn touch(&self, arm: Arm) -> TouchState {
         let mut buf = Vec::new();
         TouchState::of(&hand_fingertips(self.hw, arm, &mut buf))
@@ -630,6 +683,11 @@ impl SchemaPlant for RobotPlant<'_> {
                 let resolved = match &self.target {
                     Some(t) if binding.object.is_none() => Ok(t.clone()),
                     _ => self.resolve_target(binding),
+                };
+                // Its track is gone: search for it from where it was last seen.
+                let resolved = match (resolved, self.target.clone()) {
+                    (Err(e), Some((_, last))) => self.search(&last.centroid)?.ok_or(e),
+                    (r, _) => r,
                 };
                 let (id, seen) = match resolved {
                     Ok(t) => t,
@@ -665,6 +723,12 @@ impl SchemaPlant for RobotPlant<'_> {
                 }) {
                     Ok(t) => t,
                     Err(_) => (id, seen),
+                };
+                // Not seen where it should be (it rolled, or was knocked away): search the table.
+                let (id, seen) = if self.seen_now(id) {
+                    (id, seen)
+                } else {
+                    self.search(&seen.centroid)?.unwrap_or((id, seen))
                 };
                 self.target = Some((id, seen.clone()));
                 self.held = None;
