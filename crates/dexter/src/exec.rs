@@ -593,7 +593,7 @@ impl<'a> RobotPlant<'a> {
                 let d = off(s);
                 (d > MOVED_GATE).then(|| {
                     format!(
-                        "grasp: the object moved before the hand closed (seen {:.1} cm from the planned grasp)",
+                        "the object moved before the hand closed (seen {:.1} cm from the planned grasp)",
                         100.0 * d
                     )
                 })
@@ -607,7 +607,7 @@ impl<'a> RobotPlant<'a> {
                 .min_by(f64::total_cmp)
                 .map(|d| {
                     format!(
-                        "grasp: the object is not seen under the hand and a new segment is {:.1} cm away",
+                        "the object is not seen under the hand and a new segment is {:.1} cm away",
                         100.0 * d
                     )
                 }),
