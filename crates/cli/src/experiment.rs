@@ -99,6 +99,14 @@ pub struct SortingArgs {
     /// the prior predictive.
     #[arg(long, default_value_t = 0)]
     background: usize,
+    /// The colour base measure: uniform over the colour terms instead of the household catalog's
+    /// colour-term shares.
+    #[arg(long)]
+    uniform_base: bool,
+    /// The share of an object's colour term given to each neighbouring term (hue circle, black –
+    /// grey – white), in [0, 0.5].
+    #[arg(long, default_value_t = pbd::schema::procedural::DEFAULT_COLOR_NEIGHBOUR_SHARE)]
+    neighbour_share: f64,
 }
 
 /// `pbd experiment execute` arguments.
@@ -218,6 +226,8 @@ fn sorting(a: SortingArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         test_catalog: a.test_catalog,
         test_features: a.test_features,
         background: a.background,
+        uniform_base: a.uniform_base,
+        neighbour_share: a.neighbour_share,
     };
     let summary = pbd::experiment::sorting::run(&options, &Bars::new(a.json, true)?)?;
     for (path, figure) in &summary.figures {

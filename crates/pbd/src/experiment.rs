@@ -68,6 +68,14 @@ pub struct SortingOptions {
     /// the training catalog's presentations outside the task's classes — that fit the background
     /// model M₀ (§5.1.3). 0: M₀ is the prior predictive. Their objects are never test objects.
     pub background: usize,
+    /// The colour base measure m of the model: the household catalog's colour-term shares
+    /// ([`schema::procedural::DEFAULT_COLOR_BASE`], the default) or, when true, uniform over the
+    /// colour terms (the seed's L⁻¹).
+    pub uniform_base: bool,
+    /// ε of [`schema::procedural::Hyper::color_neighbour_share`]: the share of an object's colour
+    /// term given to each perceptually neighbouring term (0 ≤ ε ≤ ½; default
+    /// [`schema::procedural::DEFAULT_COLOR_NEIGHBOUR_SHARE`]).
+    pub neighbour_share: f64,
 }
 
 impl Default for SortingOptions {
@@ -87,6 +95,8 @@ impl Default for SortingOptions {
             test_catalog: None,
             test_features: None,
             background: 0,
+            uniform_base: false,
+            neighbour_share: schema::procedural::DEFAULT_COLOR_NEIGHBOUR_SHARE,
         }
     }
 }

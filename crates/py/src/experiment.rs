@@ -182,6 +182,16 @@ struct SortingConfig {
     /// Relevance: objects left alone in the demonstration scenes that fit the background model M₀.
     #[serde(default)]
     background: usize,
+    /// The colour base measure uniform over the colour terms (default: the household shares).
+    #[serde(default)]
+    uniform_base: bool,
+    /// The share of an object's colour term given to each neighbouring term.
+    #[serde(default = "default_neighbour_share")]
+    neighbour_share: f64,
+}
+
+fn default_neighbour_share() -> f64 {
+    pbd::schema::procedural::DEFAULT_COLOR_NEIGHBOUR_SHARE
 }
 
 fn default_views() -> usize {
@@ -222,6 +232,8 @@ fn sorting_trial(py: Python<'_>, config: &Bound<'_, PyAny>, trial: usize) -> PyR
         test_catalog: c.test_catalog.clone(),
         test_features: c.test_features.clone(),
         background: c.background,
+        uniform_base: c.uniform_base,
+        neighbour_share: c.neighbour_share,
         ..Default::default()
     };
     let (result, _) = runner::run(py, None, |progress| {

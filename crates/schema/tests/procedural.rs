@@ -177,6 +177,17 @@ fn model_file_round_trips_and_names_bad_fields() {
     assert!(e.starts_with("hyper.color.chromatic_share"), "{e}");
 
     let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    v["hyper"]["color"]["neighbour_share"] = serde_json::json!(0.75);
+    let e = field_of(ProceduralModel::from_json(&v.to_string(), "m.json").unwrap_err());
+    assert!(e.starts_with("hyper.color.neighbour_share"), "{e}");
+
+    // A file written before the neighbour share existed reads as 0 (the draws it was learned with).
+    let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    v["hyper"]["color"].as_object_mut().unwrap().remove("neighbour_share");
+    let m = ProceduralModel::from_json(&v.to_string(), "m.json").unwrap();
+    assert_eq!(m.hyper().color_neighbour_share, 0.0);
+
+    let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
     v["places"][0]["size"]["n"] = serde_json::json!(7);
     let e = field_of(ProceduralModel::from_json(&v.to_string(), "m.json").unwrap_err());
     assert!(e.starts_with("places[0].size"), "{e}");

@@ -596,10 +596,17 @@ fn plan(args: &SortingOptions) -> anyhow::Result<(Vec<String>, Label, Hyper)> {
             _ => StructureChoice::Inferred,
         },
     };
-    let hyper = Hyper {
+    let mut hyper = Hyper {
         structure,
+        color_neighbour_share: args.neighbour_share,
         ..Hyper::default()
     };
+    if args.uniform_base {
+        hyper.color_base = vec![1.0 / schema::procedural::COLORS as f64; schema::procedural::COLORS];
+    }
+    hyper
+        .validate()
+        .with_context(|| format!("--neighbour-share {}", args.neighbour_share))?;
     Ok((classes, label, hyper))
 }
 

@@ -31,6 +31,9 @@ struct ColorHyper {
     draws_per_object: u32,
     object_concentrations: Vec<f64>,
     chromatic_share: f64,
+    /// Absent in files written before 2026-11-27: 0, the draws those files' places were learned with.
+    #[serde(default)]
+    neighbour_share: f64,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -96,7 +99,8 @@ impl ProceduralModel {
     ///                "base": [0.119, 0.156, …],             // m over the terms
     ///                "draws_per_object": 30,                // D draws per object
     ///                "object_concentrations": [1, 4, 16, 64], // grid of a, θ ~ Dirichlet(a·π)
-    ///                "chromatic_share": 0.3 },              // the chromatic rule
+    ///                "chromatic_share": 0.3,                // the chromatic rule
+    ///                "neighbour_share": 0.06 },             // ε to each neighbouring term (optional, 0)
     ///     "size": { "unit": "deci-pixels", "mu": 25.0, "kappa": 0.05, "alpha": 2.0, "beta": 128.0 },
     ///     "structure_prior": { "neither": 0.328, "color": 0.328, "size": 0.328, "color+size": 0.016 },
     ///     "structure": "inferred",                         // or a fixed structure name
@@ -132,6 +136,7 @@ impl ProceduralModel {
                     draws_per_object: h.color_draws_per_object,
                     object_concentrations: h.color_object_concentrations.clone(),
                     chromatic_share: h.color_chromatic_share,
+                    neighbour_share: h.color_neighbour_share,
                 },
                 size: SizeHyper {
                     unit: SIZE_UNIT.into(),
@@ -269,6 +274,7 @@ impl ProceduralModel {
             color_draws_per_object: hf.color.draws_per_object,
             color_object_concentrations: hf.color.object_concentrations,
             color_chromatic_share: hf.color.chromatic_share,
+            color_neighbour_share: hf.color.neighbour_share,
             size_prior,
             structure_prior: [sp.neither, sp.color, sp.size, sp.color_size],
             structure,
