@@ -440,6 +440,18 @@ pub fn grasp_and_lift(
     lift_and_weigh(hw, reach, &plan, obs)
 }
 
+/// How far (horizontally) a palm that stopped on an object's top may be from its planned grasp
+/// for the fingers still to close from there ([`approach_grasp`]). Traced in the bump and drop fault
+/// scenes (`dexter-sim/examples/fault_probe.rs`): a palm that lands on a knocked-over or dropped object
+/// stops 6–15 mm off its goal, and closing from there grasps it (bump scenes 20 and 29); the grasp
+/// monitors judge the result, as after any close. Was 6 mm.
+const RESTING_XY: f64 = 0.02;
+
+/// How far above its planned grasp such a palm may have stopped ([`approach_grasp`]): 2 cm. Palms
+/// stopped 2.5–5 cm above (an object whose measured top was low) were traced too; closing from there
+/// did not recover any of them, so the bound stays.
+const RESTING_Z: f64 = 0.02;
+
 /// Reach (§3.1) to the pre-grasp 10 cm above `plan.grasp` with the hand pre-shaped — a straight line
 /// at hover height, the configuration servo if that stalls — then descend to the grasp pose. Returns
 /// the plan actually used (F3 may be on either side: the IK solution nearer the current
@@ -519,7 +531,7 @@ pub fn approach_grasp(
         // measured height was a little high): the fingers can close from there.
         let palm = reach.tool_pose(hw).translation.vector;
         let goal = plan.grasp.translation.vector;
-        let resting = (palm.xy() - goal.xy()).norm() < 0.006 && palm.z > goal.z && palm.z - goal.z < 0.02;
+        let resting = (palm.xy() - goal.xy()).norm() < RESTING_XY && palm.z > goal.z && palm.z - goal.z < RESTING_Z;
         if !resting {
             let (d, _) = reach.goal_error(hw);
             return Err(format!("grasp pose not reached ({:.1} cm away)", d * 100.0));
