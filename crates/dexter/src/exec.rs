@@ -530,7 +530,7 @@ impl<'a> RobotPlant<'a> {
             if let Some(c) = last
                 && let Some((_, s)) = segments
                     .iter()
-                    .filter(|s| s.seen)
+                    .filter(|s| s.seen && self.above_table(s))
                     .map(|s| ((Vec3::from(s.centroid) - c).xy().norm(), s))
                     .filter(|(d, _)| *d < REACQUIRE_GATE)
                     .min_by(|a, b| a.0.total_cmp(&b.0))
@@ -546,7 +546,7 @@ impl<'a> RobotPlant<'a> {
         {
             let near = segments
                 .iter()
-                .filter(|s| s.seen)
+                .filter(|s| s.seen && self.above_table(s))
                 .map(|s| ((Vec3::from(s.centroid) - seen.centroid).xy().norm(), s))
                 .filter(|(d, _)| *d < TARGET_GATE)
                 .min_by(|a, b| a.0.total_cmp(&b.0))
@@ -601,7 +601,7 @@ impl<'a> RobotPlant<'a> {
             _ => p
                 .segments
                 .iter()
-                .filter(|s| s.seen && s.id >= self.plan_next_id)
+                .filter(|s| s.seen && s.id >= self.plan_next_id && self.above_table(s))
                 .map(off)
                 .filter(|d| *d < REACQUIRE_GATE)
                 .min_by(f64::total_cmp)
@@ -612,6 +612,13 @@ impl<'a> RobotPlant<'a> {
                     )
                 }),
         }
+    }
+
+    /// Whether a segment's centroid is above the table top (within 2 cm): an object on the table or
+    /// in a place. A stereo mismatch triangulates a blob below the table, where no object the
+    /// robot could grasp can be.
+    fn above_table(&self, s: &schema::SegmentPercept) -> bool {
+        s.centroid[2] > self.workspace.table_z - 0.02
     }
 
     /// Whether the latest percept sees the track `id`.
@@ -736,6 +743,9 @@ impl SchemaPlant for RobotPlant<'_> {
                 let arc = finger_arc(self.hw.model(), arm)?;
                 let current = self.reach[k].tool_pose(self.hw);
                 let plan = plan_top_grasp(&arc, &seen, table_z, &current);
+                if std::env::var_os("PBD_DEBUG_EXEC").is_some() {
+                    eprintln!("  reach target id {id:?}: {seen:?}");
+                }
                 self.plan_next_id = self
                     .percepts
                     .last()

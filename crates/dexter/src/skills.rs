@@ -46,6 +46,11 @@ pub struct GraspPlan {
     pub preshape: f64,
     /// Object width across the fingers (m).
     pub width: f64,
+    /// How far below `grasp` the descent may go on (m) when the object's height is uncertain (a
+    /// coarse extent: a height from the triangulated centroid alone, which a blob that merges with
+    /// something above it puts too high): the palm comes down until it rests on the object's top,
+    /// a guarded move. 0: the measured height is trusted.
+    pub guard: f64,
 }
 
 /// An object as the robot sees it on the table: centroid, height and footprint (§6.2.1), from the
@@ -215,22 +220,37 @@ pub fn plan_top_grasp_geometry(
         grasp,
         preshape,
         width: 2.0 * half_width,
+        guard: 0.0,
     }
 }
+
+/// The share of a coarse height the guarded descent of [`plan_top_grasp`] may come down to: the
+/// palm's goal is planned for an object this much of the measured height (a centroid 4 cm too high
+/// doubles a 10 cm can's coarse height; the palm then stops on the real top).
+const COARSE_HEIGHT_FLOOR: f64 = 0.4;
 
 /// Plans a top-down grasp of a seen object resting on the table at `table_z` (its footprint's
 /// principal axes and measured height; §6.2.1), for a hand at orientation `current`.
 pub fn plan_top_grasp(arc: &[(f64, f64, f64)], seen: &SeenObject, table_z: f64, current: &Iso3) -> GraspPlan {
     let e = &seen.extent;
-    plan_top_grasp_geometry(
+    let half = |d: Vec3| e.half_extent_along([d.x, d.y]);
+    let plan = plan_top_grasp_geometry(arc, &half, e.center, table_z, table_z + e.height, table_z, current);
+    if e.model != "coarse" {
+        return plan;
+    }
+    let low = plan_top_grasp_geometry(
         arc,
-        &|d: Vec3| e.half_extent_along([d.x, d.y]),
+        &half,
         e.center,
         table_z,
-        table_z + e.height,
+        table_z + COARSE_HEIGHT_FLOOR * e.height,
         table_z,
         current,
-    )
+    );
+    GraspPlan {
+        guard: (plan.grasp.translation.z - low.grasp.translation.z).max(0.0),
+        ..plan
+    }
 }
 
 /// Whether `arm` can put its palm at `pose` (IK within limits).
@@ -525,13 +545,19 @@ pub fn approach_grasp(
     phase("reach grasp", hw.time_secs());
     obs.activity = "reach grasp";
     reach.max_speed = 0.15;
-    reach.set_goal(hw, plan.grasp);
+    // A guarded descent (an uncertain height, [`GraspPlan::guard`]) aims below the planned grasp
+    // and stops where the palm rests on the object's top.
+    let mut goal_pose = plan.grasp;
+    goal_pose.translation.vector.z -= plan.guard;
+    reach.set_goal(hw, goal_pose);
     if !run_until(hw, reach, obs, 4.0, |s, r| r.at_goal(s, 0.004, 0.03)) {
         // A palm stopped just above its goal, over the object, rests on the object's top (its
         // measured height was a little high): the fingers can close from there.
         let palm = reach.tool_pose(hw).translation.vector;
-        let goal = plan.grasp.translation.vector;
-        let resting = (palm.xy() - goal.xy()).norm() < RESTING_XY && palm.z > goal.z && palm.z - goal.z < RESTING_Z;
+        let goal = goal_pose.translation.vector;
+        let resting = (palm.xy() - goal.xy()).norm() < RESTING_XY
+            && palm.z > goal.z
+            && palm.z - goal.z < RESTING_Z + plan.guard;
         if !resting {
             let (d, _) = reach.goal_error(hw);
             return Err(format!("grasp pose not reached ({:.1} cm away)", d * 100.0));
@@ -542,6 +568,13 @@ pub fn approach_grasp(
         off.translation.vector.z += 0.005;
         reach.set_goal(hw, off);
         run_until(hw, reach, obs, 0.5, |s, r| r.at_goal(s, 0.002, 0.03));
+    }
+    if plan.guard > 0.0 {
+        // The grasp is where the guarded descent stopped.
+        let mut done = plan;
+        done.grasp.translation.vector.z = reach.tool_pose(hw).translation.z;
+        done.guard = 0.0;
+        return Ok(done);
     }
     Ok(plan)
 }
