@@ -148,6 +148,9 @@ pub struct GenerateArgs {
     /// Print the pre-grasps as JSON.
     #[arg(long)]
     json: bool,
+    /// Also draw the scene, the robot and the ranked pre-grasps into this MCAP file (Foxglove).
+    #[arg(long)]
+    mcap: Option<PathBuf>,
 }
 
 /// Arguments of `pbd grasp eval`.
@@ -241,6 +244,7 @@ pub fn main(cmd: GraspCommand, out: &mut dyn Write) -> anyhow::Result<()> {
                 present: a.present.options()?,
                 n: a.n,
                 seed: a.seed,
+                mcap: a.mcap,
             };
             emit(a.json, &pbd::grasp::generate(&options)?, out)
         }

@@ -314,6 +314,11 @@ impl Fault {
     /// After the physics steps: evaluates the trigger from the world's truth and applies the fault.
     pub fn after_advance(&mut self, sim: &mut DexterSim) {
         let t = sim.time();
+        if std::env::var_os("PBD_DEBUG_TRUTH").is_some() && ((t * 1000.0).round() as u64) % 500 == 0 {
+            let o = sim.object_state(self.spec.object);
+            let p = o.pose.translation.vector;
+            eprintln!("TRUTH t={t:.2} object at ({:.3}, {:.3}, {:.3})", p.x, p.y, p.z);
+        }
         if let Some(until) = self.until {
             if t >= until {
                 self.until = None;

@@ -119,6 +119,11 @@ pub const HANDOFF: &str = "handoff";
 /// for the transferred object, the other object and the open fingers between them.
 pub const HANDOFF_CLEARANCE: f64 = 0.16;
 
+/// How far inside its pan and tilt limits (rad) the head must be to look at a handoff spot: a spot
+/// the head cannot look at squarely is at the edge of one camera's image and missing from the
+/// other's, so the object put there is never triangulated.
+const HEAD_LIMIT_MARGIN: f64 = 0.05;
+
 /// The other arm's palm within this horizontal distance (m) of an object to reach is moved away
 /// first.
 const CLEAR_RADIUS: f64 = 0.25;
@@ -422,7 +427,15 @@ impl<'a> RobotPlant<'a> {
         let cost = |c: &[f64; 2]| (c[1] - ws.table_center[1]).abs() + 0.5 * (c[0] - 0.55).abs();
         candidates.sort_by(|a, b| cost(a).total_cmp(&cost(b)));
         for c in candidates {
+            // The head must see the spot (both cameras, for stereo) to find the object there.
+            let seen_at = Vec3::new(c[0], c[1], table_z + 0.05);
+            if !self.watcher.can_look_at(self.hw, &seen_at, HEAD_LIMIT_MARGIN)? {
+                continue;
+            }
             if arms_reaching(self.hw, table_z, &Vec3::new(c[0], c[1], table_z))?.len() == 2 {
+                if std::env::var_os("PBD_DEBUG_EXEC").is_some() {
+                    eprintln!("  handoff spot {c:?}");
+                }
                 self.handoff = c;
                 return Ok(Some(c));
             }

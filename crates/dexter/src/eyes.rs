@@ -208,10 +208,7 @@ impl SearchTrack {
     /// Points the head (pan, tilt, symmetric vergence) at the world point `target` — the search
     /// phase, before a blob is foveated. The pan axis comes from the robot's kinematics.
     pub fn look_at(&self, hw: &mut dyn Hardware, body: &mut Body, target: &Vec3) -> Result<(), RobotError> {
-        let tilt_axis = body.pose(hw, "head/pan_link")?.translation.vector + Vec3::new(0.0, 0.0, 0.1);
-        let d = target - tilt_axis;
-        let pan = d.y.atan2(d.x);
-        let tilt = (-d.z).atan2((d.x * d.x + d.y * d.y).sqrt());
+        let (pan, tilt, d) = self.look_angles(hw, body, target)?;
         let dist = d.norm().max(0.1);
         let verge = (0.06 / dist).atan();
         hw.set_joint_reference(self.pan, pan, 0.0);
@@ -219,6 +216,29 @@ impl SearchTrack {
         hw.set_joint_reference(self.verge[0], -verge, 0.0);
         hw.set_joint_reference(self.verge[1], verge, 0.0);
         Ok(())
+    }
+
+    /// The pan and tilt that point the head at `target`, and the vector from the tilt axis to it.
+    pub fn look_angles(&self, hw: &dyn Hardware, body: &mut Body, target: &Vec3) -> Result<(f64, f64, Vec3), RobotError> {
+        let tilt_axis = body.pose(hw, "head/pan_link")?.translation.vector + Vec3::new(0.0, 0.0, 0.1);
+        let d = target - tilt_axis;
+        let pan = d.y.atan2(d.x);
+        let tilt = (-d.z).atan2((d.x * d.x + d.y * d.y).sqrt());
+        Ok((pan, tilt, d))
+    }
+
+    /// Whether the head can point at `target` with its pan and tilt at least `margin` (rad) inside
+    /// their joint limits: a point the head must strain to the limit for is seen at the image's
+    /// edge by one camera at most, and stereo fails there.
+    pub fn can_look_at(&self, hw: &dyn Hardware, body: &mut Body, target: &Vec3, margin: f64) -> Result<bool, RobotError> {
+        let (pan, tilt, _) = self.look_angles(hw, body, target)?;
+        let model = hw.model();
+        let within = |name: &str, q: f64| -> Result<bool, RobotError> {
+            let j = model.joint(name)?;
+            let l = &model.joints[j].limits;
+            Ok(q >= l.lower + margin && q <= l.upper - margin)
+        };
+        Ok(within("head/pan_joint", pan)? && within("head/tilt_joint", tilt)?)
     }
 
     /// One tracking tick of `dt` seconds on `blob`: image-based servo of pan/tilt on the mean image

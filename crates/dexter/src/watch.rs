@@ -343,6 +343,12 @@ impl Watcher {
         self.head.look_at(hw, &mut self.body, target)
     }
 
+    /// Whether the head can look at `target` with pan and tilt `margin` (rad) inside their limits
+    /// ([`SearchTrack::can_look_at`]).
+    pub fn can_look_at(&mut self, hw: &dyn Hardware, target: &Vec3, margin: f64) -> Result<bool, RobotError> {
+        self.head.can_look_at(hw, &mut self.body, target, margin)
+    }
+
     /// One percept at time `t` (s since the start of the run): captures the head's stereo pair,
     /// segments it, updates the tracks.
     pub fn percept(&mut self, hw: &mut dyn Hardware, t: f64) -> Result<Percept, RobotError> {
@@ -411,6 +417,14 @@ impl Watcher {
         let mut seen = Vec::new();
         let mut gaze_candidates = Vec::new();
         for b in blobs {
+            if std::env::var_os("PBD_DEBUG_BLOBS").is_some() {
+                eprintln!(
+                    "BLOB t={t:.2} centroid {:?} left {:?} right {:?}",
+                    b.centroid.map(|c| [c.x, c.y, c.z]),
+                    b.left.map(|s| (s.features.pixel_count, s.features.centroid)),
+                    b.right.map(|s| (s.features.pixel_count, s.features.centroid))
+                );
+            }
             let (Some(c), Some(l), Some(r)) = (b.centroid, b.left, b.right) else {
                 continue;
             };

@@ -23,6 +23,7 @@ use grasp_topics::{Config, Corpus, DemoGrasp, DpConfig, GraspModel};
 use nalgebra::{Matrix2, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::mcap_log::{McapLog, PreGraspMarker};
 use crate::progress::Progress;
 
 pub mod common;
@@ -165,6 +166,9 @@ pub struct GenerateOptions {
     pub n: usize,
     /// Seed.
     pub seed: u64,
+    /// Also draw the presented scene, the robot and the ranked pre-grasps into this MCAP file
+    /// (`/scene`, `/robot`, `/tf`, `/grasp/candidates`) for Foxglove.
+    pub mcap: Option<PathBuf>,
 }
 
 impl Default for GenerateOptions {
@@ -175,6 +179,7 @@ impl Default for GenerateOptions {
             present: PresentOptions::default(),
             n: 6,
             seed: 0,
+            mcap: None,
         }
     }
 }
@@ -520,6 +525,10 @@ pub fn generate(args: &GenerateOptions) -> Result<GenerateReport> {
         bail!("n must be at least 1");
     }
     crate::limits::check_at_most("n", args.n, grasp_topics::MAX_GENERATE)?;
+    if let Some(out) = &args.mcap {
+        crate::files::refuse_inputs_as_outputs(&[args.model.as_path()], &[out.as_path()])?;
+        crate::files::check_writable(out)?;
+    }
     let (scene, settings) = presenter.scene(&args.object, args.seed)?;
     let percept = match grasp_trial::perceive(&scene, &settings)? {
         Ok(p) => p,
@@ -564,7 +573,39 @@ pub fn generate(args: &GenerateOptions) -> Result<GenerateReport> {
         percept,
         asked: args.n,
     };
+    if let Some(out) = &args.mcap {
+        let markers: Vec<PreGraspMarker> = sel
+            .chosen
+            .iter()
+            .enumerate()
+            .map(|(i, c)| PreGraspMarker {
+                rank: i + 1,
+                world_from_palm: c.world_from_palm,
+                label: match c.pre_grasp.prototype {
+                    Some(k) => format!("#{} prototype {k}", i + 1),
+                    None => format!("#{}", i + 1),
+                },
+            })
+            .collect();
+        draw_pre_grasps(out, &scene, &reach_sim, &markers).with_context(|| format!("writing {}", out.display()))?;
+    }
     Ok(report)
+}
+
+/// Writes the presented scene, the parked robot and the ranked pre-grasps to the MCAP file `path`.
+fn draw_pre_grasps(
+    path: &Path,
+    scene: &Scene,
+    sim: &dexter_sim::physics::DexterSim,
+    markers: &[PreGraspMarker],
+) -> Result<()> {
+    let mut log = McapLog::create(path)?;
+    log.log_scene(scene, sim.header(), 0.0)?;
+    log.log_robot(sim.model(), 0.0)?;
+    log.log_snapshot(sim.header(), &sim.snapshot("pre-grasps"))?;
+    log.log_pre_grasps(0.0, markers)?;
+    log.finish()?;
+    Ok(())
 }
 
 impl fmt::Display for GenerateReport {

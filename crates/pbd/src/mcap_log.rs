@@ -15,6 +15,7 @@
 //! | `/activity`                  | `pbd.Activity`                | [`McapLog::log_snapshot`], on change |
 //! | `/robot`                     | `foxglove.SceneUpdate`        | [`McapLog::log_robot`]              |
 //! | `/scene`                     | `foxglove.SceneUpdate`        | [`McapLog::log_scene`]              |
+//! | `/grasp/candidates`          | `foxglove.SceneUpdate`        | [`McapLog::log_pre_grasps`]         |
 //! | `/log`                       | `foxglove.Log`                | [`McapLog::log_text`]               |
 //! | `/camera/<name>/image`       | `foxglove.CompressedImage` (JPEG or PNG) or `foxglove.RawImage` (rgb8) | [`McapLog::log_camera_image`] |
 //! | `/camera/<name>/calibration` | `foxglove.CameraCalibration`  | [`McapLog::log_camera_image`]       |
@@ -54,12 +55,14 @@ use mcap::write::NoSeek;
 use mcap::{Attachment, Compression, WriteOptions, Writer};
 use serde::Serialize;
 
+mod grasps;
 mod messages;
 mod scene;
 mod schemas;
 
 mod robot;
 
+pub use grasps::PreGraspMarker;
 pub use robot::{ARROW_M_PER_N, ARROW_MAX_LENGTH, ARROW_MIN_FORCE};
 
 use messages::{FrameTree, TfPolicy, Time, time_ns};
@@ -80,6 +83,8 @@ pub const TOPIC_ACTIVITY: &str = "/activity";
 pub const TOPIC_ROBOT: &str = "/robot";
 /// Fingertip forces as arrows (`foxglove.SceneUpdate`).
 pub const TOPIC_FINGERTIP_ARROWS: &str = "/fingertips/arrows";
+/// Pre-grasp candidates of a grasp run (`foxglove.SceneUpdate`).
+pub const TOPIC_GRASP_CANDIDATES: &str = "/grasp/candidates";
 
 /// The Foxglove layout for pbd's logs (`assets/foxglove/pbd-layout.json`): the robot, scene and
 /// fingertip arrows in 3D, the left head camera, the schema state and ln B10 as plots, fingertip
@@ -617,6 +622,20 @@ impl McapLog {
         let update = robot::robot_update(model, Time::from_ns(log_time));
         encode(&mut self.json, &update)?;
         self.write_buffer(self.channels.robot, log_time)
+    }
+
+    /// Draws pre-grasp candidates on `/grasp/candidates` (approach arrows ending at each palm
+    /// pose, coloured by rank; see [`PreGraspMarker`]). Replaces every candidate drawn before.
+    pub fn log_pre_grasps(&mut self, time_secs: f64, markers: &[PreGraspMarker]) -> Result<()> {
+        let log_time = time_ns(time_secs);
+        let update = grasps::pre_grasp_update(markers, Time::from_ns(log_time));
+        self.log_json(
+            TOPIC_GRASP_CANDIDATES,
+            "foxglove.SceneUpdate",
+            &schemas::scene_update(),
+            time_secs,
+            &update,
+        )
     }
 
     /// Logs the scene on `/scene`: the table and places in `world`, each object in its frame
