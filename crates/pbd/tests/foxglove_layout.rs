@@ -3,7 +3,8 @@
 
 use pbd::mcap_log::{
     FOXGLOVE_LAYOUT, TOPIC_ACTIVITY, TOPIC_DECISION, TOPIC_FINGERTIP_ARROWS, TOPIC_FINGERTIPS, TOPIC_JOINT_STATES,
-    TOPIC_LOG, TOPIC_ROBOT, TOPIC_SCENE, TOPIC_SCHEMA_STATE, TOPIC_TF, calibration_topic, camera_topic,
+    TOPIC_GRASP_CANDIDATES, TOPIC_LOG, TOPIC_ROBOT, TOPIC_SCENE, TOPIC_SCHEMA_STATE, TOPIC_TF, calibration_topic,
+    camera_topic,
 };
 use serde_json::Value;
 
@@ -68,6 +69,7 @@ fn the_layout_shows_what_pbd_writes() {
         TOPIC_LOG,
         TOPIC_SCHEMA_STATE,
         TOPIC_DECISION,
+        TOPIC_GRASP_CANDIDATES,
     ]
     .map(str::to_owned)
     .into_iter()

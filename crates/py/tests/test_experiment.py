@@ -83,3 +83,12 @@ def test_sorting_trials_are_the_rows_of_the_sorting_experiment(tmp_path):
         pbd.experiment.sorting_trial(dict(config, examples=1000), 0)
     with pytest.raises(pbd.PbdValueError):
         pbd.experiment.sorting_trial(dict(config, colour="red"), 0)
+
+
+def test_grasp_generate_draws_its_pre_grasps_into_an_mcap(tmp_path):
+    out = tmp_path / "candidates.mcap"
+    report = pbd.grasp.generate(GRASP_MODEL, "jif-1", n=3, mcap=out)
+    assert report.data["pre_grasps"], report.text
+    data = out.read_bytes()
+    assert data[:8] == b"\x89MCAP0\r\n"
+    assert b"/grasp/candidates" in data

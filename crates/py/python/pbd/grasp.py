@@ -35,7 +35,9 @@ def learn(corpus: "os.PathLike[str] | str", output: "os.PathLike[str] | str" = "
 
 
 def generate(model: "os.PathLike[str] | str", object: str, *, progress: Any = None, **options: Any) -> Report:
-    """Pre-grasp candidates for a presented object from a prototype model (``pbd grasp generate``)."""
+    """Pre-grasp candidates for a presented object from a prototype model (``pbd grasp generate``):
+    ``n``, ``seed``, ``present``; ``mcap``: also draw the scene, the robot and the ranked pre-grasps
+    (``/grasp/candidates``) into this MCAP file for Foxglove."""
     return _report(_pbd.grasp_generate(_options(model=model, object=object, **options), _progress(progress)))
 
 
