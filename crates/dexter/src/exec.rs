@@ -667,6 +667,12 @@ impl<'a> RobotPlant<'a> {
                 }
             }
         }
+        // Keep the head on what was found: the scan left it looking at its last point, and an
+        // object out of view while the arm approaches is lost to the tracker (and to the monitors).
+        if let Some((_, _, seen)) = &best {
+            let at = seen.centroid;
+            self.look(&at, 0.5)?;
+        }
         Ok(best.map(|(_, id, seen)| (Some(id), seen)))
     }
 

@@ -211,6 +211,9 @@ impl Tracker {
             // Object permanence: a track an arm may be hiding is kept.
             let hidden = near_palm.get(j).copied().unwrap_or(false);
             if t - self.last_seen[j] > FORGET_SECS && !carried.contains(&self.tracks[j].id) && !hidden {
+                if std::env::var_os("PBD_DEBUG_BLOBS").is_some() {
+                    eprintln!("FORGET t={t:.2} track {} at {:?}", self.tracks[j].id, self.tracks[j].centroid);
+                }
                 *k = false;
             }
         }
