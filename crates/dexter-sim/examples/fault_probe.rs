@@ -1,5 +1,7 @@
 //! One injected-fault scene, for debugging: `cargo run --release -p dexter-sim --example fault_probe
-//! -- <kind> <index> [seed]` (set `PBD_DEBUG_EXEC=1` to see the monitors after every action).
+//! -- <kind> <index> [seed]` (set `PBD_DEBUG_EXEC=1` to see the monitors after every action,
+//! `PBD_DEBUG_BLOBS=1` for every stereo blob and forgotten track, `PBD_DEBUG_TRUTH=1` for the
+//! object's true position every half second).
 
 use dexter_sim::fault::{FaultKind, fault_trial};
 use dexter_sim::scene::Scene;

@@ -314,7 +314,7 @@ impl Fault {
     /// After the physics steps: evaluates the trigger from the world's truth and applies the fault.
     pub fn after_advance(&mut self, sim: &mut DexterSim) {
         let t = sim.time();
-        if std::env::var_os("PBD_DEBUG_TRUTH").is_some() && ((t * 1000.0).round() as u64) % 500 == 0 {
+        if debug_truth() && ((t * 1000.0).round() as u64) % 500 == 0 {
             let o = sim.object_state(self.spec.object);
             let p = o.pose.translation.vector;
             eprintln!("TRUTH t={t:.2} object at ({:.3}, {:.3}, {:.3})", p.x, p.y, p.z);
@@ -687,6 +687,13 @@ pub fn fault_trial(
         reason,
         sim_time: report.sim_time,
     })
+}
+
+/// Whether `PBD_DEBUG_TRUTH` is set: a fault then prints the object's true position every half
+/// second of simulated time to standard error, for debugging recoveries (read once).
+fn debug_truth() -> bool {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *ON.get_or_init(|| std::env::var_os("PBD_DEBUG_TRUTH").is_some())
 }
 
 #[cfg(test)]

@@ -219,7 +219,12 @@ impl SearchTrack {
     }
 
     /// The pan and tilt that point the head at `target`, and the vector from the tilt axis to it.
-    pub fn look_angles(&self, hw: &dyn Hardware, body: &mut Body, target: &Vec3) -> Result<(f64, f64, Vec3), RobotError> {
+    pub fn look_angles(
+        &self,
+        hw: &dyn Hardware,
+        body: &mut Body,
+        target: &Vec3,
+    ) -> Result<(f64, f64, Vec3), RobotError> {
         let tilt_axis = body.pose(hw, "head/pan_link")?.translation.vector + Vec3::new(0.0, 0.0, 0.1);
         let d = target - tilt_axis;
         let pan = d.y.atan2(d.x);
@@ -230,7 +235,13 @@ impl SearchTrack {
     /// Whether the head can point at `target` with its pan and tilt at least `margin` (rad) inside
     /// their joint limits: a point the head must strain to the limit for is seen at the image's
     /// edge by one camera at most, and stereo fails there.
-    pub fn can_look_at(&self, hw: &dyn Hardware, body: &mut Body, target: &Vec3, margin: f64) -> Result<bool, RobotError> {
+    pub fn can_look_at(
+        &self,
+        hw: &dyn Hardware,
+        body: &mut Body,
+        target: &Vec3,
+        margin: f64,
+    ) -> Result<bool, RobotError> {
         let (pan, tilt, _) = self.look_angles(hw, body, target)?;
         let model = hw.model();
         let within = |name: &str, q: f64| -> Result<bool, RobotError> {

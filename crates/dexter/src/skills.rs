@@ -555,9 +555,8 @@ pub fn approach_grasp(
         // measured height was a little high): the fingers can close from there.
         let palm = reach.tool_pose(hw).translation.vector;
         let goal = goal_pose.translation.vector;
-        let resting = (palm.xy() - goal.xy()).norm() < RESTING_XY
-            && palm.z > goal.z
-            && palm.z - goal.z < RESTING_Z + plan.guard;
+        let resting =
+            (palm.xy() - goal.xy()).norm() < RESTING_XY && palm.z > goal.z && palm.z - goal.z < RESTING_Z + plan.guard;
         if !resting {
             let (d, _) = reach.goal_error(hw);
             return Err(format!("grasp pose not reached ({:.1} cm away)", d * 100.0));

@@ -84,6 +84,11 @@ impl Tracker {
                         for i in 0..3 {
                             t.centroid[i] += palms[k][i] - prev[i];
                         }
+                        if let Some(e) = t.extent.as_mut() {
+                            for i in 0..2 {
+                                e.center[i] += palms[k][i] - prev[i];
+                            }
+                        }
                     }
                     self.carried[k] = Some((id, palms[k]));
                 }
@@ -110,7 +115,15 @@ impl Tracker {
         }
     }
 
-    fn update(&mut self, seen: Vec<SegmentPercept>, t: f64, occluders: &[([f64; 3], f64)], eyes: &[[f64; 3]; 2]) {
+    fn update(
+        &mut self,
+        seen: Vec<SegmentPercept>,
+        mono: &[MonoView],
+        cams: [&crate::vision::Camera; 2],
+        t: f64,
+        occluders: &[([f64; 3], f64)],
+        eyes: &[[f64; 3]; 2],
+    ) {
         for tr in &mut self.tracks {
             tr.seen = false;
         }
@@ -149,7 +162,12 @@ impl Tracker {
             let id = self.tracks[j].id;
             let px = pixels(&seen[i]);
             let moved = near_palm[j] && moved_clear(&self.tracks[j], &seen[i], px / self.whole_pixels[j]);
-            if near_palm[j] && px < OCCLUDED_SHARE * self.whole_pixels[j] && !moved {
+            if carried_ids.contains(&id) {
+                // A carried object is seen merged with the hand that holds it (its centroid and
+                // height pulled towards the hand): it stays where its palm moved it, with what it
+                // looked like on the table, so that it is put down where it is.
+                self.tracks[j].seen = true;
+            } else if near_palm[j] && px < OCCLUDED_SHARE * self.whole_pixels[j] && !moved {
                 // Partly hidden by the hand: keep what was seen whole.
                 self.tracks[j].seen = true;
             } else {
@@ -160,6 +178,32 @@ impl Tracker {
                 }
             }
             self.last_seen[j] = t;
+        }
+        // A track no stereo segment matched is still seen when one camera alone shows a blob
+        // whose main colour is one of the track's where the track projects (the other camera's view of it was cut by the image
+        // border or by an arm, so stereo matching failed): it keeps its centroid and features.
+        let mut used_mono = vec![false; mono.len()];
+        for j in 0..self.tracks.len() {
+            if used_t[j] || carried_ids.contains(&self.tracks[j].id) {
+                continue;
+            }
+            let c = Vec3::from(self.tracks[j].centroid);
+            let colors = &self.tracks[j].colors;
+            let best = mono
+                .iter()
+                .enumerate()
+                .filter(|(m, v)| !used_mono[*m] && v.term.is_some_and(|t| colors.iter().any(|c| c.0 == t)))
+                .filter_map(|(m, v)| {
+                    let (u, w) = project(cams[v.camera], &c)?;
+                    let d = (u - v.centroid[0]).hypot(w - v.centroid[1]);
+                    (d < MONO_GATE_PX).then_some((d, m))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            if let Some((_, m)) = best {
+                used_mono[m] = true;
+                self.tracks[j].seen = true;
+                self.last_seen[j] = t;
+            }
         }
         for (i, s) in seen.into_iter().enumerate() {
             // The hand splits what it carries into pieces: a piece near a carrying palm is part of
@@ -211,8 +255,11 @@ impl Tracker {
             // Object permanence: a track an arm may be hiding is kept.
             let hidden = near_palm.get(j).copied().unwrap_or(false);
             if t - self.last_seen[j] > FORGET_SECS && !carried.contains(&self.tracks[j].id) && !hidden {
-                if std::env::var_os("PBD_DEBUG_BLOBS").is_some() {
-                    eprintln!("FORGET t={t:.2} track {} at {:?}", self.tracks[j].id, self.tracks[j].centroid);
+                if debug_blobs() {
+                    eprintln!(
+                        "FORGET t={t:.2} track {} at {:?}",
+                        self.tracks[j].id, self.tracks[j].centroid
+                    );
                 }
                 *k = false;
             }
@@ -221,6 +268,37 @@ impl Tracker {
         retain_mask(&mut self.last_seen, &keep);
         retain_mask(&mut self.whole_pixels, &keep);
     }
+}
+
+/// A blob one head camera saw and the other did not match (`camera`: 0 left, 1 right): its image
+/// centroid (px) and its main colour term.
+#[derive(Debug, Clone, Copy)]
+struct MonoView {
+    camera: usize,
+    centroid: [f64; 2],
+    term: Option<u8>,
+}
+
+/// How far (px, at the head cameras' 160 × 120) a one-camera blob may lie from a track's projection
+/// to count as a view of it: about 5 cm at the table's range.
+const MONO_GATE_PX: f64 = 10.0;
+
+/// `(u, v)` (px) of the world point `p` in `cam`, if in front of it.
+fn project(cam: &crate::vision::Camera, p: &Vec3) -> Option<(f64, f64)> {
+    let q = cam.world_from_optical.inverse_transform_point(&(*p).into());
+    (q.z > 1e-6).then(|| (cam.fx * q.x / q.z + cam.cx, cam.fy * q.y / q.z + cam.cy))
+}
+
+/// The colour term with the largest share.
+fn dominant_term(colors: &[(u8, f64)]) -> Option<u8> {
+    colors.iter().max_by(|a, b| a.1.total_cmp(&b.1)).map(|c| c.0)
+}
+
+/// Whether `PBD_DEBUG_BLOBS` is set: the watcher then prints every stereo blob and every track it
+/// forgets to standard error (read once).
+fn debug_blobs() -> bool {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *ON.get_or_init(|| std::env::var_os("PBD_DEBUG_BLOBS").is_some())
 }
 
 /// Keeps the elements of `v` whose entry in `keep` is true (the tracker's per-track vectors).
@@ -418,9 +496,10 @@ impl Watcher {
         let table_z = self.table_z;
         let blobs = self.eyes.perceive(hw, Pair::Head)?;
         let mut seen = Vec::new();
+        let mut mono = Vec::new();
         let mut gaze_candidates = Vec::new();
         for b in blobs {
-            if std::env::var_os("PBD_DEBUG_BLOBS").is_some() {
+            if debug_blobs() {
                 eprintln!(
                     "BLOB t={t:.2} centroid {:?} left {:?} right {:?}",
                     b.centroid.map(|c| [c.x, c.y, c.z]),
@@ -429,6 +508,18 @@ impl Watcher {
                 );
             }
             let (Some(c), Some(l), Some(r)) = (b.centroid, b.left, b.right) else {
+                let one = match (b.left, b.right) {
+                    (Some(l), None) => Some((0, l)),
+                    (None, Some(r)) => Some((1, r)),
+                    _ => None,
+                };
+                if let Some((camera, s)) = one {
+                    mono.push(MonoView {
+                        camera,
+                        centroid: s.features.centroid,
+                        term: dominant_term(&crate::vision::color::kept_color_terms(&s.features.color_terms)),
+                    });
+                }
                 continue;
             };
             let mut histogram: Vec<(u8, f64)> = Vec::new();
@@ -473,8 +564,14 @@ impl Watcher {
                 occluders.push((std::array::from_fn(|j| e[j] + s * (palm[j] - e[j])), FOREARM_RADIUS));
             }
         }
-        self.tracker
-            .update(seen, t, &occluders, &[eye(&cams.left), eye(&cams.right)]);
+        self.tracker.update(
+            seen,
+            &mono,
+            [&cams.left, &cams.right],
+            t,
+            &occluders,
+            &[eye(&cams.left), eye(&cams.right)],
+        );
         let gaze = gaze_candidates
             .iter()
             .filter(|(o, _)| *o < 0.12)

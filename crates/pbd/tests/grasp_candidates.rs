@@ -49,7 +49,11 @@ fn generated_pre_grasps_are_drawn_where_the_report_puts_them() {
             q["w"].as_f64().unwrap(),
         );
         // +x of the arrow's frame, rotated by the quaternion.
-        let dir = [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)];
+        let dir = [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y + w * z),
+            2.0 * (x * z - w * y),
+        ];
         let len = a["shaft_length"].as_f64().unwrap() + a["head_length"].as_f64().unwrap();
         for (i, axis) in ["x", "y", "z"].iter().enumerate() {
             let tip = p[axis].as_f64().unwrap() + len * dir[i];

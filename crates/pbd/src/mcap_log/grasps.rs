@@ -57,7 +57,13 @@ pub(super) fn pre_grasp_update(markers: &[PreGraspMarker], timestamp: Time) -> S
             let spread = m.world_from_palm.rotation * Vec3::x();
             let mut e = SceneEntity::new(timestamp, WORLD_FRAME, format!("pre-grasp/{}", m.rank), false)
                 .with_metadata(&[("rank", &m.rank.to_string()), ("label", &m.label)]);
-            e.arrows.extend(arrow(palm - approach * APPROACH_ARROW, approach, APPROACH_ARROW, 0.006, color));
+            e.arrows.extend(arrow(
+                palm - approach * APPROACH_ARROW,
+                approach,
+                APPROACH_ARROW,
+                0.006,
+                color,
+            ));
             e.arrows.extend(arrow(palm, spread, SPREAD_ARROW, 0.004, color));
             e.texts.push(TextPrimitive {
                 pose: Pose::at(palm.x, palm.y, palm.z + 0.02),
