@@ -506,6 +506,7 @@ pub fn execute_scene_with_fault(
             let (segment_now, at) = now
                 .map(|s| (s.id, Vec3::from(s.centroid)))
                 .unwrap_or((d.segment, Vec3::from(d.at)));
+            plant.set_destination(Some(&place));
             plant.plan_handoff(&at).map_err(from_robot)?;
             let handoff = plant.handoff();
             let policy = PickPlacePolicy::decide(&*plant.hw, &ws, &segment_now.to_string(), &at, &place, handoff)?;

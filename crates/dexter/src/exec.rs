@@ -119,10 +119,12 @@ pub const HANDOFF: &str = "handoff";
 /// for the transferred object, the other object and the open fingers between them.
 pub const HANDOFF_CLEARANCE: f64 = 0.16;
 
-/// How far inside its pan and tilt limits (rad) the head must be to look at a handoff spot: a spot
-/// the head cannot look at squarely is at the edge of one camera's image and missing from the
-/// other's, so the object put there is never triangulated.
-const HEAD_LIMIT_MARGIN: f64 = 0.05;
+/// How far inside its pan and tilt limits (rad) the head must be to look at a handoff spot. Measured
+/// in the blocked-arm fault scenes: objects put at spots the head tilts 1.02–1.03 rad for (x ≈ 0.42
+/// m, near the parked hands) were seen by one camera at most and never triangulated, so the
+/// receiving hand's monitors never saw them; spots at tilts up to 0.95 rad (the band x ≥ 0.5 m the
+/// experiments present objects in) are seen by both. The tilt limit is 1.2 rad.
+const HEAD_LIMIT_MARGIN: f64 = 0.25;
 
 /// The other arm's palm within this horizontal distance (m) of an object to reach is moved away
 /// first.
@@ -236,6 +238,9 @@ pub struct RobotPlant<'a> {
     /// Where reaches to an object did not converge (x, y): a transfer's handoff spot keeps clear
     /// of them.
     unreached: Vec<(Arm, [f64; 2])>,
+    /// Where the object is to end up (the task's place centre, [`RobotPlant::set_destination`]):
+    /// after a hand-over the failed arm carries it there from the handoff spot.
+    destination: Option<[f64; 2]>,
     /// The last grasp closed on nothing (the object may have moved).
     missed: bool,
     sink: &'a mut dyn ExecSink,
@@ -290,6 +295,7 @@ impl<'a> RobotPlant<'a> {
             bound_arms: None,
             handoff: [workspace.table_center[0].min(0.55), 0.0],
             unreached: Vec::new(),
+            destination: None,
             missed: false,
             plan_next_id: 0,
             sink,
@@ -376,12 +382,21 @@ impl<'a> RobotPlant<'a> {
         self.handoff
     }
 
+    /// The place the object is to end up in (`None`, or a name the workspace does not know: no
+    /// destination). A handoff spot keeps the way from it to there clear of failed reaches.
+    pub fn set_destination(&mut self, place: Option<&str>) {
+        self.destination = place.and_then(|p| self.workspace.place(p).ok()).map(|p| p.center);
+    }
+
     /// Chooses the handoff spot for a transfer of the object seen near `object_at` (5.32): a free
     /// patch of table that both arms reach pointing down, as seen now — at least
     /// [`HANDOFF_CLEARANCE`] from every other segment the cameras see and clear of the places'
-    /// walls — preferring the table's centre line at a comfortable reach (x = 0.55 m). Candidates
-    /// lie on a 5 cm grid; the first free one both arms reach is taken. Keeps the previous spot and
-    /// returns `None` if none is free.
+    /// walls, and one the head can look at — preferring spots clear of where a reach failed
+    /// ([`UNREACHED_CLEARANCE`], and the failed arm's way there from its parked pose and on to the
+    /// destination, [`RobotPlant::set_destination`]), then the
+    /// table's centre line at a comfortable reach (x = 0.55 m); when no spot is clear of the failed
+    /// reaches, the one farthest from them. Candidates lie on a 5 cm grid; the first both arms
+    /// reach is taken. Keeps the previous spot and returns `None` if none is free.
     pub fn plan_handoff(&mut self, object_at: &Vec3) -> Result<Option<[f64; 2]>, RobotError> {
         let ws = self.workspace;
         let table_z = ws.table_z;
@@ -401,6 +416,24 @@ impl<'a> RobotPlant<'a> {
             ws.table_center[0] - ws.table_size[0] / 2.0 + margin,
             ws.table_center[0] + ws.table_size[0] / 2.0 - margin,
         );
+        // Per candidate: how far it keeps clear of the failed reaches (the smaller of its
+        // distance to each and of the failed arm's path from its parked pose to it, each relative
+        // to its bound; ≥ 0: clear).
+        let clearance = |c: [f64; 2]| -> f64 {
+            self.unreached
+                .iter()
+                .map(|(arm, o)| {
+                    let park = park_pose(*arm, table_z).translation.vector;
+                    let away = (o[0] - c[0]).hypot(o[1] - c[1]) - UNREACHED_CLEARANCE;
+                    let path = distance_to_segment(*o, [park.x, park.y], c) - UNREACHED_PATH_CLEARANCE;
+                    // The failed arm takes the object from the spot to the destination.
+                    let onward = self.destination.map_or(f64::INFINITY, |d| {
+                        distance_to_segment(*o, c, d) - UNREACHED_PATH_CLEARANCE
+                    });
+                    away.min(path).min(onward)
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
         let mut candidates = Vec::new();
         for i in 0..=((x1 - x0) / 0.05).floor() as i32 {
             for j in -4..=4 {
@@ -408,25 +441,29 @@ impl<'a> RobotPlant<'a> {
                 let free = others
                     .iter()
                     .all(|o| (o[0] - c[0]).hypot(o[1] - c[1]) >= HANDOFF_CLEARANCE)
-                    && self.unreached.iter().all(|(arm, o)| {
-                        // Clear of where the reach failed, and the arm that failed there can get
-                        // from its parked pose to the spot without passing over it.
-                        let park = park_pose(*arm, table_z).translation.vector;
-                        (o[0] - c[0]).hypot(o[1] - c[1]) >= UNREACHED_CLEARANCE
-                            && distance_to_segment(*o, [park.x, park.y], c) >= UNREACHED_PATH_CLEARANCE
-                    })
                     && ws.places.iter().all(|p| {
                         (c[0] - p.center[0]).abs() > p.size[0] / 2.0 + p.wall_thickness + 0.08
                             || (c[1] - p.center[1]).abs() > p.size[1] / 2.0 + p.wall_thickness + 0.08
                     });
                 if free {
-                    candidates.push(c);
+                    candidates.push((c, clearance(c)));
                 }
             }
         }
+        // Clear of the failed reaches first, then the comfortable spot; when no spot is clear of
+        // them (the failed reach lay where the arms meet), the one that keeps farthest from them.
         let cost = |c: &[f64; 2]| (c[1] - ws.table_center[1]).abs() + 0.5 * (c[0] - 0.55).abs();
-        candidates.sort_by(|a, b| cost(a).total_cmp(&cost(b)));
-        for c in candidates {
+        candidates.sort_by(|a, b| {
+            let (ca, cb) = (a.1 >= 0.0, b.1 >= 0.0);
+            cb.cmp(&ca).then_with(|| {
+                if ca {
+                    cost(&a.0).total_cmp(&cost(&b.0))
+                } else {
+                    b.1.total_cmp(&a.1)
+                }
+            })
+        });
+        for (c, _) in candidates {
             // The head must see the spot (both cameras, for stereo) to find the object there.
             let seen_at = Vec3::new(c[0], c[1], table_z + 0.05);
             if !self.watcher.can_look_at(self.hw, &seen_at, HEAD_LIMIT_MARGIN)? {
@@ -925,6 +962,16 @@ impl SchemaPlant for RobotPlant<'_> {
             && let Some(p) = self.percepts.last()
         {
             eprintln!("after {action} ({outcome:?}): x = {:?}", self.last_x);
+            if let (Ok(pan), Ok(tilt)) = (
+                self.hw.dof_index("head/pan_joint"),
+                self.hw.dof_index("head/tilt_joint"),
+            ) {
+                let q = self.hw.joint_positions();
+                eprintln!(
+                    "  head pan {:.3} tilt {:.3} (looking at {:?})",
+                    q[pan], q[tilt], self.watcher.gaze_point
+                );
+            }
             if let Some(plan) = &self.plan {
                 eprintln!(
                     "  plan grasp at {:?} width {:.3}",
