@@ -314,7 +314,7 @@ impl Fault {
     /// After the physics steps: evaluates the trigger from the world's truth and applies the fault.
     pub fn after_advance(&mut self, sim: &mut DexterSim) {
         let t = sim.time();
-        if debug_truth() && ((t * 1000.0).round() as u64) % 500 == 0 {
+        if debug_truth() && ((t * 1000.0).round() as u64).is_multiple_of(500) {
             let o = sim.object_state(self.spec.object);
             let p = o.pose.translation.vector;
             eprintln!("TRUTH t={t:.2} object at ({:.3}, {:.3}, {:.3})", p.x, p.y, p.z);

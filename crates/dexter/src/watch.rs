@@ -180,15 +180,16 @@ impl Tracker {
             self.last_seen[j] = t;
         }
         // A track no stereo segment matched is still seen when one camera alone shows a blob
-        // whose main colour is one of the track's where the track projects (the other camera's view of it was cut by the image
-        // border or by an arm, so stereo matching failed): it keeps its centroid and features.
+        // whose main colour is one of the track's where the track projects (the other camera's
+        // view of it was cut by the image border or by an arm, so stereo matching failed): it
+        // keeps its centroid and features.
         let mut used_mono = vec![false; mono.len()];
-        for j in 0..self.tracks.len() {
-            if used_t[j] || carried_ids.contains(&self.tracks[j].id) {
+        for ((track, last_seen), matched) in self.tracks.iter_mut().zip(&mut self.last_seen).zip(&used_t) {
+            if *matched || carried_ids.contains(&track.id) {
                 continue;
             }
-            let c = Vec3::from(self.tracks[j].centroid);
-            let colors = &self.tracks[j].colors;
+            let c = Vec3::from(track.centroid);
+            let colors = &track.colors;
             let best = mono
                 .iter()
                 .enumerate()
@@ -201,8 +202,8 @@ impl Tracker {
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             if let Some((_, m)) = best {
                 used_mono[m] = true;
-                self.tracks[j].seen = true;
-                self.last_seen[j] = t;
+                track.seen = true;
+                *last_seen = t;
             }
         }
         for (i, s) in seen.into_iter().enumerate() {
