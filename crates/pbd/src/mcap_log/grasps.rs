@@ -5,9 +5,7 @@
 
 use control_basis::math::{Iso3, Rot3, Vec3};
 
-use super::messages::{
-    ArrowPrimitive, Color, Pose, SceneEntity, SceneEntityDeletion, SceneUpdate, TextPrimitive, Time, WORLD_FRAME,
-};
+use super::messages::{ArrowPrimitive, Color, Pose, SceneEntity, SceneUpdate, TextPrimitive, Time, WORLD_FRAME};
 
 /// Length of the approach arrow (m): the palm comes in along it.
 const APPROACH_ARROW: f64 = 0.10;
@@ -76,14 +74,7 @@ pub(super) fn pre_grasp_update(markers: &[PreGraspMarker], timestamp: Time) -> S
             e
         })
         .collect();
-    SceneUpdate {
-        deletions: vec![SceneEntityDeletion {
-            timestamp,
-            kind: 1,
-            id: String::new(),
-        }],
-        entities,
-    }
+    SceneUpdate::replacing_all(timestamp, entities)
 }
 
 #[cfg(test)]

@@ -495,6 +495,21 @@ pub(super) struct SceneUpdate {
     pub entities: Vec<SceneEntity>,
 }
 
+impl SceneUpdate {
+    /// An update that first deletes every entity of its topic (so that entities gone since the
+    /// last update disappear), then draws `entities`.
+    pub fn replacing_all(timestamp: Time, entities: Vec<SceneEntity>) -> Self {
+        Self {
+            deletions: vec![SceneEntityDeletion {
+                timestamp,
+                kind: 1,
+                id: String::new(),
+            }],
+            entities,
+        }
+    }
+}
+
 /// `foxglove.SceneEntityDeletion`; `type` 0 = matching id, 1 = all.
 #[derive(Debug, Serialize)]
 pub(super) struct SceneEntityDeletion {

@@ -18,8 +18,8 @@ use serde::Serialize;
 use serde::ser::{SerializeSeq, SerializeStruct, Serializer};
 
 use super::messages::{
-    ArrowPrimitive, Color, CylinderPrimitive, DurationMsg, EmptyList, Pose, SceneEntity, SceneEntityDeletion,
-    SceneUpdate, SizedPrimitive, Time, Vector3,
+    ArrowPrimitive, Color, CylinderPrimitive, DurationMsg, EmptyList, Pose, SceneEntity, SceneUpdate, SizedPrimitive,
+    Time, Vector3,
 };
 
 /// Prefix of a link's scene-entity id: `link/<name>`.
@@ -72,14 +72,7 @@ pub(super) fn robot_update(model: &RobotModel, timestamp: Time) -> SceneUpdate {
             entities.push(e);
         }
     }
-    SceneUpdate {
-        deletions: vec![SceneEntityDeletion {
-            timestamp,
-            kind: 1,
-            id: String::new(),
-        }],
-        entities,
-    }
+    SceneUpdate::replacing_all(timestamp, entities)
 }
 
 fn sphere(pose: Pose, radius: f64, color: Color) -> SizedPrimitive {

@@ -10,8 +10,8 @@ use dexter_sim::scene::{ColorPatch, ObjectSpec, PlaceSpec, Scene, Shape, TableSp
 use dexter_sim::snapshot::SnapshotHeader;
 
 use super::messages::{
-    Color, CylinderPrimitive, Pose, SceneEntity, SceneEntityDeletion, SceneUpdate, SizedPrimitive, TextPrimitive, Time,
-    Vector3, WORLD_FRAME, object_frame,
+    Color, CylinderPrimitive, Pose, SceneEntity, SceneUpdate, SizedPrimitive, TextPrimitive, Time, Vector3,
+    WORLD_FRAME, object_frame,
 };
 
 /// Thickness of the table top (m), as the simulator builds it; the scene gives only its height.
@@ -44,12 +44,7 @@ pub(super) fn scene_update(scene: &Scene, header: &SnapshotHeader, timestamp: Ti
         entities.push(object_entity(name, &resolved.presentation, spec, timestamp));
     }
     // Deleting everything first removes objects that are gone since the last update.
-    let deletions = vec![SceneEntityDeletion {
-        timestamp,
-        kind: 1,
-        id: String::new(),
-    }];
-    Ok(SceneUpdate { deletions, entities })
+    Ok(SceneUpdate::replacing_all(timestamp, entities))
 }
 
 fn table_entity(table: &TableSpec, timestamp: Time) -> SceneEntity {
