@@ -416,23 +416,22 @@ impl<'a> RobotPlant<'a> {
             ws.table_center[0] - ws.table_size[0] / 2.0 + margin,
             ws.table_center[0] + ws.table_size[0] / 2.0 - margin,
         );
-        // Per candidate: how far it keeps clear of the failed reaches (the smaller of its
-        // distance to each and of the failed arm's path from its parked pose to it, each relative
-        // to its bound; ≥ 0: clear).
-        let clearance = |c: [f64; 2]| -> f64 {
+        // Per candidate, how far it keeps clear of the failed reaches, each relative to its bound
+        // (≥ 0: clear): `(ways, spot)` — the failed arm's ways (from its parked pose to the spot and
+        // on from the spot to the destination; an arm that cannot pass there cannot carry the
+        // object past it either) and the spot's own distance from them.
+        let clearance = |c: [f64; 2]| -> (f64, f64) {
             self.unreached
                 .iter()
-                .map(|(arm, o)| {
+                .fold((f64::INFINITY, f64::INFINITY), |(ways, spot), (arm, o)| {
                     let park = park_pose(*arm, table_z).translation.vector;
-                    let away = (o[0] - c[0]).hypot(o[1] - c[1]) - UNREACHED_CLEARANCE;
                     let path = distance_to_segment(*o, [park.x, park.y], c) - UNREACHED_PATH_CLEARANCE;
-                    // The failed arm takes the object from the spot to the destination.
                     let onward = self.destination.map_or(f64::INFINITY, |d| {
                         distance_to_segment(*o, c, d) - UNREACHED_PATH_CLEARANCE
                     });
-                    away.min(path).min(onward)
+                    let away = (o[0] - c[0]).hypot(o[1] - c[1]) - UNREACHED_CLEARANCE;
+                    (ways.min(path).min(onward), spot.min(away))
                 })
-                .fold(f64::INFINITY, f64::min)
         };
         let mut candidates = Vec::new();
         for i in 0..=((x1 - x0) / 0.05).floor() as i32 {
@@ -450,17 +449,16 @@ impl<'a> RobotPlant<'a> {
                 }
             }
         }
-        // Clear of the failed reaches first, then the comfortable spot; when no spot is clear of
-        // them (the failed reach lay where the arms meet), the one that keeps farthest from them.
+        // Spots clear of the failed reaches in every respect first, by comfort; then those whose
+        // ways are clear, the farthest from the failed reaches first; then the rest, the clearest
+        // ways first (the failed reach lay where the arms meet).
         let cost = |c: &[f64; 2]| (c[1] - ws.table_center[1]).abs() + 0.5 * (c[0] - 0.55).abs();
+        let rank = |&(ways, spot): &(f64, f64)| u8::from(ways < 0.0) + u8::from(spot < 0.0 || ways < 0.0);
         candidates.sort_by(|a, b| {
-            let (ca, cb) = (a.1 >= 0.0, b.1 >= 0.0);
-            cb.cmp(&ca).then_with(|| {
-                if ca {
-                    cost(&a.0).total_cmp(&cost(&b.0))
-                } else {
-                    b.1.total_cmp(&a.1)
-                }
+            rank(&a.1).cmp(&rank(&b.1)).then_with(|| match rank(&a.1) {
+                0 => cost(&a.0).total_cmp(&cost(&b.0)),
+                1 => b.1.1.total_cmp(&a.1.1),
+                _ => b.1.0.total_cmp(&a.1.0),
             })
         });
         for (c, _) in candidates {
