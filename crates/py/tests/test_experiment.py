@@ -88,7 +88,7 @@ def test_sorting_trials_are_the_rows_of_the_sorting_experiment(tmp_path):
 def test_grasp_generate_draws_its_pre_grasps_into_an_mcap(tmp_path):
     out = tmp_path / "candidates.mcap"
     report = pbd.grasp.generate(GRASP_MODEL, "jif-1", n=3, mcap=out)
-    assert report.data["pre_grasps"], report.text
+    assert report["pre_grasps"], report.text
     data = out.read_bytes()
     assert data[:8] == b"\x89MCAP0\r\n"
     assert b"/grasp/candidates" in data
