@@ -367,4 +367,24 @@ fn record_generate_and_a_reduced_eval_in_the_sim() {
         "{}",
         &svg[..svg.len().min(200)]
     );
+    // The executed candidates drawn for Foxglove, one entity per method's candidate.
+    let rec = pbd::mcap_log::read_recording(dir.join("candidates/tomato_soup.mcap"), &[]).expect("candidates mcap");
+    let drawn: Vec<Value> = rec
+        .topic(pbd::mcap_log::TOPIC_GRASP_CANDIDATES)
+        .map(|(_, b)| serde_json::from_slice(b).expect("json"))
+        .collect();
+    assert_eq!(drawn.len(), 1);
+    let ids: Vec<&str> = drawn[0]["entities"]
+        .as_array()
+        .expect("entities")
+        .iter()
+        .map(|e| e["id"].as_str().expect("id"))
+        .collect();
+    assert!(
+        !ids.is_empty()
+            && ids
+                .iter()
+                .all(|id| *id == "pre-grasp/model/1" || *id == "pre-grasp/naive/1"),
+        "{ids:?}"
+    );
 }

@@ -585,6 +585,8 @@ pub fn generate(args: &GenerateOptions) -> Result<GenerateReport> {
                     Some(k) => format!("#{} prototype {k}", i + 1),
                     None => format!("#{}", i + 1),
                 },
+                group: String::new(),
+                held: None,
             })
             .collect();
         draw_pre_grasps(out, &scene, &reach_sim, &markers).with_context(|| format!("writing {}", out.display()))?;
@@ -593,7 +595,7 @@ pub fn generate(args: &GenerateOptions) -> Result<GenerateReport> {
 }
 
 /// Writes the presented scene, the parked robot and the ranked pre-grasps to the MCAP file `path`.
-fn draw_pre_grasps(
+pub(crate) fn draw_pre_grasps(
     path: &Path,
     scene: &Scene,
     sim: &dexter_sim::physics::DexterSim,

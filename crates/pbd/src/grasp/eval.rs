@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 use super::common::{self, Method, Presenter, Rejections, select_candidates};
 use super::report::{EvalSummary, ObjectResult, Trial};
 use super::{PresentOptions, command_for, learn_config, mat2, model_summary, record_scripted};
+use crate::mcap_log::PreGraspMarker;
 use crate::progress::Progress;
 
 /// Options of [`run`] (`pbd grasp eval`).
@@ -219,6 +220,51 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
             ))
         })
         .collect();
+    // Each finished test object's candidates drawn for Foxglove, coloured by outcome.
+    for (i, name) in test.iter().enumerate().filter(|(i, _)| complete[*i]) {
+        let markers: Vec<PreGraspMarker> = prepared[i]
+            .jobs
+            .iter()
+            .filter_map(|(m, k, c)| {
+                let c = c.as_ref()?;
+                let t = trials
+                    .iter()
+                    .find(|t| t.object == *name && t.method == *m && t.candidate == k + 1);
+                Some(PreGraspMarker {
+                    rank: k + 1,
+                    world_from_palm: c.world_from_palm,
+                    label: format!(
+                        "{} #{}{}",
+                        m.name(),
+                        k + 1,
+                        t.map_or("", |t| if t.success { " held" } else { " missed" })
+                    ),
+                    group: m.name().into(),
+                    held: t.map(|t| t.success),
+                })
+            })
+            .collect();
+        if markers.is_empty() {
+            continue;
+        }
+        let (scene, settings) = presenter.scene(name, crate::rng::split(args.seed, 1000 + i as u64))?;
+        let sim = grasp_trial::parked_sim(&scene, &settings)?;
+        let dir = args.output.join("candidates");
+        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let safe: String = name
+            .chars()
+            .map(|ch| {
+                if ch.is_ascii_alphanumeric() || "-_.".contains(ch) {
+                    ch
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        let p = dir.join(format!("{safe}.mcap"));
+        super::draw_pre_grasps(&p, &scene, &sim, &markers).with_context(|| format!("writing {}", p.display()))?;
+        files.push(path_str(&p));
+    }
     let done = complete.iter().filter(|c| **c).count();
     let partial = (done < test.len()).then(|| format!("interrupted after {done} of {} test objects", test.len()));
     let objects: Vec<ObjectResult> = test

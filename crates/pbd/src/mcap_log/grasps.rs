@@ -1,7 +1,7 @@
 //! Pre-grasp candidates drawn in the 3D panel (`/grasp/candidates`, `foxglove.SceneUpdate`): per
 //! candidate, an arrow along the approach (the palm's +z) ending at the pre-grasp palm pose, a short
-//! arrow along the palm's +x (the axis the fingers spread about), and a label; coloured by rank,
-//! green (first) to red (last).
+//! arrow along the palm's +x (the axis the fingers spread about), and a label; coloured by outcome
+//! when it was tried (green held, red not), else by rank, green (first) to red (last).
 
 use control_basis::math::{Iso3, Rot3, Vec3};
 
@@ -21,6 +21,11 @@ pub struct PreGraspMarker {
     pub world_from_palm: Iso3,
     /// Text shown next to it (e.g. `#1 prototype 2`).
     pub label: String,
+    /// The candidate's group (e.g. the method that proposed it), part of the entity id
+    /// `pre-grasp/<group>/<rank>`; empty: `pre-grasp/<rank>`.
+    pub group: String,
+    /// Whether the grasp held when it was executed; `None`: not executed (coloured by rank).
+    pub held: Option<bool>,
 }
 
 fn arrow(origin: Vec3, dir: Vec3, length: f64, diameter: f64, color: Color) -> Option<ArrowPrimitive> {
@@ -47,14 +52,25 @@ pub(super) fn pre_grasp_update(markers: &[PreGraspMarker], timestamp: Time) -> S
     let entities = markers
         .iter()
         .map(|m| {
-            // Hue 120° (green) for rank 1 down to 0° (red) for the last.
-            let share = (m.rank.saturating_sub(1)) as f64 / (n - 1) as f64;
+            // Hue 120° (green) for rank 1 down to 0° (red) for the last; or held / not held.
+            let share = match m.held {
+                Some(held) => f64::from(u8::from(!held)),
+                None => (m.rank.saturating_sub(1)) as f64 / (n - 1) as f64,
+            };
             let color = Color::from_hsv([120.0 * (1.0 - share.clamp(0.0, 1.0)), 0.9, 0.95], 0.9);
+            let id = if m.group.is_empty() {
+                format!("pre-grasp/{}", m.rank)
+            } else {
+                format!("pre-grasp/{}/{}", m.group, m.rank)
+            };
             let palm = m.world_from_palm.translation.vector;
             let approach = m.world_from_palm.rotation * Vec3::z();
             let spread = m.world_from_palm.rotation * Vec3::x();
-            let mut e = SceneEntity::new(timestamp, WORLD_FRAME, format!("pre-grasp/{}", m.rank), false)
-                .with_metadata(&[("rank", &m.rank.to_string()), ("label", &m.label)]);
+            let mut e = SceneEntity::new(timestamp, WORLD_FRAME, id, false).with_metadata(&[
+                ("rank", &m.rank.to_string()),
+                ("label", &m.label),
+                ("group", &m.group),
+            ]);
             e.arrows.extend(arrow(
                 palm - approach * APPROACH_ARROW,
                 approach,
@@ -90,6 +106,8 @@ mod tests {
                 rank,
                 world_from_palm: Iso3::from_parts(Vec3::new(0.5, 0.0, 0.3).into(), down),
                 label: format!("#{rank}"),
+                group: String::new(),
+                held: None,
             })
             .collect();
         let u = pre_grasp_update(&markers, Time::from_ns(0));
@@ -107,5 +125,21 @@ mod tests {
         let (first, last) = (&u.entities[0].arrows[0].color, &u.entities[2].arrows[0].color);
         assert!(first.g > first.r && last.r > last.g, "{first:?} {last:?}");
         assert_eq!(u.entities[1].texts[0].text, "#2");
+        assert_eq!(u.entities[1].id, "pre-grasp/2");
+    }
+
+    #[test]
+    fn executed_candidates_are_coloured_by_outcome_and_named_by_group() {
+        let m = |rank, held| PreGraspMarker {
+            rank,
+            world_from_palm: Iso3::identity(),
+            label: String::new(),
+            group: "naive".into(),
+            held: Some(held),
+        };
+        let u = pre_grasp_update(&[m(1, false), m(2, true)], Time::from_ns(0));
+        let (first, second) = (&u.entities[0].arrows[0].color, &u.entities[1].arrows[0].color);
+        assert!(first.r > first.g && second.g > second.r, "{first:?} {second:?}");
+        assert_eq!(u.entities[0].id, "pre-grasp/naive/1");
     }
 }
