@@ -392,11 +392,12 @@ impl<'a> RobotPlant<'a> {
     /// patch of table that both arms reach pointing down, as seen now — at least
     /// [`HANDOFF_CLEARANCE`] from every other segment the cameras see and clear of the places'
     /// walls, and one the head can look at — preferring spots clear of where a reach failed
-    /// ([`UNREACHED_CLEARANCE`], and the failed arm's way there from its parked pose and on to the
-    /// destination, [`RobotPlant::set_destination`]), then the
-    /// table's centre line at a comfortable reach (x = 0.55 m); when no spot is clear of the failed
-    /// reaches, the one farthest from them. Candidates lie on a 5 cm grid; the first both arms
-    /// reach is taken. Keeps the previous spot and returns `None` if none is free.
+    /// ([`UNREACHED_CLEARANCE`], and the failed arm's ways there from its parked pose and on to the
+    /// destination, [`RobotPlant::set_destination`]), then the table's centre line at a
+    /// comfortable reach (x = 0.55 m); when no spot is clear, one whose ways are clear, farthest
+    /// from the failed reaches; failing that, the one with the clearest ways. Candidates lie on a
+    /// 5 cm grid; the first both arms reach is taken. Keeps the previous spot and returns `None` if
+    /// none is free.
     pub fn plan_handoff(&mut self, object_at: &Vec3) -> Result<Option<[f64; 2]>, RobotError> {
         let ws = self.workspace;
         let table_z = ws.table_z;
@@ -468,7 +469,7 @@ impl<'a> RobotPlant<'a> {
                 continue;
             }
             if arms_reaching(self.hw, table_z, &Vec3::new(c[0], c[1], table_z))?.len() == 2 {
-                if std::env::var_os("PBD_DEBUG_EXEC").is_some() {
+                if debug_exec() {
                     eprintln!("  handoff spot {c:?}");
                 }
                 self.handoff = c;
@@ -797,7 +798,7 @@ impl SchemaPlant for RobotPlant<'_> {
                 let arc = finger_arc(self.hw.model(), arm)?;
                 let current = self.reach[k].tool_pose(self.hw);
                 let plan = plan_top_grasp(&arc, &seen, table_z, &current);
-                if std::env::var_os("PBD_DEBUG_EXEC").is_some() {
+                if debug_exec() {
                     eprintln!("  reach target id {id:?}: {seen:?}");
                 }
                 self.plan_next_id = self
@@ -956,7 +957,7 @@ impl SchemaPlant for RobotPlant<'_> {
         };
         // Let the monitors see the result.
         self.settle(0.3)?;
-        if std::env::var_os("PBD_DEBUG_EXEC").is_some()
+        if debug_exec()
             && let Some(p) = self.percepts.last()
         {
             eprintln!("after {action} ({outcome:?}): x = {:?}", self.last_x);
@@ -992,6 +993,13 @@ impl SchemaPlant for RobotPlant<'_> {
         }
         Ok(outcome)
     }
+}
+
+/// Whether `PBD_DEBUG_EXEC` is set: the executive then prints what its monitors saw after each
+/// action, its reach targets and handoff spots to standard error (read once).
+fn debug_exec() -> bool {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *ON.get_or_init(|| std::env::var_os("PBD_DEBUG_EXEC").is_some())
 }
 
 /// ψ for Pick-And-Place on Dexter (5.31–5.32): the arm whose workspace holds both the object and the
