@@ -164,6 +164,14 @@ pub struct TrialOutcome {
     pub achieved_orientation: [f64; 4],
     /// Whether the fingers converged on opposing contacts before the lift.
     pub closed_on_object: bool,
+    /// The deepest penetration (m) of the hand into the object, sampled after closing, after the
+    /// lift and every 50 ms of the 1 s hold (the world's view).
+    pub max_penetration: f64,
+    /// Hand parts (palm, fingers) touching the object at the end of the hold (the world's view).
+    pub touching_parts: usize,
+    /// How far (m) the object sank in the hand between the end of closing and the end of the hold
+    /// (its height below the palm grew by this much; the world's view).
+    pub sank: f64,
     /// Simulated time (s).
     pub sim_time: f64,
     /// Wall-clock time (s).
@@ -252,6 +260,9 @@ pub fn execute(
         achieved_position: [f64::NAN; 3],
         achieved_orientation: [f64::NAN; 4],
         closed_on_object: false,
+        max_penetration: 0.0,
+        sank: 0.0,
+        touching_parts: 0,
         sim_time: 0.0,
         wall_time: 0.0,
     };
@@ -314,25 +325,40 @@ pub fn execute(
     });
     // Lift 10 cm straight up, then hold still and weigh on the fingertips.
     let z_before = hw.sim().object_state(obj).pose.translation.z;
+    let below_palm = |hw: &SimRobot<'_>, reach: &mut ReachControl| {
+        reach.tool_pose(hw).translation.z - hw.sim().object_state(obj).pose.translation.z
+    };
+    let below_at_close = below_palm(&hw, &mut reach);
+    let mut deepest = hw.sim().hand_penetration_on_object(arm, obj);
     let mut lift = reach.tool_pose(&hw);
     lift.translation.vector.z += LIFT_HEIGHT;
     reach.max_speed = 0.10;
     reach.set_goal(&hw, lift);
     run_until(&mut hw, &mut reach, 3.0, |h, r| r.at_goal(h, 0.005, 0.03));
-    run_until(&mut hw, &mut reach, 0.5, |_, _| false);
+    deepest = deepest.max(hw.sim().hand_penetration_on_object(arm, obj));
+    for _ in 0..10 {
+        run_until(&mut hw, &mut reach, 0.05, |_, _| false);
+        deepest = deepest.max(hw.sim().hand_penetration_on_object(arm, obj));
+    }
     let (mut load, mut loaded, mut n) = (0.0, usize::MAX, 0.0);
-    run_until(&mut hw, &mut reach, 0.5, |h, _| {
-        let t = TouchState::of(&hand_fingertips(h, arm, &mut buf));
-        load += t.load;
-        loaded = loaded.min(t.loaded);
-        n += 1.0;
-        false
-    });
+    for _ in 0..10 {
+        run_until(&mut hw, &mut reach, 0.05, |h, _| {
+            let t = TouchState::of(&hand_fingertips(h, arm, &mut buf));
+            load += t.load;
+            loaded = loaded.min(t.loaded);
+            n += 1.0;
+            false
+        });
+        deepest = deepest.max(hw.sim().hand_penetration_on_object(arm, obj));
+    }
+    out.max_penetration = deepest;
+    out.sank = below_palm(&hw, &mut reach) - below_at_close;
     let load = load / f64::max(n, 1.0);
     let loaded = if loaded == usize::MAX { 0 } else { loaded };
     let rose = hw.sim().object_state(obj).pose.translation.z - z_before;
     let (_, _, parts) = hw.sim().hand_wrench_on_object(arm, obj);
     out.rose = rose;
+    out.touching_parts = parts;
     out.load = load;
     out.true_success = rose > LIFT_SUCCESS && parts >= 2;
     out.success = out.closed_on_object && loaded >= 2 && load >= dexter::skills::MIN_LOAD;

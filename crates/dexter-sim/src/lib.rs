@@ -30,6 +30,7 @@ pub mod execute;
 pub mod experiment;
 pub mod fault;
 pub mod geometry;
+pub mod grasp_grid;
 pub mod grasp_trial;
 pub mod hardware;
 pub mod physics;

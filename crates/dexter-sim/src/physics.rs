@@ -1094,6 +1094,32 @@ impl DexterSim {
         (f, t, parts.iter().filter(|&&p| p).count())
     }
 
+    /// The deepest penetration (m, ≥ 0) of `arm`'s hand (palm or fingers) into object `i` over the
+    /// contact points the solver used in the last step; 0 when they do not overlap.
+    pub fn hand_penetration_on_object(&self, arm: Arm, i: usize) -> f64 {
+        let obj = self.objects[i].collider;
+        let mut deepest = 0.0f64;
+        for pair in self.world.narrow_phase.contact_pairs_with(obj) {
+            let other = if pair.collider1 == obj {
+                pair.collider2
+            } else {
+                pair.collider1
+            };
+            match self.collider_part.get(&other) {
+                Some(Part::Palm(a)) | Some(Part::Finger(a, _)) if *a == arm => {}
+                _ => continue,
+            }
+            for m in pair.solver_manifolds() {
+                for c in m.data.solver_contacts.iter() {
+                    if let Some(pt) = m.points.get(c.contact_indices()[0] as usize) {
+                        deepest = deepest.max(-pt.dist);
+                    }
+                }
+            }
+        }
+        deepest
+    }
+
     /// The contacts of `arm`'s hand on object `i` as frictional point contacts (world frame, normals
     /// pointing into the object, the combined friction coefficient), for the force-closure check.
     pub fn hand_contacts_on_object(&self, arm: Arm, i: usize) -> Vec<control_basis::grasp::ContactPoint> {

@@ -33,19 +33,21 @@ pub fn unit_joint_limit_constraint(
     let rhs_wo_bias = 0.0;
 
     let dof_j_id = *j_id + dof_id + link.assembly_id;
-    jacobians.rows_mut(*j_id, ndofs * 2).fill(0.0);
-    jacobians[dof_j_id] = 1.0;
     // pbd (vendor/README.md, change 5): a limit that is not violated gets impulse bounds [0, 0]
-    // and can apply nothing during this step; its M⁻¹Jᵀ stays zero and its solve returns at once.
-    if min_enabled || max_enabled {
+    // and can apply nothing during this step; its solve returns at once without reading its
+    // Jacobian lines, so neither J nor M⁻¹Jᵀ is written (change 7).
+    let lhs = if min_enabled || max_enabled {
+        jacobians.rows_mut(*j_id, ndofs * 2).fill(0.0);
+        jacobians[dof_j_id] = 1.0;
         multibody.inv_augmented_mass_two_columns(
             (dof_id + link.assembly_id, 1.0),
             (dof_id + link.assembly_id, 0.0),
             &mut jacobians.rows_mut(*j_id + ndofs, ndofs),
         );
-    }
-
-    let lhs = jacobians[dof_j_id + ndofs]; // = J^t * M^-1 J
+        jacobians[dof_j_id + ndofs] // = J^t * M^-1 J
+    } else {
+        0.0
+    };
     let impulse_bounds = [
         min_enabled as u32 as Real * -Real::MAX,
         max_enabled as u32 as Real * Real::MAX,
