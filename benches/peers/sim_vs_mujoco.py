@@ -28,9 +28,14 @@ How comparable the two are (an unfair comparison in our favour is worthless):
     dt = 1 ms, no sleeping, one thread.
   * Different by construction: MuJoCo solves the contacts with its Newton solver (defaults: up to 100
     iterations, tolerance 1e-8, pyramidal cones, soft constraints with default solref/solimp); pbd uses
-    Rapier's soft PGS with 4 substeps per step (1 velocity iteration each) and 60 Hz contacts with a
+    Rapier's soft PGS with 2 substeps per step (1 velocity iteration each; the grasp grid of
+    `crates/dexter-sim/examples/grasp_grid.rs` holds its quality at 2) and 60 Hz contacts with a
     2 mm skin. MuJoCo combines friction by max, Rapier by average. Rapier damps the objects' spin
     (1 /s); MuJoCo does not. pbd's step also reads the encoders (with noise) after each step.
+  * MuJoCo rebuilds its mass matrix at every step. pbd builds each arm's once per step and keeps it
+    while the arm has not moved (every joint within 1e-4 rad and 1e-2 rad/s of the state it was
+    built at; `SimSettings::mass_matrix_reuse`, vendor/README.md change 9). Both figures are
+    printed: "pbd" (the default) and "pbd, matrices rebuilt every step" (`SIM_MM_REUSE=0`).
   * The references were recorded from pbd, so pbd's replay repeats pbd's run; MuJoCo's replay is
     open-loop and may end differently (the contact counts and the object's final position say so).
 """
@@ -160,8 +165,12 @@ def mujoco_stats(m, traj, U, obj):
     return dict(contacts_mean=float(np.mean(ncon)), contacts_max=int(np.max(ncon)), object_final=pos)
 
 
-def pbd_run(binary, scenario, directory):
-    out = subprocess.run([binary, "run", scenario, directory, "1"], check=True, capture_output=True, text=True)
+def pbd_run(binary, scenario, directory, reuse=True):
+    env = dict(os.environ)
+    if not reuse:
+        env["SIM_MM_REUSE"] = "0"
+    out = subprocess.run([binary, "run", scenario, directory, "1"], check=True, capture_output=True, text=True,
+                         env=env)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
@@ -190,15 +199,18 @@ def main():
             traj = json.load(f)
         U = controls(m, traj)
         mujoco_run(m, traj, U[: min(2000, traj["steps"])] if not traj["resets"] else U)  # warm-up
-        mj, pb, pbd_last = [], [], None
+        mj, pb, pb_rebuild, pbd_last = [], [], [], None
         for _ in range(args.reps):
             secs, _ = mujoco_run(m, traj, U)
             mj.append(traj["steps"] / secs)
             pbd_last = pbd_run(binary, scenario, directory)
             pb.append(pbd_last["steps_per_s"])
+            pb_rebuild.append(pbd_run(binary, scenario, directory, reuse=False)["steps_per_s"])
         stats = mujoco_stats(m, traj, U, traj["object"])
         r = dict(steps=traj["steps"], mujoco_steps_per_s=mj, pbd_steps_per_s=pb,
+                 pbd_rebuild_steps_per_s=pb_rebuild,
                  ratio_pbd_over_mujoco=statistics.median(pb) / statistics.median(mj),
+                 ratio_pbd_rebuild_over_mujoco=statistics.median(pb_rebuild) / statistics.median(mj),
                  mujoco=stats, pbd=dict(contacts_mean=pbd_last["contacts_mean"],
                                         contacts_max=pbd_last["contacts_max"],
                                         object_final=pbd_last["object_final"]),
@@ -206,13 +218,15 @@ def main():
         results["scenarios"][scenario] = r
         rows.append((scenario, r))
     print()
-    print("| scenario | steps | MuJoCo steps/s | pbd steps/s | pbd / MuJoCo | contacts MuJoCo (mean/max) "
+    print("| scenario | steps | MuJoCo steps/s | pbd steps/s | pbd / MuJoCo | pbd, matrices rebuilt every step "
+          "| that / MuJoCo | contacts MuJoCo (mean/max) "
           "| contacts pbd (mean/max) | object end, MuJoCo | object end, pbd |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for s, r in rows:
         f = lambda p: "(" + ", ".join(f"{x:.3f}" for x in p) + ")"  # noqa: E731
         print(f"| {s} | {r['steps']} | {statistics.median(r['mujoco_steps_per_s']):,.0f} "
               f"| {statistics.median(r['pbd_steps_per_s']):,.0f} | {r['ratio_pbd_over_mujoco']:.2f} "
+              f"| {statistics.median(r['pbd_rebuild_steps_per_s']):,.0f} | {r['ratio_pbd_rebuild_over_mujoco']:.2f} "
               f"| {r['mujoco']['contacts_mean']:.1f} / {r['mujoco']['contacts_max']} "
               f"| {r['pbd']['contacts_mean']:.1f} / {r['pbd']['contacts_max']} "
               f"| {f(r['mujoco']['object_final'])} | {f(r['pbd']['object_final'])} |")

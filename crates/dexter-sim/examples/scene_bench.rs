@@ -10,7 +10,7 @@
 //! `DIR/<scenario>.json` (the recorded references) for the three scenarios. `run` replays one
 //! scenario REPS times (default 3) and prints one JSON line per repetition (steps, seconds, steps/s,
 //! contact points, where the object ended). `SIM_MM_ONCE=0` replays with
-//! `SimSettings::mass_matrix_once_per_step = false`.
+//! `SimSettings::mass_matrix_once_per_step = false`; `SIM_ITERATIONS=N` with N solver substeps; `SIM_MM_REUSE=0` rebuilds the mass matrices at every step (no reuse while an arm rests).
 use dexter_sim::bench_scene::{SCENARIOS, Trajectory, record, replay, scene, settings, start};
 use std::path::Path;
 use std::time::Instant;
@@ -19,6 +19,12 @@ fn bench_settings() -> dexter_sim::physics::SimSettings {
     let mut s = settings();
     if let Ok(v) = std::env::var("SIM_MM_ONCE") {
         s.mass_matrix_once_per_step = v.trim() != "0";
+    }
+    if std::env::var("SIM_MM_REUSE").is_ok_and(|v| v.trim() == "0") {
+        s.mass_matrix_reuse = None;
+    }
+    if let Some(n) = std::env::var("SIM_ITERATIONS").ok().and_then(|v| v.trim().parse().ok()) {
+        s.solver_iterations = n;
     }
     s
 }

@@ -53,13 +53,21 @@ mod groups {
     pub const ARM: Group = Group::GROUP_4;
 }
 
+/// The default tolerances of [`SimSettings::mass_matrix_reuse`]: 1e-4 rad on the joint coordinates
+/// (below the change of one step of an arm moving at 0.1 rad/s), 1e-2 rad/s on the joint velocities
+/// (they enter the matrix only through `dt`-scaled Coriolis and gyroscopic terms).
+pub const MASS_MATRIX_REUSE: [f64; 2] = [1e-4, 1e-2];
+
 /// Physics and motor settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimSettings {
     /// Physics step (s).
     pub dt: f64,
-    /// Rapier solver iterations per step.
+    /// Rapier solver iterations per step (substeps: each integrates the velocities and positions).
     pub solver_iterations: usize,
+    /// Velocity (projected Gauss–Seidel) iterations in each substep (rapier's
+    /// `num_internal_pgs_iterations`): more converge the contacts and joints within a substep.
+    pub pgs_iterations: usize,
     /// Contact natural frequency (Hz); stiffer contacts penetrate less.
     pub contact_hz: f64,
     /// Contact skin (m).
@@ -78,13 +86,19 @@ pub struct SimSettings {
     /// `solver_iterations` substeps) instead of at every substep. The step's constraints are built
     /// with that matrix either way; see `vendor/README.md`, change 3.
     pub mass_matrix_once_per_step: bool,
+    /// Keep an arm's mass matrix from an earlier step while it has not moved: `Some([dq, dv])`
+    /// reuses it as long as every joint coordinate is within `dq` (rad) and every joint velocity
+    /// within `dv` (rad/s) of the state it was built at (`vendor/README.md`, change 9; needs
+    /// `mass_matrix_once_per_step`). `None` rebuilds it at every step.
+    pub mass_matrix_reuse: Option<[f64; 2]>,
 }
 
 impl Default for SimSettings {
     fn default() -> Self {
         Self {
             dt: 1e-3,
-            solver_iterations: 4,
+            solver_iterations: 2,
+            pgs_iterations: 2,
             contact_hz: 60.0,
             contact_skin: 0.002,
             gravity: 9.81,
@@ -93,6 +107,7 @@ impl Default for SimSettings {
             placement_jitter: (0.003, 0.05),
             allow_sleep: true,
             mass_matrix_once_per_step: true,
+            mass_matrix_reuse: Some(MASS_MATRIX_REUSE),
         }
     }
 }
@@ -294,7 +309,9 @@ impl DexterSim {
         let ip = &mut world.integration_parameters;
         ip.dt = settings.dt;
         ip.num_solver_iterations = settings.solver_iterations.max(1);
+        ip.num_internal_pgs_iterations = settings.pgs_iterations.max(1);
         ip.multibody_mass_matrix_once_per_step = settings.mass_matrix_once_per_step;
+        ip.multibody_mass_matrix_reuse = settings.mass_matrix_reuse;
         ip.contact_softness.natural_frequency = settings.contact_hz;
         ip.static_contact_softness.natural_frequency = 2.0 * settings.contact_hz;
 

@@ -300,6 +300,15 @@ pub struct IntegrationParameters {
     /// as in a simulator that takes one step of that length. Velocities, forces and body
     /// Jacobians are still refreshed at every substep.
     pub multibody_mass_matrix_once_per_step: bool,
+    /// Reuse a multibody's mass matrix (and its factorisations) from an earlier step while the
+    /// multibody has not moved: `Some([dq, dv])` keeps it as long as every joint coordinate is
+    /// within `dq` (rad or m) and every generalized velocity within `dv` (rad/s or m/s) of their
+    /// values when it was built, with the same `dt` and root pose (default: `None`, rebuilt at
+    /// every step; only used with [`Self::multibody_mass_matrix_once_per_step`]).
+    ///
+    /// pbd's change 9 (vendor/README.md): a resting arm's matrix is not rebuilt from the same
+    /// configuration at every step.
+    pub multibody_mass_matrix_reuse: Option<[Real; 2]>,
     /// Maximum number of CCD substeps performed by the solver (default: `1`).
     ///
     /// Also the global CCD on/off switch: `0` disables **all** CCD for the world (including the
@@ -423,6 +432,7 @@ impl Default for IntegrationParameters {
             num_internal_pgs_iterations: 1,
             num_internal_stabilization_iterations: 1,
             multibody_mass_matrix_once_per_step: false,
+            multibody_mass_matrix_reuse: None,
             num_solver_iterations: 4,
             normalized_allowed_linear_error: 0.005,
             normalized_max_corrective_velocity: 3.0,

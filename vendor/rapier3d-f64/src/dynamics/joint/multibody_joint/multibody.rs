@@ -121,6 +121,19 @@ pub struct Multibody {
     workspace: MultibodyWorkspace,
     coriolis_v: Vec<OMatrix<Real, Dim, Dyn>>,
     coriolis_w: Vec<OMatrix<Real, AngDim, Dyn>>,
+    /// pbd (vendor/README.md, change 8): for each link, the generalized coordinates it depends
+    /// on — its ancestors' DOFs and its own, ascending — as `ancestor_cols[ancestor_offsets[i]..
+    /// ancestor_offsets[i + 1]]`. A link's body Jacobian (and its Coriolis workspace) is zero in
+    /// every other column, e.g. a finger's in the other fingers' columns.
+    ancestor_cols: Vec<usize>,
+    ancestor_offsets: Vec<usize>,
+    /// pbd (vendor/README.md, change 9): the state the mass matrix was last built at — every
+    /// link's joint coordinates, the generalized velocities, the root pose and `dt` — for
+    /// [`IntegrationParameters::multibody_mass_matrix_reuse`]. Empty: not built yet.
+    built_coords: Vec<Real>,
+    built_velocities: Vec<Real>,
+    built_root: Option<Pose>,
+    built_dt: Real,
 }
 impl Default for Multibody {
     fn default() -> Self {
@@ -154,6 +167,12 @@ impl Multibody {
             workspace: MultibodyWorkspace::new(),
             coriolis_v: Vec::new(),
             coriolis_w: Vec::new(),
+            ancestor_cols: Vec::new(),
+            ancestor_offsets: Vec::new(),
+            built_coords: Vec::new(),
+            built_velocities: Vec::new(),
+            built_root: None,
+            built_dt: 0.0,
             root_is_dynamic: false,
             self_contacts_enabled,
             couplings: Vec::new(),
@@ -586,23 +605,25 @@ impl Multibody {
                 rb.forces.force - rb_mass * acc.linvel,
                 rb.forces.torque - gyroscopic - rb_inertia * acc.angvel,
             );
-            // pbd (vendor/README.md, change 1): the Jacobian's columns past `nc` are zero.
-            let nc = link.assembly_id + link.joint.ndofs();
-            self.accelerations.rows_mut(0, nc).gemv_tr(
-                1.0,
-                &self.body_jacobians[i].columns(0, nc),
-                external_forces.as_vector(),
-                1.0,
-            );
+            // pbd (vendor/README.md, changes 1 and 8): the Jacobian is zero outside the
+            // link's columns (its ancestors' DOFs and its own): `a += Jᵀ f` on those only.
+            let cols = &self.ancestor_cols[self.ancestor_offsets[i]..self.ancestor_offsets[i + 1]];
+            let jac = self.body_jacobians[i].as_slice();
+            let f = external_forces.as_vector();
+            let acc = self.accelerations.as_mut_slice();
+            for &c in cols {
+                let j = &jac[6 * c..6 * c + 6];
+                acc[c] += j[0] * f[0] + j[1] * f[1] + j[2] * f[2] + j[3] * f[3] + j[4] * f[4] + j[5] * f[5];
+            }
 
             if check_implicit_coriolis_divergence {
                 let applied_forces = Force::new(rb.forces.force, rb.forces.torque);
-                pos_forces.rows_mut(0, nc).gemv_tr(
-                    1.0,
-                    &self.body_jacobians[i].columns(0, nc),
-                    applied_forces.as_vector(),
-                    1.0,
-                );
+                let f = applied_forces.as_vector();
+                let pf = pos_forces.as_mut_slice();
+                for &c in cols {
+                    let j = &jac[6 * c..6 * c + 6];
+                    pf[c] += j[0] * f[0] + j[1] * f[1] + j[2] * f[2] + j[3] * f[3] + j[4] * f[4] + j[5] * f[5];
+                }
             }
         }
 
@@ -754,7 +775,71 @@ impl Multibody {
         }
     }
 
+    /// pbd, change 8: rebuilds the per-link column lists (cheap: one pass over the links, no
+    /// allocation once sized). When the tree changed, the Jacobians and Coriolis workspaces are
+    /// zeroed, since only the listed columns are written from then on.
+    fn update_ancestor_columns(&mut self) {
+        let n_links = self.links.len();
+        let mut changed = self.ancestor_offsets.len() != n_links + 1;
+        if changed {
+            self.ancestor_offsets.clear();
+            self.ancestor_offsets.resize(n_links + 1, 0);
+        }
+        let mut len = 0;
+        for i in 0..n_links {
+            let link = &self.links[i];
+            let (own0, own_n) = (link.assembly_id, link.joint.ndofs());
+            let parent = if i == 0 { None } else { Some(link.parent_internal_id) };
+            let (p0, p1) = match parent {
+                Some(p) => (self.ancestor_offsets[p], self.ancestor_offsets[p + 1]),
+                None => (0, 0),
+            };
+            let start = len;
+            changed |= self.ancestor_offsets[i] != start;
+            self.ancestor_offsets[i] = start;
+            for k in p0..p1 {
+                let c = self.ancestor_cols[k];
+                if len < self.ancestor_cols.len() {
+                    changed |= self.ancestor_cols[len] != c;
+                    self.ancestor_cols[len] = c;
+                } else {
+                    changed = true;
+                    self.ancestor_cols.push(c);
+                }
+                len += 1;
+            }
+            for c in own0..own0 + own_n {
+                if len < self.ancestor_cols.len() {
+                    changed |= self.ancestor_cols[len] != c;
+                    self.ancestor_cols[len] = c;
+                } else {
+                    changed = true;
+                    self.ancestor_cols.push(c);
+                }
+                len += 1;
+            }
+            changed |= self.ancestor_offsets[i + 1] != len;
+            self.ancestor_offsets[i + 1] = len;
+        }
+        if self.ancestor_cols.len() != len {
+            self.ancestor_cols.truncate(len);
+            changed = true;
+        }
+        if changed {
+            for j in &mut self.body_jacobians {
+                j.fill(0.0);
+            }
+            for c in &mut self.coriolis_v {
+                c.fill(0.0);
+            }
+            for c in &mut self.coriolis_w {
+                c.fill(0.0);
+            }
+        }
+    }
+
     fn update_body_jacobians(&mut self) {
+        self.update_ancestor_columns();
         for i in 0..self.links.len() {
             let link = &self.links[i];
 
@@ -770,21 +855,23 @@ impl Multibody {
                 let parent_link = &self.links[parent_id];
                 parent_to_world = parent_link.local_to_world;
 
-                // pbd (vendor/README.md, change 1): only the first `nc` columns can be nonzero;
-                // the others stay the zeros they were created with.
-                let nc = link.assembly_id + link.joint.ndofs();
+                // pbd (vendor/README.md, changes 1 and 8): only the columns of the link's
+                // ancestors' DOFs and its own can be nonzero; the others stay zero. The parent's
+                // columns are copied and shifted (`v += [shift02]×ᵀ w`) column by column.
+                let parent_cols = &self.ancestor_cols
+                    [self.ancestor_offsets[parent_id]..self.ancestor_offsets[parent_id + 1]];
+                let shift_tr = vect_to_na(link.shift02).gcross_matrix_tr();
                 let (link_j, parent_j) = self.body_jacobians.index_mut_const(i, parent_id);
-                link_j.columns_mut(0, nc).copy_from(&parent_j.columns(0, nc));
-
-                {
-                    let mut link_j_v = link_j.fixed_rows_mut::<DIM>(0);
-                    let mut link_j_v = link_j_v.columns_mut(0, nc);
-                    let parent_j_w = parent_j.fixed_rows::<ANG_DIM>(DIM);
-                    let parent_j_w = parent_j_w.columns(0, nc);
-
-                    let shift_tr = vect_to_na(link.shift02).gcross_matrix_tr();
-                    link_j_v.gemm(1.0, &shift_tr, &parent_j_w, 1.0);
+                let lj = link_j.as_mut_slice();
+                let pj = parent_j.as_slice();
+                for &c in parent_cols {
+                    let pw = na::Vector3::new(pj[6 * c + 3], pj[6 * c + 4], pj[6 * c + 5]);
+                    let v = na::Vector3::new(pj[6 * c], pj[6 * c + 1], pj[6 * c + 2]) + shift_tr * pw;
+                    lj[6 * c..6 * c + 3].copy_from_slice(v.as_slice());
+                    lj[6 * c + 3..6 * c + 6].copy_from_slice(pw.as_slice());
                 }
+                let own = link.assembly_id..link.assembly_id + link.joint.ndofs();
+                lj[6 * own.start..6 * own.end].fill(0.0);
             } else {
                 self.body_jacobians[i].fill(0.0);
                 parent_to_world = Pose::IDENTITY;
@@ -801,13 +888,18 @@ impl Multibody {
             link_j_part += link_joint_j;
 
             {
-                let nc = link.assembly_id + ndofs;
-                let link_j = &mut self.body_jacobians[i];
-                let mut link_j = link_j.columns_mut(0, nc);
-                let (mut link_j_v, link_j_w) =
-                    link_j.rows_range_pair_mut(0..DIM, DIM..DIM + ANG_DIM);
+                // pbd, change 8: `v += [shift23]×ᵀ w` on the link's own columns only.
+                let cols =
+                    &self.ancestor_cols[self.ancestor_offsets[i]..self.ancestor_offsets[i + 1]];
                 let shift_tr = vect_to_na(link.shift23).gcross_matrix_tr();
-                link_j_v.gemm(1.0, &shift_tr, &link_j_w, 1.0);
+                let lj = self.body_jacobians[i].as_mut_slice();
+                for &c in cols {
+                    let w = na::Vector3::new(lj[6 * c + 3], lj[6 * c + 4], lj[6 * c + 5]);
+                    let d = shift_tr * w;
+                    lj[6 * c] += d.x;
+                    lj[6 * c + 1] += d.y;
+                    lj[6 * c + 2] += d.z;
+                }
             }
         }
     }
@@ -906,7 +998,12 @@ impl Multibody {
                     let pcv = parent_coriolis_v.as_slice();
                     let pcw = parent_coriolis_w.as_slice();
                     let pj = parent_j.as_slice();
-                    for b in 0..nc {
+                    // pbd, change 8: the parent's columns; the link's own start at zero.
+                    let parent_cols = &self.ancestor_cols
+                        [self.ancestor_offsets[parent_id]..self.ancestor_offsets[parent_id + 1]];
+                    cv[3 * link.assembly_id..3 * nc].fill(0.0);
+                    cw[3 * link.assembly_id..3 * nc].fill(0.0);
+                    for &b in parent_cols {
                         let pcv_b = na::Vector3::new(pcv[3 * b], pcv[3 * b + 1], pcv[3 * b + 2]);
                         let pcw_b = na::Vector3::new(pcw[3 * b], pcw[3 * b + 1], pcw[3 * b + 2]);
                         let pjw_b = na::Vector3::new(pj[6 * b + 3], pj[6 * b + 4], pj[6 * b + 5]);
@@ -958,7 +1055,8 @@ impl Multibody {
                 let jac = self.body_jacobians[i].as_slice();
                 let cv = self.coriolis_v[i].as_mut_slice();
                 let cw = self.coriolis_w[i].as_slice();
-                for b in 0..nc {
+                let cols = &self.ancestor_cols[self.ancestor_offsets[i]..self.ancestor_offsets[i + 1]];
+                for &b in cols {
                     let cw_b = na::Vector3::new(cw[3 * b], cw[3 * b + 1], cw[3 * b + 2]);
                     let jw_b = na::Vector3::new(jac[6 * b + 3], jac[6 * b + 4], jac[6 * b + 5]);
                     let d = shift_cross_tr * cw_b + on_jw * jw_b;
@@ -995,7 +1093,9 @@ impl Multibody {
                 let cw = self.coriolis_w[i].as_slice();
                 let aug = self.augmented_mass.as_mut_slice();
                 let acc = self.acc_augmented_mass.as_mut_slice();
-                for b in 0..nc {
+                // pbd, change 8: the link's columns only (its ancestors' DOFs and its own).
+                let cols = &self.ancestor_cols[self.ancestor_offsets[i]..self.ancestor_offsets[i + 1]];
+                for &b in cols {
                     let jb = &jac[6 * b..6 * b + 6];
                     let jbv = na::Vector3::new(jb[0], jb[1], jb[2]);
                     let jbw = na::Vector3::new(jb[3], jb[4], jb[5]);
@@ -1007,7 +1107,7 @@ impl Multibody {
                     let bw = aw + gyro_dt * jbw + inertia_dt * cbw;
                     let aug_col = &mut aug[n * b..n * b + nc];
                     let acc_col = &mut acc[n * b..n * b + nc];
-                    for a in 0..nc {
+                    for &a in cols {
                         let ja = &jac[6 * a..6 * a + 6];
                         acc_col[a] += ja[0] * bv.x
                             + ja[1] * bv.y
@@ -1125,6 +1225,46 @@ impl Multibody {
         } else if self.inv_augmented_mass_dense.nrows() != 0 {
             self.inv_augmented_mass_dense = DMatrix::zeros(0, 0);
         }
+
+        // pbd, change 9: remember the state this matrix belongs to (no allocation once sized).
+        self.built_coords.clear();
+        for link in self.links.iter() {
+            self.built_coords.extend_from_slice(link.joint.coords.as_slice());
+        }
+        self.built_velocities.clear();
+        self.built_velocities
+            .extend_from_slice(self.velocities.as_slice());
+        self.built_root = self.links.0.first().map(|l| l.local_to_world);
+        self.built_dt = dt;
+    }
+
+    /// pbd (vendor/README.md, change 9): whether the mass matrix built at an earlier step still
+    /// belongs to the current state within the tolerances `[dq, dv]` of
+    /// [`IntegrationParameters::multibody_mass_matrix_reuse`] (same `dt`, same root pose, same
+    /// number of coordinates; `dq` on every joint coordinate, `dv` on every generalized velocity).
+    pub(crate) fn mass_matrix_reusable(&self, dt: Real, [dq, dv]: [Real; 2]) -> bool {
+        if self.built_dt != dt
+            || self.built_velocities.len() != self.velocities.len()
+            || self.built_coords.len() != SPATIAL_DIM * self.links.len()
+            || self.augmented_mass.ncols() != self.ndofs
+            || self.built_root != self.links.0.first().map(|l| l.local_to_world)
+        {
+            return false;
+        }
+        let coords_close = self.links.iter().enumerate().all(|(i, link)| {
+            let built = &self.built_coords[SPATIAL_DIM * i..SPATIAL_DIM * (i + 1)];
+            link.joint
+                .coords
+                .iter()
+                .zip(built)
+                .all(|(q, b)| (q - b).abs() <= dq)
+        });
+        coords_close
+            && self
+                .velocities
+                .iter()
+                .zip(&self.built_velocities)
+                .all(|(v, b)| (v - b).abs() <= dv)
     }
 
     /// `out ← M⁻¹ (a·e_i + b·e_j)`, the solve of a constraint whose Jacobian has at most two

@@ -106,7 +106,14 @@ impl VelocitySolver {
                 .get_multibody_mut_internal(link.multibody)
                 .unwrap();
             multibody.update_velocities(bodies);
-            multibody.update_mass_matrix(params.dt, bodies);
+            // pbd (vendor/README.md, change 9): a multibody that has not moved keeps its matrix.
+            let reuse = params.multibody_mass_matrix_once_per_step
+                && params
+                    .multibody_mass_matrix_reuse
+                    .is_some_and(|tol| multibody.mass_matrix_reusable(params.dt, tol));
+            if !reuse {
+                multibody.update_mass_matrix(params.dt, bodies);
+            }
             multibody.update_acceleration(params.dt, bodies);
 
             let mut solver_vels_incr = self
