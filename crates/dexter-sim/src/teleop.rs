@@ -457,6 +457,55 @@ impl Move {
     }
 }
 
+/// The horizontal radius (m) of object `i` as it is posed now: the larger of its half extents along
+/// the world's x and y.
+fn footprint_radius(sim: &DexterSim, scene: &Scene, i: usize) -> f64 {
+    let pose = sim.object_state(i).pose;
+    let shape = &scene.catalog.objects[sim.objects()[i].catalog_index].shape;
+    let along = |d: Vec3| geometry::support_half_extent(shape, &(pose.rotation.inverse() * d));
+    along(Vec3::x()).max(along(Vec3::y()))
+}
+
+/// Where in place `place` the scripted teacher puts object `carried` down: the point of a 9 × 9 grid
+/// over the place's floor (kept clear of the walls by the object's radius + 1.5 cm) farthest from the
+/// objects already in the place (their edges), nearest the centre among equals. The centre when the
+/// place is empty. (The teacher is the world: it sees the objects' true poses.)
+fn free_spot(sim: &DexterSim, scene: &Scene, place: usize, carried: usize) -> [f64; 2] {
+    let spec = &scene.spec.places[place];
+    let r = footprint_radius(sim, scene, carried);
+    let [cx, cy] = spec.center;
+    let [sx, sy] = spec.size;
+    let inside = |x: f64, y: f64| (x - cx).abs() <= 0.5 * sx && (y - cy).abs() <= 0.5 * sy;
+    let others: Vec<([f64; 2], f64)> = (0..sim.objects().len())
+        .filter(|&j| j != carried)
+        .filter_map(|j| {
+            let p = sim.object_state(j).pose.translation.vector;
+            inside(p.x, p.y).then(|| ([p.x, p.y], footprint_radius(sim, scene, j)))
+        })
+        .collect();
+    if others.is_empty() {
+        return spec.center;
+    }
+    let half = |s: f64| (0.5 * s - r - 0.015).max(0.0);
+    let (hx, hy) = (half(sx), half(sy));
+    let mut best = (f64::NEG_INFINITY, spec.center);
+    for i in 0..9 {
+        for j in 0..9 {
+            let x = cx + hx * (i as f64 / 4.0 - 1.0);
+            let y = cy + hy * (j as f64 / 4.0 - 1.0);
+            let clear = others
+                .iter()
+                .map(|(q, rq)| (x - q[0]).hypot(y - q[1]) - rq)
+                .fold(f64::INFINITY, f64::min);
+            let score = clear - 1e-3 * (x - cx).hypot(y - cy);
+            if score > best.0 {
+                best = (score, [x, y]);
+            }
+        }
+    }
+    best.1
+}
+
 /// Steps of the teacher's plan; each is turned into moves when it starts, from what the teacher sees
 /// then (a human looks at the scene; the teacher reads true object poses, the robot does not).
 #[derive(Debug, Clone, PartialEq)]
@@ -467,7 +516,7 @@ enum Step {
     Close,
     Lift { rise: f64 },
     CheckHeld { object: usize },
-    OverPlace { place: usize },
+    OverPlace { place: usize, object: usize },
     Lower { place: usize, object: usize },
     Open,
     Retreat { rise: f64 },
@@ -567,7 +616,7 @@ impl Teacher {
                     steps.push(Step::Lift { rise: 0.12 });
                     steps.push(Step::Pause(0.6));
                     steps.push(Step::CheckHeld { object: o });
-                    steps.push(Step::OverPlace { place: p });
+                    steps.push(Step::OverPlace { place: p, object: o });
                     steps.push(Step::Pause(0.3));
                     steps.push(Step::Lower { place: p, object: o });
                     steps.push(Step::Pause(0.5));
@@ -791,10 +840,12 @@ impl Teacher {
                 }
                 self.begin_pause(t, 0.05);
             }
-            Step::OverPlace { place } => {
+            Step::OverPlace { place, object } => {
                 let spec = &scene.spec.places[place];
                 let z = (self.table_z + spec.wall_height + self.carry_depth + 0.08).max(here.translation.z);
-                let to = Iso3::from_parts(Translation3::new(spec.center[0], spec.center[1], z), here.rotation);
+                // The palm over a free spot of the place (the teacher sees what is already in it).
+                let spot = free_spot(sim, scene, place, object);
+                let to = Iso3::from_parts(Translation3::new(spot[0], spot[1], z), here.rotation);
                 self.begin(t, to, self.flex, 0.22);
             }
             Step::Lower { place, object: _ } => {

@@ -1838,6 +1838,36 @@ impl Multibody {
         };
 
         let link = &self.links[link_id];
+        let n = self.ndofs;
+        // pbd (vendor/README.md, change 10): with the explicit inverse (change 4) and the link's
+        // column list (change 8), `J = J_linkᵀ f` is formed on the link's columns and
+        // `M⁻¹ J = Σ_c M⁻¹[:, c] J[c]` over them, instead of a full LU solve per contact line.
+        let i = link.internal_id;
+        if self.inv_augmented_mass_dense.nrows() == n && self.ancestor_offsets.len() == self.links.len() + 1 {
+            let cols = &self.ancestor_cols[self.ancestor_offsets[i]..self.ancestor_offsets[i + 1]];
+            let jac = self.body_jacobians[i].as_slice();
+            let f = force.as_vector();
+            let inv = self.inv_augmented_mass_dense.as_slice();
+            let out = &mut jacobians.as_mut_slice()[*j_id..*j_id + 2 * n];
+            let (out_j, out_invm_j) = out.split_at_mut(n);
+            out_j.fill(0.0);
+            out_invm_j.fill(0.0);
+            for &c in cols {
+                let jc = &jac[6 * c..6 * c + 6];
+                let v = jc[0] * f[0] + jc[1] * f[1] + jc[2] * f[2] + jc[3] * f[3] + jc[4] * f[4] + jc[5] * f[5];
+                out_j[c] = v;
+                if v != 0.0 {
+                    for (o, m) in out_invm_j.iter_mut().zip(&inv[n * c..n * c + n]) {
+                        *o += m * v;
+                    }
+                }
+            }
+            let j = jacobians.rows(*j_id, n);
+            let invm_j = jacobians.rows(wj_id, n);
+            *j_id += n * 2;
+            return (j.dot(&invm_j), j.dot(&self.generalized_velocity()));
+        }
+
         let mut out_j = jacobians.rows_mut(*j_id, self.ndofs);
         self.body_jacobians[link.internal_id].tr_mul_to(force.as_vector(), &mut out_j);
 
