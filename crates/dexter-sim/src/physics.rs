@@ -312,6 +312,10 @@ impl DexterSim {
         ip.num_internal_pgs_iterations = settings.pgs_iterations.max(1);
         ip.multibody_mass_matrix_once_per_step = settings.mass_matrix_once_per_step;
         ip.multibody_mass_matrix_reuse = settings.mass_matrix_reuse;
+        // Bit-identical (vendor/README.md, change 12): the step's first forward kinematics is
+        // skipped for an arm nothing touched since the last substep; every change pbd makes to a
+        // multibody goes through `get_multibody_mut`, which marks it.
+        ip.multibody_skip_unchanged_kinematics = true;
         ip.contact_softness.natural_frequency = settings.contact_hz;
         ip.static_contact_softness.natural_frequency = 2.0 * settings.contact_hz;
 

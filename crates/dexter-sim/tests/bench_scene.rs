@@ -45,46 +45,61 @@ fn mjcf_export_has_every_joint_actuator_and_object() {
     assert_eq!(key.split_whitespace().count(), hinges + 7 * sim.objects().len());
 }
 
+/// Joint positions every 10 steps of `steps` steps of the `sorting` scene with `settings` (sleeping
+/// off), after parking, with the joints of `moves` (name, offset in rad; a name ending in `*` matches
+/// every joint it starts with and that ends in `med_joint`) sent to their parked position + offset.
+fn moving_trace(settings: SimSettings, moves: &[(&str, f64)], steps: usize) -> Vec<f64> {
+    let scene = Scene::builtin("sorting").expect("sorting");
+    let mut sim = DexterSim::new(
+        &scene,
+        SimSettings {
+            allow_sleep: false,
+            ..settings
+        },
+    )
+    .expect("sim");
+    park_robot(&mut sim, scene.spec.table.height).expect("park");
+    let names = sim.joint_names().to_vec();
+    let q0 = sim.joint_positions().to_vec();
+    for (i, n) in names.iter().enumerate() {
+        let dq = moves
+            .iter()
+            .find(|(m, _)| match m.strip_suffix('*') {
+                Some(prefix) => n.starts_with(prefix) && n.ends_with("med_joint"),
+                None => n == m,
+            })
+            .map_or(0.0, |(_, d)| *d);
+        if dq != 0.0 {
+            sim.set_joint_target(i, q0[i] + dq, 0.0);
+        }
+    }
+    let mut trace = Vec::new();
+    for k in 0..steps {
+        sim.step();
+        if k % 10 == 0 {
+            trace.extend_from_slice(sim.joint_positions());
+        }
+    }
+    trace
+}
+
 /// Change 3 of `vendor/README.md`: the mass matrix once per step follows the per-substep schedule
 /// of upstream rapier to well under the arm's tracking error.
 #[test]
 fn mass_matrix_once_per_step_tracks_the_per_substep_schedule() {
-    let scene = Scene::builtin("sorting").expect("sorting");
-    // Joint positions every 10 steps while the arm moves.
-    let run = |once: bool| -> Vec<f64> {
-        let mut sim = DexterSim::new(
-            &scene,
-            SimSettings {
-                allow_sleep: false,
-                mass_matrix_once_per_step: once,
-                ..SimSettings::default()
-            },
-        )
-        .expect("sim");
-        park_robot(&mut sim, scene.spec.table.height).expect("park");
-        let names = sim.joint_names().to_vec();
-        let q0 = sim.joint_positions().to_vec();
-        for (i, n) in names.iter().enumerate() {
-            // A fast move of the left arm's shoulder and elbow, and the left hand closing.
-            let dq = match n.as_str() {
-                "left/base_yaw_joint" => 0.4,
-                "left/shoulder_pitch_joint" => -0.3,
-                "left/elbow_pitch_joint" => 0.5,
-                n if n.starts_with("left/bhand") && n.ends_with("med_joint") => 1.0,
-                _ => 0.0,
-            };
-            if dq != 0.0 {
-                sim.set_joint_target(i, q0[i] + dq, 0.0);
-            }
-        }
-        let mut trace = Vec::new();
-        for k in 0..400 {
-            sim.step();
-            if k % 10 == 0 {
-                trace.extend_from_slice(sim.joint_positions());
-            }
-        }
-        trace
+    // A fast move of the left arm's shoulder and elbow, and the left hand closing.
+    let moves = [
+        ("left/base_yaw_joint", 0.4),
+        ("left/shoulder_pitch_joint", -0.3),
+        ("left/elbow_pitch_joint", 0.5),
+        ("left/bhand*", 1.0),
+    ];
+    let run = |once: bool| {
+        let settings = SimSettings {
+            mass_matrix_once_per_step: once,
+            ..SimSettings::default()
+        };
+        moving_trace(settings, &moves, 400)
     };
     let per_substep = run(false);
     let once = run(true);
@@ -114,38 +129,13 @@ fn mass_matrix_once_per_step_tracks_the_per_substep_schedule() {
 /// error, and the grasp grid (`examples/grasp_grid.rs`) is scored with it on.
 #[test]
 fn mass_matrix_reuse_at_rest_tracks_rebuilding_every_step() {
-    let scene = Scene::builtin("sorting").expect("sorting");
-    let run = |reuse: Option<[f64; 2]>| -> Vec<f64> {
-        let mut sim = DexterSim::new(
-            &scene,
-            SimSettings {
-                allow_sleep: false,
-                mass_matrix_reuse: reuse,
-                ..SimSettings::default()
-            },
-        )
-        .expect("sim");
-        park_robot(&mut sim, scene.spec.table.height).expect("park");
-        let names = sim.joint_names().to_vec();
-        let q0 = sim.joint_positions().to_vec();
-        for (i, n) in names.iter().enumerate() {
-            let dq = match n.as_str() {
-                "left/shoulder_pitch_joint" => -0.2,
-                "left/elbow_pitch_joint" => 0.3,
-                _ => 0.0,
-            };
-            if dq != 0.0 {
-                sim.set_joint_target(i, q0[i] + dq, 0.0);
-            }
-        }
-        let mut trace = Vec::new();
-        for k in 0..1500 {
-            sim.step();
-            if k % 10 == 0 {
-                trace.extend_from_slice(sim.joint_positions());
-            }
-        }
-        trace
+    let moves = [("left/shoulder_pitch_joint", -0.2), ("left/elbow_pitch_joint", 0.3)];
+    let run = |reuse: Option<[f64; 2]>| {
+        let settings = SimSettings {
+            mass_matrix_reuse: reuse,
+            ..SimSettings::default()
+        };
+        moving_trace(settings, &moves, 1500)
     };
     let rebuilt = run(None);
     let reused = run(Some(dexter_sim::physics::MASS_MATRIX_REUSE));

@@ -309,6 +309,14 @@ pub struct IntegrationParameters {
     /// pbd's change 9 (vendor/README.md): a resting arm's matrix is not rebuilt from the same
     /// configuration at every step.
     pub multibody_mass_matrix_reuse: Option<[Real; 2]>,
+    /// Skip the forward kinematics a step starts with for a multibody that nothing can have
+    /// changed since the previous step's last substep: no public mutable access to it
+    /// (`MultibodyJointSet::get_mut`, `get_multibody_mut`), a fixed root at the same pose, the
+    /// same links and DOFs (default: `false`). The result is bit-identical; a change to a link's
+    /// rigid body through the `RigidBodySet` alone is not seen.
+    ///
+    /// pbd's change 12 (vendor/README.md).
+    pub multibody_skip_unchanged_kinematics: bool,
     /// Maximum number of CCD substeps performed by the solver (default: `1`).
     ///
     /// Also the global CCD on/off switch: `0` disables **all** CCD for the world (including the
@@ -433,6 +441,7 @@ impl Default for IntegrationParameters {
             num_internal_stabilization_iterations: 1,
             multibody_mass_matrix_once_per_step: false,
             multibody_mass_matrix_reuse: None,
+            multibody_skip_unchanged_kinematics: false,
             num_solver_iterations: 4,
             normalized_allowed_linear_error: 0.005,
             normalized_max_corrective_velocity: 3.0,

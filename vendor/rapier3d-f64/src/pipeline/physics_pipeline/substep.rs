@@ -436,7 +436,13 @@ impl PhysicsPipeline {
         // TODO: do this only on user-change.
         // TODO: do we want some kind of automatic inverse kinematics?
         for multibody in &mut multibody_joints.multibodies {
-            multibody.1.forward_kinematics(bodies, true);
+            // pbd (vendor/README.md, change 12): skipped when nothing can have changed since the
+            // last substep's forward kinematics (bit-identical).
+            if integration_parameters.multibody_skip_unchanged_kinematics {
+                multibody.1.forward_kinematics_unless_unchanged(bodies);
+            } else {
+                multibody.1.forward_kinematics(bodies, true);
+            }
             multibody
                 .1
                 .update_rigid_bodies_internal(bodies, true, false, false);

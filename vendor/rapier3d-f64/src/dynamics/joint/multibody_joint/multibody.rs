@@ -134,6 +134,12 @@ pub struct Multibody {
     built_velocities: Vec<Real>,
     built_root: Option<Pose>,
     built_dt: Real,
+    /// pbd (vendor/README.md, change 12): set by every public mutable access to this multibody
+    /// (`MultibodyJointSet::get_mut`, `get_multibody_mut`), cleared by a forward kinematics; with
+    /// the root pose and the link and DOF counts of that forward kinematics, it tells whether the
+    /// step's first forward kinematics would recompute what the last substep's computed.
+    pub(crate) kinematics_dirty: bool,
+    fk_state: Option<(Pose, usize, usize)>,
 }
 impl Default for Multibody {
     fn default() -> Self {
@@ -173,6 +179,8 @@ impl Multibody {
             built_velocities: Vec::new(),
             built_root: None,
             built_dt: 0.0,
+            kinematics_dirty: true,
+            fk_state: None,
             root_is_dynamic: false,
             self_contacts_enabled,
             couplings: Vec::new(),
@@ -1672,6 +1680,37 @@ impl Multibody {
          * Compute body jacobians.
          */
         self.update_body_jacobians();
+
+        // pbd, change 12: what these kinematics were computed from.
+        self.kinematics_dirty = false;
+        self.fk_state = bodies
+            .get(self.links[0].rigid_body)
+            .map(|rb| (*rb.position(), self.links.len(), self.ndofs));
+    }
+
+    /// pbd (vendor/README.md, change 12): the forward kinematics a step starts with, skipped when
+    /// nothing can have changed since the last one: no public mutable access to the multibody, a
+    /// fixed root at the same pose, the same links and DOFs (the last substep of the previous step
+    /// computed it from this very state, so the result would be bit-identical). A change to a link's
+    /// rigid body made through the `RigidBodySet` alone (its mass properties) is not seen: call
+    /// [`Self::forward_kinematics`] after one. Returns whether it ran.
+    pub(crate) fn forward_kinematics_unless_unchanged(&mut self, bodies: &RigidBodySet) -> bool {
+        let unchanged = !self.kinematics_dirty
+            && !self.root_is_dynamic
+            && match (bodies.get(self.links[0].rigid_body), &self.fk_state) {
+                (Some(rb), Some((pose, links, ndofs))) => {
+                    !rb.is_dynamic()
+                        && rb.position() == pose
+                        && *links == self.links.len()
+                        && *ndofs == self.ndofs
+                }
+                _ => false,
+            };
+        if unchanged {
+            return false;
+        }
+        self.forward_kinematics(bodies, true);
+        true
     }
 
     /// Computes the ids of all the links between the root and the link identified by `link_id`.

@@ -317,8 +317,10 @@ impl MultibodyJointSet {
     /// Gets a mutable reference to a multibody, based on its temporary index.
     /// `MultibodyJointSet`.
     pub fn get_multibody_mut(&mut self, index: MultibodyIndex) -> Option<&mut Multibody> {
-        // TODO: modification tracking.
-        self.multibodies.get_mut(index.0)
+        // pbd (vendor/README.md, change 12): any public mutable access may change the kinematics.
+        let mb = self.multibodies.get_mut(index.0)?;
+        mb.kinematics_dirty = true;
+        Some(mb)
     }
 
     /// Gets a mutable reference to a multibody, based on its temporary index.
@@ -340,6 +342,8 @@ impl MultibodyJointSet {
     pub fn get_mut(&mut self, handle: MultibodyJointHandle) -> Option<(&mut Multibody, usize)> {
         let link = self.rb2mb.get(handle.0)?;
         let multibody = self.multibodies.get_mut(link.multibody.0)?;
+        // pbd (vendor/README.md, change 12): any public mutable access may change the kinematics.
+        multibody.kinematics_dirty = true;
         Some((multibody, link.id))
     }
 

@@ -98,8 +98,15 @@ impl VelocitySolver {
             }
         }
 
-        self.generic_solver_vels_increment = DVector::zeros(multibody_solver_id as usize);
-        self.generic_solver_vels = DVector::zeros(multibody_solver_id as usize);
+        // pbd (vendor/README.md, change 11): reuse the buffers (no allocation per step once sized).
+        let n = multibody_solver_id as usize;
+        for v in [&mut self.generic_solver_vels_increment, &mut self.generic_solver_vels] {
+            if v.len() == n {
+                v.fill(0.0);
+            } else {
+                *v = DVector::zeros(n);
+            }
+        }
 
         for link in &self.multibody_roots {
             let multibody = multibodies
