@@ -1002,6 +1002,9 @@ fn debug_exec() -> bool {
     *ON.get_or_init(|| std::env::var_os("PBD_DEBUG_EXEC").is_some())
 }
 
+/// Descents to the grasp pose by one arm that stop short before ψ binds another arm.
+const SHORT_DESCENTS: usize = 2;
+
 /// ψ for Pick-And-Place on Dexter (5.31–5.32): the arm whose workspace holds both the object and the
 /// place; if none does, a transfer — the arm that reaches the object puts it on the handoff spot,
 /// and the arm that reaches the place takes it from there.
@@ -1022,6 +1025,8 @@ pub struct PickPlacePolicy {
     at_handoff: Vec<Arm>,
     /// Arms whose reach to the object did not converge.
     failed_arms: Vec<Arm>,
+    /// Per arm (left, right): its descents to the grasp pose that stopped short.
+    short_descents: [usize; 2],
     /// ψ's rebindings after failures, in order (`other_arm`, `hand_over`, `gave_up: …`).
     pub rebindings: Vec<String>,
 }
@@ -1057,6 +1062,7 @@ impl PickPlacePolicy {
             at_place,
             at_handoff,
             failed_arms: Vec::new(),
+            short_descents: [0; 2],
             rebindings: Vec::new(),
         };
         // Prefer the arm on the object's side.
@@ -1105,14 +1111,24 @@ impl schema::ProceduralPolicy for PickPlacePolicy {
     fn failed(&mut self, _schema: &schema::Schema, _state: &str, action: &str, binding: &Binding, why: &str) {
         // The approach (hover, pre-grasp) failed; a descent stopped short (on the object) is not the
         // arm's failure.
-        let not_reached =
-            (why.contains("not reached") || why.contains("out of reach")) && !why.starts_with("grasp pose");
-        if action != "reach_object" || !not_reached || self.transferred {
+        if action != "reach_object" || self.transferred {
             return;
         }
         let Some(arm) = binding.arm.as_deref().and_then(Arm::parse) else {
             return;
         };
+        // … unless it stops short again: the second descent of one arm that stops short
+        // (after the first, the arm backed off and looked again) is the arm not getting there —
+        // an object knocked over near the edge of its workspace.
+        let short = why.starts_with("grasp pose");
+        if short {
+            self.short_descents[arm.index()] += 1;
+        }
+        let not_reached = (why.contains("not reached") || why.contains("out of reach"))
+            && (!short || self.short_descents[arm.index()] >= SHORT_DESCENTS);
+        if !not_reached {
+            return;
+        }
         if arm != self.pick_arm || self.failed_arms.contains(&arm) {
             return;
         }

@@ -811,8 +811,39 @@ pub fn release_and_retreat(
     away.translation.vector.z += 0.12;
     reach.max_speed = 0.3;
     reach.set_goal(hw, away);
-    run_until(hw, reach, obs, 2.0, |s, r| r.at_goal(s, 0.01, 0.05));
+    // An object wedged between the half-opened fingers comes up with the hand (the fingertips
+    // carry its weight): back down to where it was let go, open fully, and rise again.
+    let arm = hand.arm();
+    let z0 = here.translation.z;
+    let mut tips = Vec::with_capacity(6);
+    let mut wedged = false;
+    run_until(hw, reach, obs, 2.0, |s, r| {
+        let rose = r.tool_pose(s).translation.z - z0;
+        if rose > WEDGED_RISE {
+            let touch = TouchState::of(&hand_fingertips(s, arm, &mut tips));
+            if touch.loaded >= 2 && touch.load > WEDGED_LOAD {
+                wedged = true;
+                return true;
+            }
+        }
+        r.at_goal(s, 0.01, 0.05)
+    });
+    if wedged {
+        obs.activity = "release";
+        reach.set_goal(hw, here);
+        run_until(hw, reach, obs, 1.0, |s, r| r.at_goal(s, 0.01, 0.05));
+        hand.set(hw, 0.0, 0.0);
+        run_until(hw, reach, obs, 0.6, |_, _| false);
+        obs.activity = "retreat";
+        reach.set_goal(hw, away);
+        run_until(hw, reach, obs, 2.0, |s, r| r.at_goal(s, 0.01, 0.05));
+    }
 }
+
+/// A hand retreating from a release that has risen this far (m) …
+const WEDGED_RISE: f64 = 0.02;
+/// … with two loaded fingertips carrying more than this (N) has the object wedged in its fingers.
+const WEDGED_LOAD: f64 = 0.3;
 
 /// Search-Track (§3.2.2.1): points the head at `nominal`, then foveates the blob nearest to the
 /// running estimate at the camera rate (`frame_secs`) until the tracking predicate converges, and

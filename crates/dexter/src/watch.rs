@@ -118,6 +118,7 @@ impl Tracker {
     fn update(
         &mut self,
         seen: Vec<SegmentPercept>,
+        views: &[[[f64; 2]; 2]],
         mono: &[MonoView],
         cams: [&crate::vision::Camera; 2],
         t: f64,
@@ -161,7 +162,10 @@ impl Tracker {
             used_t[j] = true;
             let id = self.tracks[j].id;
             let px = pixels(&seen[i]);
-            let moved = near_palm[j] && moved_clear(&self.tracks[j], &seen[i], px / self.whole_pixels[j]);
+            let share = px / self.whole_pixels[j];
+            let moved = near_palm[j]
+                && (moved_clear(&self.tracks[j], &seen[i], share)
+                    || moved_in_images(&self.tracks[j], &seen[i], views[i], cams, share));
             if carried_ids.contains(&id) {
                 // A carried object is seen merged with the hand that holds it (its centroid and
                 // height pulled towards the hand): it stays where its palm moved it, with what it
@@ -330,6 +334,66 @@ fn moved_clear(track: &SegmentPercept, blob: &SegmentPercept, share: f64) -> boo
         && (0.75..=1.0 / 0.75).contains(&lr)
 }
 
+/// The same test in the images, immune to the stereo error of a partial view: the image centroid
+/// of any visible part of an object lies inside the object's silhouette, so a view whose image
+/// centroids lie clearly outside the track's projected box ([`MOVED_PX`] beyond the projection of
+/// its footprint and height) in **both** cameras is the object somewhere else — if most of it is
+/// seen (`share` ≥ [`MOVED_SHARE`]) and alike in both cameras. (A bumped can's partial view
+/// triangulated 5 cm high and 4 cm short, its image centroids 11–13 px outside.)
+fn moved_in_images(
+    track: &SegmentPercept,
+    blob: &SegmentPercept,
+    views: [[f64; 2]; 2],
+    cams: [&crate::vision::Camera; 2],
+    share: f64,
+) -> bool {
+    let Some(e) = track.extent.as_ref() else {
+        return false;
+    };
+    let [l, r] = blob.pixels.map(f64::from);
+    let lr = l / r.max(1.0);
+    if share < MOVED_SHARE || !(0.75..=1.0 / 0.75).contains(&lr) {
+        return false;
+    }
+    let [ax, ay] = e.major_axis;
+    let z0 = track.centroid[2] - 0.5 * e.height;
+    let outside = |cam: &crate::vision::Camera, view: [f64; 2]| {
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        for (su, sv, sz) in box_corners() {
+            let p = Vec3::new(
+                e.center[0] + su * e.half_major * ax - sv * e.half_minor * ay,
+                e.center[1] + su * e.half_major * ay + sv * e.half_minor * ax,
+                z0 + sz * e.height,
+            );
+            let Some((u, v)) = project(cam, &p) else {
+                return false;
+            };
+            lo = [lo[0].min(u), lo[1].min(v)];
+            hi = [hi[0].max(u), hi[1].max(v)];
+        }
+        let du = (lo[0] - view[0]).max(view[0] - hi[0]).max(0.0);
+        let dv = (lo[1] - view[1]).max(view[1] - hi[1]).max(0.0);
+        du.hypot(dv) > MOVED_PX
+    };
+    outside(cams[0], views[0]) && outside(cams[1], views[1])
+}
+
+/// The eight corners of a box as signs (major, minor) ∈ {−1, 1} and height share ∈ {0, 1}.
+fn box_corners() -> impl Iterator<Item = (f64, f64, f64)> {
+    (0..8).map(|i| {
+        (
+            if i & 1 == 0 { -1.0 } else { 1.0 },
+            if i & 2 == 0 { -1.0 } else { 1.0 },
+            f64::from((i >> 2) & 1),
+        )
+    })
+}
+
+/// A view's image centroid this far (px, at the head cameras' 160 × 120, ≈ 1.5 cm at the table's
+/// range) outside a track's projected box shows the object moved ([`moved_in_images`]).
+const MOVED_PX: f64 = 3.0;
+
 /// Horizontal distance (m) from `p` to the footprint `e` (0 inside).
 fn footprint_distance(e: &schema::SeenExtent, p: [f64; 2]) -> f64 {
     let d = [p[0] - e.center[0], p[1] - e.center[1]];
@@ -497,6 +561,7 @@ impl Watcher {
         let table_z = self.table_z;
         let blobs = self.eyes.perceive(hw, Pair::Head)?;
         let mut seen = Vec::new();
+        let mut views = Vec::new();
         let mut mono = Vec::new();
         let mut gaze_candidates = Vec::new();
         for b in blobs {
@@ -551,6 +616,7 @@ impl Watcher {
             };
             let o = off(&l, &cams.left).max(off(&r, &cams.right));
             gaze_candidates.push((o, seg.centroid));
+            views.push([l.features.centroid, r.features.centroid]);
             seen.push(seg);
         }
         let eye = |c: &crate::vision::Camera| {
@@ -567,6 +633,7 @@ impl Watcher {
         }
         self.tracker.update(
             seen,
+            &views,
             &mono,
             [&cams.left, &cams.right],
             t,
