@@ -156,6 +156,11 @@ fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
 
 /// Segments within this distance (m) of the transferred object's position are that object.
 const MERGE_RADIUS: f64 = 0.05;
+/// The scan before a handoff spot is chosen looks at the scan points this close (m, across the
+/// table) to the table's centre line.
+const HANDOFF_SCAN_HALF_WIDTH: f64 = 0.25;
+/// A segment this close (m) to a carrying palm is the carried object.
+const CARRIED_CLEARANCE: f64 = 0.15;
 
 /// After a grasp closed on nothing, the seen segment nearer than this (m) to where the target
 /// was is the target (it was pushed).
@@ -399,19 +404,23 @@ impl<'a> RobotPlant<'a> {
     /// 5 cm grid; the first both arms reach is taken. Keeps the previous spot and returns `None` if
     /// none is free.
     pub fn plan_handoff(&mut self, object_at: &Vec3) -> Result<Option<[f64; 2]>, RobotError> {
+        self.plan_handoff_among(object_at, &[])
+    }
+
+    /// [`RobotPlant::plan_handoff`] keeping clear also of `also_seen` (segment centres seen
+    /// elsewhere, [`RobotPlant::scan_handoff_region`]).
+    fn plan_handoff_among(&mut self, object_at: &Vec3, also_seen: &[[f64; 2]]) -> Result<Option<[f64; 2]>, RobotError> {
         let ws = self.workspace;
         let table_z = ws.table_z;
         let others: Vec<[f64; 2]> = self
             .percepts
             .last()
-            .map(|p| {
-                p.segments
-                    .iter()
-                    .filter(|s| (s.centroid[0] - object_at.x).hypot(s.centroid[1] - object_at.y) > MERGE_RADIUS)
-                    .map(|s| [s.centroid[0], s.centroid[1]])
-                    .collect()
-            })
-            .unwrap_or_default();
+            .map(|p| p.segments.iter().map(|s| [s.centroid[0], s.centroid[1]]).collect::<Vec<_>>())
+            .unwrap_or_default()
+            .into_iter()
+            .chain(also_seen.iter().copied())
+            .filter(|c| (c[0] - object_at.x).hypot(c[1] - object_at.y) > MERGE_RADIUS)
+            .collect();
         let margin = 0.12;
         let (x0, x1) = (
             ws.table_center[0] - ws.table_size[0] / 2.0 + margin,
@@ -477,6 +486,33 @@ impl<'a> RobotPlant<'a> {
             }
         }
         Ok(None)
+    }
+
+    /// Looks over the middle of the table, where handoff spots lie (the scan points within
+    /// [`HANDOFF_SCAN_HALF_WIDTH`] of its centre line), and returns the centres (x, y) of the
+    /// segments seen there on the table, but not the one carried by the palm at `carrying_palm`:
+    /// the head sees a part of the table at a time (tracks out of view are soon forgotten), and a
+    /// spot chosen from the latest view alone may lie on an object out of it.
+    fn scan_handoff_region(&mut self, carrying_palm: &Vec3) -> Result<Vec<[f64; 2]>, RobotError> {
+        let table_z = self.workspace.table_z;
+        let cy = self.workspace.table_center[1];
+        let mut seen = Vec::new();
+        for at in self.workspace.scan_points() {
+            if (at.y - cy).abs() > HANDOFF_SCAN_HALF_WIDTH {
+                continue;
+            }
+            self.look(&at, 0.6)?;
+            let Some(p) = self.percepts.last() else {
+                continue;
+            };
+            for s in p.segments.iter().filter(|s| s.seen) {
+                let c = Vec3::from(s.centroid);
+                if c.z > table_z - 0.02 && (c - carrying_palm).norm() > CARRIED_CLEARANCE {
+                    seen.push([c.x, c.y]);
+                }
+            }
+        }
+        Ok(seen)
     }
 
     /// The latest percept.
@@ -890,7 +926,8 @@ impl SchemaPlant for RobotPlant<'_> {
                         // A reach failed somewhere: the handoff spot must keep clear of there (the
                         // arm that failed may be the one to take the object).
                         let palm = self.reach[k].tool_pose(self.hw).translation.vector;
-                        self.plan_handoff(&palm)?;
+                        let seen = self.scan_handoff_region(&palm)?;
+                        self.plan_handoff_among(&palm, &seen)?;
                     }
                     (self.handoff, 0.0)
                 } else {
