@@ -1441,6 +1441,7 @@ impl Multibody {
                 cfm_coeff: 0.0,
                 cfm_gain: 0.0,
                 writeback_id: WritebackId::Dof(0),
+                unit_dof2: u32::MAX,
             };
 
             j_id += 2 * ndofs;

@@ -73,6 +73,7 @@ pub fn unit_joint_limit_constraint(
         cfm_coeff,
         cfm_gain,
         writeback_id: WritebackId::Limit(dof_id),
+        unit_dof2: (dof_id + link.assembly_id) as u32,
     };
 
     constraints[*insert_at] = constraint;
@@ -133,6 +134,7 @@ pub fn unit_joint_friction_constraint(
         cfm_coeff,
         cfm_gain,
         writeback_id: WritebackId::Friction(dof_id),
+        unit_dof2: (dof_id + link.assembly_id) as u32,
     };
 
     constraints[*insert_at] = constraint;
@@ -207,6 +209,7 @@ pub fn unit_joint_motor_constraint(
         rhs: rhs_wo_bias,
         rhs_wo_bias,
         writeback_id: WritebackId::Limit(dof_id),
+        unit_dof2: (dof_id + link.assembly_id) as u32,
     };
 
     constraints[*insert_at] = constraint;

@@ -30,6 +30,10 @@ pub struct GenericJointConstraint {
     pub cfm_gain: Real,
 
     pub writeback_id: WritebackId,
+    /// pbd (vendor/README.md, change 13): the DOF (within body 2, a multibody) whose unit
+    /// Jacobian this constraint has — a joint motor, limit or friction of a multibody's own DOF,
+    /// with no body 1 — or `u32::MAX`. Its solve reads one velocity instead of a dot product.
+    pub unit_dof2: u32,
 }
 
 impl Default for GenericJointConstraint {
@@ -58,6 +62,7 @@ impl GenericJointConstraint {
             cfm_coeff: Real::MAX,
             cfm_gain: Real::MAX,
             writeback_id: WritebackId::Dof(0),
+            unit_dof2: u32::MAX,
         }
     }
 
@@ -283,6 +288,27 @@ impl GenericJointConstraint {
             return;
         }
         let jacobians = jacobians.as_slice();
+
+        // pbd (vendor/README.md, change 13): J = e_dof on a multibody alone. `J·v` is `v[dof]`
+        // exactly (the dot product adds only zeros to it), so the result is bit-identical.
+        if self.unit_dof2 != u32::MAX && self.solver_vel1 == u32::MAX && !self.is_rigid_body2 {
+            let base = self.solver_vel2 as usize;
+            let v = &mut generic_solver_vels.as_mut_slice()[base..base + self.ndofs2];
+            let vel2 = v[self.unit_dof2 as usize];
+            let dvel = self.rhs + (vel2 - 0.0);
+            let total_impulse = na::clamp(
+                self.impulse + self.inv_lhs * (dvel - self.cfm_gain * self.impulse),
+                self.impulse_bounds[0],
+                self.impulse_bounds[1],
+            );
+            let delta_impulse = total_impulse - self.impulse;
+            self.impulse = total_impulse;
+            let wj2 = &jacobians[self.wj_id2()..self.wj_id2() + self.ndofs2];
+            for (x, w) in v.iter_mut().zip(wj2) {
+                *x += -delta_impulse * w;
+            }
+            return;
+        }
 
         let solver_vel1 = self.solver_vel1(solver_vels, generic_solver_vels);
         let j1 = DVectorView::from_slice(&jacobians[self.j_id1..], self.ndofs1);
