@@ -415,7 +415,12 @@ impl<'a> RobotPlant<'a> {
         let others: Vec<[f64; 2]> = self
             .percepts
             .last()
-            .map(|p| p.segments.iter().map(|s| [s.centroid[0], s.centroid[1]]).collect::<Vec<_>>())
+            .map(|p| {
+                p.segments
+                    .iter()
+                    .map(|s| [s.centroid[0], s.centroid[1]])
+                    .collect::<Vec<_>>()
+            })
             .unwrap_or_default()
             .into_iter()
             .chain(also_seen.iter().copied())

@@ -656,3 +656,84 @@ impl Watcher {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vision::Camera;
+    use control_basis::math::Iso3;
+    use nalgebra::Point3;
+
+    /// A head camera (160 × 120, the head's focal length) at `eye`, looking at the table.
+    fn camera(eye: [f64; 3]) -> Camera {
+        let world_from_optical = Iso3::face_towards(
+            &Point3::from(eye),
+            &Point3::new(0.6, 0.0, 0.75),
+            &Vec3::new(0.0, 0.0, -1.0),
+        );
+        Camera {
+            world_from_optical,
+            width: 160,
+            height: 120,
+            fx: 160.0,
+            fy: 160.0,
+            cx: 80.0,
+            cy: 60.0,
+        }
+    }
+
+    /// A can of radius 2.4 cm, 4.7 cm high, seen standing at (0.6, 0) on a table at 0.75 m.
+    fn track() -> SegmentPercept {
+        SegmentPercept {
+            id: 0,
+            centroid: [0.6, 0.0, 0.7735],
+            seen: true,
+            pixels: [80, 80],
+            histogram: Vec::new(),
+            covariance: [0.0; 4],
+            colors: Vec::new(),
+            extent: Some(schema::SeenExtent {
+                height: 0.047,
+                center: [0.6, 0.0],
+                major_axis: [1.0, 0.0],
+                half_major: 0.024,
+                half_minor: 0.024,
+                model: "round".into(),
+            }),
+        }
+    }
+
+    fn views(cams: [&Camera; 2], p: Vec3) -> [[f64; 2]; 2] {
+        cams.map(|c| {
+            let (u, v) = project(c, &p).expect("in front of the camera");
+            [u, v]
+        })
+    }
+
+    #[test]
+    fn a_view_outside_the_tracks_silhouette_in_both_images_is_a_move() {
+        let (l, r) = (camera([0.05, 0.03, 1.45]), camera([0.05, -0.03, 1.45]));
+        let cams = [&l, &r];
+        let t = track();
+        // Its stereo centroid is 5 cm too high (the 3-D test rejects it); its image centroids are
+        // those of the can pushed 7 cm away.
+        let blob = SegmentPercept {
+            centroid: [0.61, 0.05, 0.8235],
+            pixels: [70, 66],
+            ..t.clone()
+        };
+        assert!(!moved_clear(&t, &blob, 0.85));
+        let pushed = views(cams, Vec3::new(0.635, 0.06, 0.7735));
+        assert!(moved_in_images(&t, &blob, pushed, cams, 0.85));
+        // A part of the can where it stands (the hand hides the rest): not a move.
+        let part = views(cams, Vec3::new(0.61, 0.015, 0.785));
+        assert!(!moved_in_images(&t, &blob, part, cams, 0.6));
+        // Too little of it seen, or unlike in the two cameras: not trusted.
+        assert!(!moved_in_images(&t, &blob, pushed, cams, 0.4));
+        let lopsided = SegmentPercept {
+            pixels: [80, 40],
+            ..blob.clone()
+        };
+        assert!(!moved_in_images(&t, &lopsided, pushed, cams, 0.85));
+    }
+}
