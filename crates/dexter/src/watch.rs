@@ -123,8 +123,11 @@ impl Tracker {
         cams: [&crate::vision::Camera; 2],
         t: f64,
         occluders: &[([f64; 3], f64)],
-        eyes: &[[f64; 3]; 2],
     ) {
+        let eyes = cams.map(|c| {
+            let v = c.world_from_optical.translation.vector;
+            [v.x, v.y, v.z]
+        });
         for tr in &mut self.tracks {
             tr.seen = false;
         }
@@ -619,10 +622,6 @@ impl Watcher {
             views.push([l.features.centroid, r.features.centroid]);
             seen.push(seg);
         }
-        let eye = |c: &crate::vision::Camera| {
-            let v = c.world_from_optical.translation.vector;
-            [v.x, v.y, v.z]
-        };
         let mut occluders: Vec<([f64; 3], f64)> = Vec::with_capacity(10);
         for (palm, e) in palms.iter().zip(&elbows) {
             occluders.push((*palm, OCCLUSION_RADIUS));
@@ -631,15 +630,8 @@ impl Watcher {
                 occluders.push((std::array::from_fn(|j| e[j] + s * (palm[j] - e[j])), FOREARM_RADIUS));
             }
         }
-        self.tracker.update(
-            seen,
-            &views,
-            &mono,
-            [&cams.left, &cams.right],
-            t,
-            &occluders,
-            &[eye(&cams.left), eye(&cams.right)],
-        );
+        self.tracker
+            .update(seen, &views, &mono, [&cams.left, &cams.right], t, &occluders);
         let gaze = gaze_candidates
             .iter()
             .filter(|(o, _)| *o < 0.12)
