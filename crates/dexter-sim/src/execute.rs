@@ -281,6 +281,28 @@ pub struct Decision {
     pub reason: String,
 }
 
+impl Decision {
+    /// The logged event of this decision as taken: `decision` (`execute`, `ignore`, `skip`), the
+    /// place and arms if any, and why.
+    fn event<'a>(
+        &'a self,
+        decision: &'a str,
+        place: Option<&'a str>,
+        arms: Option<[&'a str; 2]>,
+        reason: &'a str,
+    ) -> DecisionEvent<'a> {
+        DecisionEvent {
+            segment: self.segment,
+            decision,
+            place,
+            posterior: &self.posterior,
+            log_bayes_factor: self.log_bayes_factor,
+            arms,
+            reason,
+        }
+    }
+}
+
 /// How the robot decides per segment.
 #[derive(Debug, Clone)]
 pub enum Decider<'a> {
@@ -455,21 +477,13 @@ pub fn execute_scene_with_fault(
                 })
                 .unwrap_or(d.at)
             };
-            let place = match d.place {
+            let place = match d.place.clone() {
                 Err(why) => {
                     let t = plant.hw.time_secs();
-                    logger.borrow_mut().log.decision(
-                        t,
-                        &DecisionEvent {
-                            segment: d.segment,
-                            decision: "ignore",
-                            place: None,
-                            posterior: &d.posterior,
-                            log_bayes_factor: d.log_bayes_factor,
-                            arms: None,
-                            reason: &why,
-                        },
-                    );
+                    logger
+                        .borrow_mut()
+                        .log
+                        .decision(t, &d.event("ignore", None, None, &why));
                     reports.push(ObjectReport::not_executed(
                         label,
                         Some(d.segment),
@@ -513,18 +527,10 @@ pub fn execute_scene_with_fault(
             let Some(mut policy) = policy else {
                 let why = format!("no arm reaches segment {}, or none reaches `{place}`", d.segment);
                 let t = plant.hw.time_secs();
-                logger.borrow_mut().log.decision(
-                    t,
-                    &DecisionEvent {
-                        segment: d.segment,
-                        decision: "skip",
-                        place: Some(&place),
-                        posterior: &d.posterior,
-                        log_bayes_factor: d.log_bayes_factor,
-                        arms: None,
-                        reason: &why,
-                    },
-                );
+                logger
+                    .borrow_mut()
+                    .log
+                    .decision(t, &d.event("skip", Some(&place), None, &why));
                 reports.push(ObjectReport::not_executed(
                     label,
                     Some(d.segment),
@@ -540,18 +546,11 @@ pub fn execute_scene_with_fault(
             };
             {
                 let t = plant.hw.time_secs();
-                logger.borrow_mut().log.decision(
-                    t,
-                    &DecisionEvent {
-                        segment: d.segment,
-                        decision: "execute",
-                        place: Some(&place),
-                        posterior: &d.posterior,
-                        log_bayes_factor: d.log_bayes_factor,
-                        arms: Some([policy.pick_arm.prefix(), policy.place_arm.prefix()]),
-                        reason: &d.reason,
-                    },
-                );
+                let arms = [policy.pick_arm.prefix(), policy.place_arm.prefix()];
+                logger
+                    .borrow_mut()
+                    .log
+                    .decision(t, &d.event("execute", Some(&place), Some(arms), &d.reason));
             }
             plant.bind_arms(&[policy.pick_arm, policy.place_arm]);
             let arms_before = plant.arms_used.len();

@@ -119,6 +119,11 @@ pub const HANDOFF: &str = "handoff";
 /// for the transferred object, the other object and the open fingers between them.
 pub const HANDOFF_CLEARANCE: f64 = 0.16;
 
+/// The least room (m) a handoff spot may have to another object's seen centroid, when every spot
+/// with [`HANDOFF_CLEARANCE`] lies near a failed reach (the transferred and the other object of
+/// up to 5 cm radius, a hand's fingers between them).
+pub const HANDOFF_MIN_CLEARANCE: f64 = 0.12;
+
 /// How far inside its pan and tilt limits (rad) the head must be to look at a handoff spot. Measured
 /// in the blocked-arm fault scenes: objects put at spots the head tilts 1.02–1.03 rad for (x ≈ 0.42
 /// m, near the parked hands) were seen by one camera at most and never triangulated, so the
@@ -395,7 +400,7 @@ impl<'a> RobotPlant<'a> {
 
     /// Chooses the handoff spot for a transfer of the object seen near `object_at` (5.32): a free
     /// patch of table that both arms reach pointing down, as seen now — at least
-    /// [`HANDOFF_CLEARANCE`] from every other segment the cameras see and clear of the places'
+    /// [`HANDOFF_CLEARANCE`] (at least [`HANDOFF_MIN_CLEARANCE`]) from every other segment the cameras see and clear of the places'
     /// walls, and one the head can look at — preferring spots clear of where a reach failed
     /// ([`UNREACHED_CLEARANCE`], and the failed arm's ways there from its parked pose and on to the
     /// destination, [`RobotPlant::set_destination`]), then the table's centre line at a
@@ -452,31 +457,37 @@ impl<'a> RobotPlant<'a> {
         for i in 0..=((x1 - x0) / 0.05).floor() as i32 {
             for j in -4..=4 {
                 let c = [x0 + 0.05 * f64::from(i), ws.table_center[1] + 0.05 * f64::from(j)];
-                let free = others
+                let room = others
                     .iter()
-                    .all(|o| (o[0] - c[0]).hypot(o[1] - c[1]) >= HANDOFF_CLEARANCE)
+                    .map(|o| (o[0] - c[0]).hypot(o[1] - c[1]))
+                    .fold(f64::INFINITY, f64::min);
+                let free = room >= HANDOFF_MIN_CLEARANCE
                     && ws.places.iter().all(|p| {
                         (c[0] - p.center[0]).abs() > p.size[0] / 2.0 + p.wall_thickness + 0.08
                             || (c[1] - p.center[1]).abs() > p.size[1] / 2.0 + p.wall_thickness + 0.08
                     });
                 if free {
-                    candidates.push((c, clearance(c)));
+                    candidates.push((c, clearance(c), room < HANDOFF_CLEARANCE));
                 }
             }
         }
         // Spots clear of the failed reaches in every respect first, by comfort; then those whose
         // ways are clear, the farthest from the failed reaches first; then the rest, the clearest
-        // ways first (the failed reach lay where the arms meet).
+        // ways first (the failed reach lay where the arms meet). Within each, spots with the full
+        // room around them ([`HANDOFF_CLEARANCE`]) before those with less.
         let cost = |c: &[f64; 2]| (c[1] - ws.table_center[1]).abs() + 0.5 * (c[0] - 0.55).abs();
         let rank = |&(ways, spot): &(f64, f64)| u8::from(ways < 0.0) + u8::from(spot < 0.0 || ways < 0.0);
         candidates.sort_by(|a, b| {
-            rank(&a.1).cmp(&rank(&b.1)).then_with(|| match rank(&a.1) {
-                0 => cost(&a.0).total_cmp(&cost(&b.0)),
-                1 => b.1.1.total_cmp(&a.1.1),
-                _ => b.1.0.total_cmp(&a.1.0),
-            })
+            rank(&a.1)
+                .cmp(&rank(&b.1))
+                .then(a.2.cmp(&b.2))
+                .then_with(|| match rank(&a.1) {
+                    0 => cost(&a.0).total_cmp(&cost(&b.0)),
+                    1 => b.1.1.total_cmp(&a.1.1),
+                    _ => b.1.0.total_cmp(&a.1.0),
+                })
         });
-        for (c, _) in candidates {
+        for (c, _, _) in candidates {
             // The head must see the spot (both cameras, for stereo) to find the object there.
             let seen_at = Vec3::new(c[0], c[1], table_z + 0.05);
             if !self.watcher.can_look_at(self.hw, &seen_at, HEAD_LIMIT_MARGIN)? {

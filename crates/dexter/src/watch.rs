@@ -338,11 +338,14 @@ fn moved_clear(track: &SegmentPercept, blob: &SegmentPercept, share: f64) -> boo
 }
 
 /// The same test in the images, immune to the stereo error of a partial view: the image centroid
-/// of any visible part of an object lies inside the object's silhouette, so a view whose image
-/// centroids lie clearly outside the track's projected box ([`MOVED_PX`] beyond the projection of
-/// its footprint and height) in **both** cameras is the object somewhere else — if most of it is
-/// seen (`share` ≥ [`MOVED_SHARE`]) and alike in both cameras. (A bumped can's partial view
-/// triangulated 5 cm high and 4 cm short, its image centroids 11–13 px outside.)
+/// of a visible part of an object lies inside the object's silhouette — and the larger the part,
+/// the nearer its middle: a part with the share s of a convex silhouette has its centroid within
+/// (1 − s/2) of the half-width from the middle along any axis. A view whose image centroids lie
+/// clearly beyond that ([`MOVED_PX`]) from the middle of the track's projected box (its footprint
+/// and height) in **both** cameras is the object somewhere else — if most of it is seen (`share` ≥
+/// [`MOVED_SHARE`]) and alike in both cameras. (A bumped can's partial view triangulated 5 cm high
+/// and 4 cm short, its image centroids 11–13 px outside the box; a bumped bottle showing 66 % of
+/// its pixels was 12 px from the middle of a box 22 px wide.)
 fn moved_in_images(
     track: &SegmentPercept,
     blob: &SegmentPercept,
@@ -375,9 +378,14 @@ fn moved_in_images(
             lo = [lo[0].min(u), lo[1].min(v)];
             hi = [hi[0].max(u), hi[1].max(v)];
         }
-        let du = (lo[0] - view[0]).max(view[0] - hi[0]).max(0.0);
-        let dv = (lo[1] - view[1]).max(view[1] - hi[1]).max(0.0);
-        du.hypot(dv) > MOVED_PX
+        // A part holding the share s of a convex silhouette has its centroid at most
+        // (1 − s/2) of the half-width from the middle (the bound of a triangle's cap; a
+        // rectangle's is 1 − s), along either image axis.
+        let reach = 1.0 - 0.5 * share.min(1.0);
+        (0..2).any(|a| {
+            let (mid, half) = (0.5 * (lo[a] + hi[a]), 0.5 * (hi[a] - lo[a]));
+            (view[a] - mid).abs() > half * reach + MOVED_PX
+        })
     };
     outside(cams[0], views[0]) && outside(cams[1], views[1])
 }
@@ -394,7 +402,8 @@ fn box_corners() -> impl Iterator<Item = (f64, f64, f64)> {
 }
 
 /// A view's image centroid this far (px, at the head cameras' 160 × 120, ≈ 1.5 cm at the table's
-/// range) outside a track's projected box shows the object moved ([`moved_in_images`]).
+/// range) beyond where a part of the track's projected box can have it shows the object moved
+/// ([`moved_in_images`]).
 const MOVED_PX: f64 = 3.0;
 
 /// Horizontal distance (m) from `p` to the footprint `e` (0 inside).
