@@ -327,13 +327,10 @@ pub trait Hardware: Plant {
     fn read_force_torque(&self, out: &mut [ForceTorque]);
     /// The cameras.
     fn cameras(&self) -> &[CameraInfo];
-    /// Captures camera `camera`'s current image into `out` and the robot's self-mask into
-    /// `self_mask` (`true` where the robot's own body covers the pixel — what a real robot gets by
-    /// rendering its self-model at the measured joint angles).
-    fn capture(&mut self, camera: usize, out: &mut Image, self_mask: &mut Vec<bool>) -> Result<(), HardwareError>;
-    /// The background of camera `camera` at its current pose: the empty workspace (a real robot
-    /// keeps one per head pose, captured during calibration).
-    fn capture_background(&mut self, camera: usize, out: &mut Image) -> Result<(), HardwareError>;
+    /// Captures camera `camera`'s current image into `out` — the image alone, as a camera gives
+    /// it. What the robot knows of its own body in the image (a self-mask) and of the empty
+    /// workspace (backgrounds from a calibration before any object was placed) it computes itself.
+    fn capture(&mut self, camera: usize, out: &mut Image) -> Result<(), HardwareError>;
     /// Index of the camera named `name`.
     fn camera_index(&self, name: &str) -> Result<usize, HardwareError> {
         let cams = self.cameras();

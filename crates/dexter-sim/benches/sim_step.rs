@@ -61,7 +61,8 @@ fn bench(c: &mut Criterion) {
     let scene = scene();
     let mut s1 = sim(SimSettings::default());
     let mut s = SimRobot::new(&mut s1, &scene, 1).expect("hardware");
-    let mut eyes = Eyes::new(&s, scene.spec.table.height).expect("eyes");
+    let calibration = dexter_sim::calibrate::workcell_calibration(&scene).expect("calibration");
+    let mut eyes = Eyes::new(&s, scene.spec.table.height, calibration).expect("eyes");
     let mut reach = ReachControl::new(&s, Arm::Left).expect("reach");
     let start = reach.tool_pose(&s);
     let mut k = 0u64;

@@ -405,6 +405,7 @@ pub fn execute_scene_with_fault(
     let wall = std::time::Instant::now();
     let t_start = sim.time();
     let ws = workspace(scene);
+    let calibration = crate::calibrate::workcell_calibration(scene)?;
     let hook_logger = logger.clone();
     let stop_logger = logger.clone();
     let mut hw = SimRobot::new(&mut sim, scene, seed)?
@@ -417,7 +418,7 @@ pub fn execute_scene_with_fault(
     let mut sink = RobotSink(logger.clone());
     let mut reports = Vec::new();
     {
-        let mut plant = RobotPlant::new(&mut hw, &ws, library, &mut sink).map_err(from_robot)?;
+        let mut plant = RobotPlant::new(&mut hw, &ws, calibration, library, &mut sink).map_err(from_robot)?;
         // Look over the table: the tracker gathers what is there.
         for at in ws.scan_points() {
             plant.look(&at, 0.6).map_err(from_robot)?;

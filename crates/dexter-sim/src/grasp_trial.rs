@@ -105,8 +105,9 @@ pub fn perceive(scene: &Scene, settings: &SimSettings) -> Result<Result<Percept,
             message: "the scene has no object to perceive".into(),
         })?;
     let nominal = scene.resolved[0].pose.translation.vector;
+    let calibration = crate::calibrate::workcell_calibration(scene)?;
     let mut hw = SimRobot::new(&mut sim, scene, settings.seed ^ 0xE7E5)?;
-    let mut eyes = Eyes::new(&hw, table_z).map_err(from_robot)?;
+    let mut eyes = Eyes::new(&hw, table_z, calibration).map_err(from_robot)?;
     let mut nobody = |_: &mut dyn Hardware, _: &str| {};
     let mut obs = Observer::new(&mut nobody);
     let frame = 1.0 / scene.spec.camera.rate_hz;

@@ -143,28 +143,21 @@ impl SimCameras {
         &self.infos
     }
 
-    /// Renders camera `k` into `out` and its self-mask into `mask`.
-    pub fn capture(
-        &mut self,
-        sim: &DexterSim,
-        k: usize,
-        out: &mut Image,
-        mask: &mut Vec<bool>,
-    ) -> Result<(), SimError> {
+    /// Renders camera `k` into `out`.
+    pub fn capture(&mut self, sim: &DexterSim, k: usize, out: &mut Image) -> Result<(), SimError> {
         self.sync(sim);
         let cam = self.camera(sim, k)?;
         let r = &mut self.renderers[k];
         r.render(&cam, &self.scene)?;
         out.copy_from(r.image());
-        crate::vision::stereo_sim::self_mask(r.labels(), mask);
         Ok(())
     }
 
-    /// Renders the empty scene from camera `k` into `out`.
-    pub fn capture_background(&mut self, sim: &DexterSim, k: usize, out: &mut Image) -> Result<(), SimError> {
-        let cam = self.camera(sim, k)?;
-        out.copy_from(self.renderers[k].render_background(&cam, &self.scene)?);
-        Ok(())
+    /// The renderer's labels of camera `k`'s last capture, as a mask of the pixels whose first
+    /// surface is the robot — **ground truth for evaluating** the robot's own self-mask; it never
+    /// reaches the robot.
+    pub fn true_self_mask(&self, k: usize, mask: &mut Vec<bool>) {
+        crate::vision::stereo_sim::self_mask(self.renderers[k].labels(), mask);
     }
 }
 
@@ -351,7 +344,7 @@ impl Hardware for SimRobot<'_> {
     fn cameras(&self) -> &[CameraInfo] {
         self.cameras.infos()
     }
-    fn capture(&mut self, camera: usize, out: &mut Image, self_mask: &mut Vec<bool>) -> Result<(), HardwareError> {
+    fn capture(&mut self, camera: usize, out: &mut Image) -> Result<(), HardwareError> {
         if camera >= CAMERAS.len() {
             return Err(HardwareError::NoSuchDevice {
                 device: "camera",
@@ -359,23 +352,11 @@ impl Hardware for SimRobot<'_> {
                 count: CAMERAS.len(),
             });
         }
-        self.cameras
-            .capture(self.sim, camera, out, self_mask)
-            .map_err(hw_error)?;
+        self.cameras.capture(self.sim, camera, out).map_err(hw_error)?;
         if self.fault.as_ref().is_some_and(|f| f.occludes(camera)) {
             Fault::cover(out);
         }
         Ok(())
-    }
-    fn capture_background(&mut self, camera: usize, out: &mut Image) -> Result<(), HardwareError> {
-        if camera >= CAMERAS.len() {
-            return Err(HardwareError::NoSuchDevice {
-                device: "camera",
-                index: camera,
-                count: CAMERAS.len(),
-            });
-        }
-        self.cameras.capture_background(self.sim, camera, out).map_err(hw_error)
     }
 }
 

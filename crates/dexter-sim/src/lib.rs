@@ -24,6 +24,7 @@
 #![warn(missing_docs)]
 
 pub mod bench_scene;
+pub mod calibrate;
 pub mod convert;
 pub mod error;
 pub mod execute;

@@ -174,6 +174,7 @@ pub fn pick_and_place_in(
     let activity = RefCell::new(String::from("search-track"));
     let WorldObserver { tick, images, stop } = obs;
     let mut hook = |s: &DexterSim| tick(s, &activity.borrow());
+    let calibration = crate::calibrate::workcell_calibration(scene)?;
     let mut hw = SimRobot::new(sim, scene, seed)?.with_hook(Box::new(&mut hook));
     if let Some(stop) = stop {
         hw = hw.with_stop(Box::new(stop));
@@ -190,7 +191,7 @@ pub fn pick_and_place_in(
     };
     let mut robs = Observer::new(&mut note).with_images(&mut on_images);
     let r = from_robot;
-    let mut eyes = Eyes::new(&hw, table_z).map_err(r)?;
+    let mut eyes = Eyes::new(&hw, table_z, calibration).map_err(r)?;
     // Search-Track with the head: foveate the object near where it was presented, triangulate it,
     // measure its height and footprint. The grasp is planned from that alone.
     robs.activity = "search-track";

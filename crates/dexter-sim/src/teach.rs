@@ -92,9 +92,10 @@ pub fn run_demonstration(
     let t0 = sim.time();
     let s0 = sim.steps();
     let ws = workspace(scene);
+    let calibration = crate::calibrate::workcell_calibration(scene)?;
     let mut hw = SimRobot::new(sim, scene, settings.seed)?;
     let mut driver = crate::teleop::TeleopDriver::new(&hw)?;
-    let mut watcher = Watcher::new(&hw, ws.place_percepts(), ws.table_z).map_err(from_robot)?;
+    let mut watcher = Watcher::new(&hw, ws.place_percepts(), ws.table_z, calibration).map_err(from_robot)?;
     let percept_every = ((dexter::skills::CONTROL_HZ / settings.percept_hz).round() as usize).max(1);
     let mut tick = 0usize;
     let mut percepts = 0usize;

@@ -10,12 +10,14 @@
 //! `cargo run --release -p dexter --example kinematic_pick`
 
 use std::cell::RefCell;
+use std::sync::Arc;
 
 use control_basis::hardware::{CameraInfo, ForceTorque, Hardware, HardwareError, Image, Intrinsics};
 use control_basis::math::{Iso3, Vec3};
 use control_basis::{CbError, Chain, IkSettings, JointLimits, Plant, RobotModel, inverse_kinematics};
 use dexter::Arm;
 use dexter::body::Body;
+use dexter::calibration::{Calibration, CalibrationSettings};
 use dexter::exec::{NoSink, PickPlacePolicy, Place, RobotPlant, Workspace};
 
 const TABLE_Z: f64 = 0.75;
@@ -43,6 +45,8 @@ struct ScriptedDexter {
     held: Option<(Arm, Vec3)>,
     /// Per hand: the fingers rest on the box (the medial joints stop at `CONTACT_FLEX`).
     blocked: [bool; 2],
+    /// Whether the box is on the table yet (the robot calibrates its eyes before).
+    box_placed: bool,
     med: [[usize; 3]; 2],
 }
 
@@ -102,6 +106,7 @@ impl ScriptedDexter {
             box_center: Vec3::new(0.55, 0.12, TABLE_Z + HALF[2]),
             held: None,
             blocked: [false; 2],
+            box_placed: false,
             med,
         };
         hw.park()?;
@@ -323,12 +328,8 @@ impl Hardware for ScriptedDexter {
     fn cameras(&self) -> &[CameraInfo] {
         &self.cameras
     }
-    fn capture(&mut self, camera: usize, out: &mut Image, self_mask: &mut Vec<bool>) -> Result<(), HardwareError> {
-        self_mask.clear();
-        self.render(camera, out, true)
-    }
-    fn capture_background(&mut self, camera: usize, out: &mut Image) -> Result<(), HardwareError> {
-        self.render(camera, out, false)
+    fn capture(&mut self, camera: usize, out: &mut Image) -> Result<(), HardwareError> {
+        self.render(camera, out, self.box_placed)
     }
 }
 
@@ -367,8 +368,11 @@ pub fn run() -> Result<(bool, bool), Box<dyn std::error::Error>> {
     let library = schema::Library::builtin();
     let schema = library.schema("pick_and_place")?.clone();
     let mut sink = NoSink;
+    // Calibration on the cleared table, then the box is put down.
+    let calibration = Calibration::capture(&mut hw, &workspace, &CalibrationSettings::default())?;
+    hw.box_placed = true;
     let report = {
-        let mut plant = RobotPlant::new(&mut hw, &workspace, &library, &mut sink)?;
+        let mut plant = RobotPlant::new(&mut hw, &workspace, Arc::new(calibration), &library, &mut sink)?;
         plant.look(&Vec3::new(0.55, 0.1, TABLE_Z + 0.03), 1.0)?;
         let seen = plant
             .last_percept()

@@ -279,14 +279,16 @@ fn parse_arm(action: &str, s: Option<&str>) -> Result<Arm, RobotError> {
 }
 
 impl<'a> RobotPlant<'a> {
-    /// A plant on `hw` (parked, settled) in `workspace`, observing with `library`'s monitors.
+    /// A plant on `hw` (parked, settled) in `workspace`, observing with `library`'s monitors and
+    /// seeing with the backgrounds of `calibration` (taken in this workspace before the task).
     pub fn new(
         hw: &'a mut dyn Hardware,
         workspace: &'a Workspace,
+        calibration: std::sync::Arc<crate::calibration::Calibration>,
         library: &Library,
         sink: &'a mut dyn ExecSink,
     ) -> Result<RobotPlant<'a>, RobotError> {
-        let watcher = Watcher::new(hw, workspace.place_percepts(), workspace.table_z)?;
+        let watcher = Watcher::new(hw, workspace.place_percepts(), workspace.table_z, calibration)?;
         let reach = [ReachControl::new(hw, Arm::Left)?, ReachControl::new(hw, Arm::Right)?];
         let hand = [HandControl::new(hw, Arm::Left)?, HandControl::new(hw, Arm::Right)?];
         let t0 = hw.time_secs();

@@ -6,13 +6,25 @@
 //! blob's mean image position (over both cameras) is at the image centre, and each camera's vergence
 //! centres it in that camera; its convergence predicate says when the blob is foveated.
 
+use std::sync::Arc;
+
 use control_basis::hardware::{Camera, Image};
 use control_basis::math::Vec3;
 use control_basis::{Hardware, Predicate, PredicateSettings, PredicateTracker};
 
 use crate::body::Body;
+use crate::calibration::Calibration;
 use crate::error::RobotError;
-use crate::vision::{Frame, SegmentConfig, StereoBlob, StereoCameras, StereoConfig, StereoPipeline, SupportPlane};
+use crate::vision::{
+    Frame, SegmentConfig, SelfModel, StereoBlob, StereoCameras, StereoConfig, StereoPipeline, SupportPlane,
+    WarpScratch,
+};
+
+/// The backgrounds are warped again when a camera moved by more than this (px at the image scale).
+const REWARP_PIXELS: f64 = 0.25;
+
+/// Margin (m) by which the self-model's shapes are inflated (encoder noise, calibration error).
+pub(crate) const SELF_MARGIN: f64 = 0.002;
 
 /// Which stereo pair.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -44,11 +56,14 @@ impl Pair {
 #[derive(Debug)]
 struct PairState {
     cameras: [usize; 2],
+    names: [String; 2],
     frames: [String; 2],
     pipeline: StereoPipeline,
     images: [Image; 2],
     masks: [Vec<bool>; 2],
-    backgrounds: [Image; 2],
+    /// The background interval of each camera at its current pose (lower, upper).
+    backgrounds: [(Image, Image); 2],
+    coverage: [f64; 2],
 }
 
 /// The stereo pipelines of both pairs with their buffers, and the last blobs.
@@ -57,14 +72,28 @@ pub struct Eyes {
     pairs: [PairState; 2],
     body: Body,
     blobs: Vec<StereoBlob>,
+    calibration: Arc<Calibration>,
+    self_model: SelfModel,
+    scratch: WarpScratch,
 }
 
 impl Eyes {
-    /// Eyes on `hw`'s cameras; objects rest on the table plane at `table_z` (their centroids, heights
-    /// and footprints come from the support-plane estimate).
-    pub fn new(hw: &dyn Hardware, table_z: f64) -> Result<Self, RobotError> {
+    /// Eyes on `hw`'s cameras with the backgrounds of `calibration` (every camera of both pairs
+    /// must have a bank); objects rest on the table plane at `table_z` (their centroids, heights
+    /// and footprints come from the support-plane estimate). The self-mask comes from the robot's
+    /// own model ([`SelfModel`]).
+    pub fn new(hw: &dyn Hardware, table_z: f64, calibration: Arc<Calibration>) -> Result<Self, RobotError> {
         let pair = |p: Pair| -> Result<PairState, RobotError> {
             let (l, r) = p.camera_names();
+            for name in [l, r] {
+                if calibration.bank(name).is_none_or(|b| b.is_empty()) {
+                    return Err(RobotError::invalid(
+                        "<calibration>",
+                        name,
+                        "this camera has no calibration views of the empty workspace",
+                    ));
+                }
+            }
             let cameras = [hw.camera_index(l)?, hw.camera_index(r)?];
             let info = &hw.cameras()[cameras[0]];
             let mut support = SupportPlane::at(table_z);
@@ -79,17 +108,33 @@ impl Eyes {
                     hw.cameras()[cameras[1]].optical_frame.clone(),
                 ],
                 cameras,
+                names: [l.to_string(), r.to_string()],
                 pipeline: StereoPipeline::new(SegmentConfig::for_noise(info.pixel_noise), config),
                 images: [Image::default(), Image::default()],
                 masks: [Vec::new(), Vec::new()],
-                backgrounds: [Image::default(), Image::default()],
+                backgrounds: Default::default(),
+                coverage: [0.0; 2],
             })
         };
         Ok(Eyes {
             pairs: [pair(Pair::Head)?, pair(Pair::Chassis)?],
             body: Body::new(),
             blobs: Vec::new(),
+            self_model: SelfModel::new(hw, SELF_MARGIN)?,
+            calibration,
+            scratch: WarpScratch::default(),
         })
+    }
+
+    /// The calibration the eyes warp their backgrounds from.
+    pub fn calibration(&self) -> &Arc<Calibration> {
+        &self.calibration
+    }
+
+    /// Fraction of each camera's pixels (left, right) of `pair` that some calibration view covered
+    /// at the last warp (pixels outside are never foreground).
+    pub fn coverage(&self, pair: Pair) -> [f64; 2] {
+        self.pairs[pair.index()].coverage
     }
 
     /// The two cameras of `pair` where the robot's kinematics put them now.
@@ -106,19 +151,27 @@ impl Eyes {
         })
     }
 
-    /// Captures `pair` and returns the stereo blobs (re-capturing the backgrounds when the cameras
-    /// moved).
+    /// Captures `pair` and returns the stereo blobs. The backgrounds are predicted from the
+    /// calibration views for the cameras' pose ([`crate::vision::BackgroundBank::render`], again
+    /// whenever a camera moved by more than a quarter pixel) and the self-masks drawn from the
+    /// robot's model at the encoder readings.
     pub fn perceive(&mut self, hw: &mut dyn Hardware, pair: Pair) -> Result<&[StereoBlob], RobotError> {
         let cams = self.cameras(hw, pair)?;
         let p = &mut self.pairs[pair.index()];
-        if p.pipeline.needs_background(&cams) {
-            for k in 0..2 {
-                hw.capture_background(p.cameras[k], &mut p.backgrounds[k])?;
+        if p.pipeline.background_moved(&cams, REWARP_PIXELS) {
+            for (k, cam) in [&cams.left, &cams.right].into_iter().enumerate() {
+                let bank = self.calibration.bank(&p.names[k]).ok_or_else(|| {
+                    RobotError::invalid("<calibration>", &p.names[k], "this camera was not calibrated")
+                })?;
+                let (lo, hi) = &mut p.backgrounds[k];
+                p.coverage[k] = bank.render(cam, lo, hi, &mut self.scratch);
             }
-            p.pipeline.set_backgrounds(&cams, &p.backgrounds[0], &p.backgrounds[1]);
+            let [(l0, l1), (r0, r1)] = &p.backgrounds;
+            p.pipeline.set_background_ranges(&cams, (l0, l1), (r0, r1))?;
         }
-        for k in 0..2 {
-            hw.capture(p.cameras[k], &mut p.images[k], &mut p.masks[k])?;
+        for (k, cam) in [&cams.left, &cams.right].into_iter().enumerate() {
+            hw.capture(p.cameras[k], &mut p.images[k])?;
+            self.self_model.mask(hw, cam, &mut p.masks[k])?;
         }
         // A covered (or dead) camera sees nothing — not one object filling the view: no blobs from
         // this frame, so the tracker loses the objects until the view clears.
@@ -149,6 +202,12 @@ impl Eyes {
     pub fn images(&self, pair: Pair) -> (&Image, &Image) {
         let p = &self.pairs[pair.index()];
         (&p.images[0], &p.images[1])
+    }
+
+    /// The last self-masks of `pair` (left, right): `true` where the robot's model covers the pixel.
+    pub fn self_masks(&self, pair: Pair) -> (&[bool], &[bool]) {
+        let p = &self.pairs[pair.index()];
+        (&p.masks[0], &p.masks[1])
     }
 
     /// The pipeline of `pair` (segmenters, settings).

@@ -30,6 +30,7 @@
 
 pub mod arm;
 pub mod body;
+pub mod calibration;
 pub mod control;
 pub mod error;
 pub mod exec;

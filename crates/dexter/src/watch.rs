@@ -455,11 +455,17 @@ pub struct Watcher {
 }
 
 impl Watcher {
-    /// A watcher on `hw`, told its `places` and the table height `table_z`.
-    pub fn new(hw: &dyn Hardware, places: Vec<PlacePercept>, table_z: f64) -> Result<Watcher, RobotError> {
+    /// A watcher on `hw`, told its `places` and the table height `table_z`, seeing with the
+    /// backgrounds of `calibration`.
+    pub fn new(
+        hw: &dyn Hardware,
+        places: Vec<PlacePercept>,
+        table_z: f64,
+        calibration: std::sync::Arc<crate::calibration::Calibration>,
+    ) -> Result<Watcher, RobotError> {
         let dof = |arm: Arm, f: u8| hw.dof_index(&format!("{}/bhand/finger_{f}/med_joint", arm.prefix()));
         Ok(Watcher {
-            eyes: Eyes::new(hw, table_z)?,
+            eyes: Eyes::new(hw, table_z, calibration)?,
             body: Body::new(),
             head: SearchTrack::new(hw)?,
             tracker: Tracker::default(),

@@ -142,7 +142,12 @@ impl SkillSession {
         let table_z = scene.spec.table.height;
         let mut hw = self.hardware(sim, scene, stop)?;
         if self.watcher.is_none() {
-            self.watcher = Some(Watcher::new(&hw, workspace(scene).place_percepts(), table_z)?);
+            self.watcher = Some(Watcher::new(
+                &hw,
+                workspace(scene).place_percepts(),
+                table_z,
+                dexter_sim::calibrate::workcell_calibration(scene)?,
+            )?);
         }
         let watcher = self.watcher.as_mut().expect("created above");
         let t = control_basis::Plant::time_secs(&hw);
@@ -166,7 +171,12 @@ impl SkillSession {
         let t0 = sim.time();
         let mut hw = self.hardware(sim, scene, stop)?;
         if self.watcher.is_none() {
-            self.watcher = Some(Watcher::new(&hw, workspace(scene).place_percepts(), table_z)?);
+            self.watcher = Some(Watcher::new(
+                &hw,
+                workspace(scene).place_percepts(),
+                table_z,
+                dexter_sim::calibrate::workcell_calibration(scene)?,
+            )?);
         }
         let eyes = self.watcher.as_mut().expect("created above").eyes_mut();
         let mut nothing = |_: &mut dyn Hardware, _: &str| {};

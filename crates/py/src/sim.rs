@@ -50,7 +50,6 @@ pub struct Sim {
     sim: DexterSim,
     cameras: SimCameras,
     image: Image,
-    mask: Vec<bool>,
     seed: u64,
     skills: SkillSession,
 }
@@ -65,7 +64,6 @@ impl Sim {
             sim,
             cameras,
             image: Image::new(1, 1),
-            mask: Vec::new(),
             seed,
             skills: SkillSession::new(seed),
         })
@@ -299,8 +297,8 @@ impl Sim {
             Some(c) => self.camera_index(c)?,
             None => 0,
         };
-        let (sim, cams, image, mask) = (&self.sim, &mut self.cameras, &mut self.image, &mut self.mask);
-        py.detach(|| cams.capture(sim, k, image, mask)).py_err()?;
+        let (sim, cams, image) = (&self.sim, &mut self.cameras, &mut self.image);
+        py.detach(|| cams.capture(sim, k, image)).py_err()?;
         let (w, h) = (image.width as usize, image.height as usize);
         let a = Array3::from_shape_vec((h, w, 3), image.rgb.clone())
             .map_err(|e| error(Kind::Base, format!("image buffer: {e}")))?;

@@ -87,6 +87,7 @@ const PENDING: u32 = u32::MAX;
 pub struct Segmenter {
     config: SegmentConfig,
     background: Image,
+    background_hi: Image,
     has_background: bool,
     foreground: Vec<bool>,
     component: Vec<u32>,
@@ -106,6 +107,7 @@ impl Segmenter {
         Self {
             config,
             background: Image::default(),
+            background_hi: Image::default(),
             has_background: false,
             foreground: Vec::new(),
             component: Vec::new(),
@@ -126,11 +128,27 @@ impl Segmenter {
         self.config = config;
     }
 
-    /// Stores (copies) the image of the empty scene, as rendered by
-    /// [`control_basis::Hardware::capture_background`].
+    /// Stores (copies) one image of the empty scene as the background (an interval of width 0).
     pub fn set_background(&mut self, background: &Image) {
         self.background.copy_from(background);
+        self.background_hi.copy_from(background);
         self.has_background = true;
+    }
+
+    /// Stores (copies) the background as an interval per pixel and channel, `lo ≤ hi` — what
+    /// [`crate::vision::BackgroundBank::render`] predicts for a camera pose. A pixel is foreground
+    /// when its colour lies farther than the threshold from the interval. Errors if the sizes differ.
+    pub fn set_background_range(&mut self, lo: &Image, hi: &Image) -> Result<(), RobotError> {
+        if lo.width != hi.width || lo.height != hi.height || lo.rgb.len() != hi.rgb.len() {
+            return Err(invalid(
+                "background",
+                format!("lower bound {}×{}, upper {}×{}", lo.width, lo.height, hi.width, hi.height),
+            ));
+        }
+        self.background.copy_from(lo);
+        self.background_hi.copy_from(hi);
+        self.has_background = true;
+        Ok(())
     }
 
     /// The stored background, if any.
@@ -190,9 +208,19 @@ impl Segmenter {
             image
                 .rgb
                 .chunks_exact(3)
-                .zip(self.background.rgb.chunks_exact(3))
-                .map(|(a, b)| {
-                    let d2: i32 = (0..3).map(|c| (a[c] as i32 - b[c] as i32).pow(2)).sum();
+                .zip(
+                    self.background
+                        .rgb
+                        .chunks_exact(3)
+                        .zip(self.background_hi.rgb.chunks_exact(3)),
+                )
+                .map(|(a, (lo, hi))| {
+                    let d2: i32 = (0..3)
+                        .map(|c| {
+                            let x = a[c] as i32;
+                            (lo[c] as i32 - x).max(x - hi[c] as i32).max(0).pow(2)
+                        })
+                        .sum();
                     d2 as f64 > t2
                 }),
         );

@@ -428,6 +428,36 @@ impl StereoPipeline {
         self.background_cams = Some(cams.clone());
     }
 
+    /// Whether the cameras moved since the backgrounds were set by more than `pixels` at the image
+    /// scale: the centre by more than `pixels` metres-per-pixel at 1 m, or the axis or image
+    /// orientation by more than `pixels / fx` rad. Encoder noise alone (1e-4 rad ≈ 0.01 px) keeps
+    /// the backgrounds.
+    pub fn background_moved(&self, cams: &StereoCameras, pixels: f64) -> bool {
+        let Some(old) = self.background_cams.as_ref() else {
+            return true;
+        };
+        [(&old.left, &cams.left), (&old.right, &cams.right)].iter().any(|(a, b)| {
+            let angle = a.world_from_optical.rotation.angle_to(&b.world_from_optical.rotation);
+            let shift = (a.position() - b.position()).norm();
+            let f = 0.5 * (b.fx + b.fy);
+            !(angle * f <= pixels && shift * f <= pixels) || a.width != b.width || a.height != b.height
+        })
+    }
+
+    /// Stores both cameras' backgrounds at `cams` as per-pixel intervals `[lo, hi]` (see
+    /// [`Segmenter::set_background_range`]).
+    pub fn set_background_ranges(
+        &mut self,
+        cams: &StereoCameras,
+        left: (&Image, &Image),
+        right: (&Image, &Image),
+    ) -> Result<(), RobotError> {
+        self.segmenters[0].set_background_range(left.0, left.1)?;
+        self.segmenters[1].set_background_range(right.0, right.1)?;
+        self.background_cams = Some(cams.clone());
+        Ok(())
+    }
+
     /// Forgets the backgrounds, so that the next frame needs new ones.
     pub fn clear_backgrounds(&mut self) {
         self.background_cams = None;

@@ -1,0 +1,92 @@
+//! The robot's honest eyes against the world's truth, for debugging: `cargo run --release -p
+//! dexter-sim --example eyes_probe -- [scene] [x y [dz]]` looks at a point `dz` above the table and writes the head's
+//! left image, its predicted background, the self-mask from the robot's model and the renderer's
+//! true self-mask as PPM files in `/tmp/eyes_probe/`, and prints their agreement.
+
+use control_basis::{Hardware, Plant};
+use control_basis::hardware::Image;
+use control_basis::math::Vec3;
+use dexter::eyes::{Eyes, Pair, SearchTrack};
+use dexter::vision::Side;
+use dexter_sim::hardware::{SimRobot, parked_sim};
+use dexter_sim::physics::SimSettings;
+use dexter_sim::scene::Scene;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let scene = Scene::builtin(args.get(1).map_or("sorting", String::as_str))?;
+    let x: f64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(0.55);
+    let y: f64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(0.0);
+    let z: f64 = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(0.03);
+    let table_z = scene.spec.table.height;
+    let t0 = std::time::Instant::now();
+    let calibration = dexter_sim::calibrate::workcell_calibration(&scene)?;
+    println!("calibration: {} views in {:.2} s", calibration.view_count(), t0.elapsed().as_secs_f64());
+    let mut sim = parked_sim(&scene, SimSettings::default())?;
+    let mut hw = SimRobot::new(&mut sim, &scene, 1)?;
+    let mut eyes = Eyes::new(&hw, table_z, calibration)?;
+    let head = SearchTrack::new(&hw)?;
+    let mut body = dexter::body::Body::new();
+    head.look_at(&mut hw, &mut body, &Vec3::new(x, y, table_z + z))?;
+    // Optionally move the right arm: `PROBE_ARM="q1 q2 … q7"` offsets (rad) from the parked pose.
+    if let Ok(offsets) = std::env::var("PROBE_ARM") {
+        let names: Vec<String> = hw.joint_names().iter().filter(|n| n.starts_with("right/") && !n.contains("bhand")).cloned().collect();
+        for (name, d) in names.iter().zip(offsets.split_whitespace().filter_map(|t| t.parse::<f64>().ok())) {
+            let j = hw.dof_index(name)?;
+            let q = hw.joint_positions()[j];
+            hw.set_joint_reference(j, q + d, 0.0);
+        }
+    }
+    for k in 0..10 {
+        hw.advance(0.1)?;
+        let blobs = eyes.perceive(&mut hw, Pair::Head)?;
+        let sizes: Vec<(usize, usize)> = blobs
+            .iter()
+            .map(|b| (b.left.map_or(0, |s| s.features.pixel_count), b.right.map_or(0, |s| s.features.pixel_count)))
+            .collect();
+        println!("t={:.1} blobs (left px, right px) {sizes:?}", 0.1 * (k + 1) as f64);
+    }
+    let blobs = eyes.perceive(&mut hw, Pair::Head)?.to_vec();
+    std::fs::create_dir_all("/tmp/eyes_probe")?;
+    let (im, _) = eyes.images(Pair::Head);
+    im.save_ppm("/tmp/eyes_probe/image.ppm")?;
+    let mask = eyes.self_masks(Pair::Head).0.to_vec();
+    let mut truth = Vec::new();
+    hw.sim_cameras().true_self_mask(0, &mut truth);
+    let paint = |m: &[bool], c: usize| {
+        let mut out: Image = im.clone();
+        for (i, &b) in m.iter().enumerate() {
+            if b {
+                out.rgb[3 * i + c] = 255;
+            }
+        }
+        out
+    };
+    paint(&mask, 0).save_ppm("/tmp/eyes_probe/self_mask.ppm")?;
+    paint(&truth, 1).save_ppm("/tmp/eyes_probe/true_mask.ppm")?;
+    let seg = eyes.pipeline(Pair::Head).segmenter(Side::Left);
+    paint(seg.foreground(), 2).save_ppm("/tmp/eyes_probe/foreground.ppm")?;
+    if let Some(bg) = seg.background() {
+        bg.save_ppm("/tmp/eyes_probe/background_lo.ppm")?;
+    }
+    let both = mask.iter().zip(&truth).filter(|(a, b)| **a && **b).count();
+    let model_only = mask.iter().zip(&truth).filter(|(a, b)| **a && !**b).count();
+    let truth_only = mask.iter().zip(&truth).filter(|(a, b)| !**a && **b).count();
+    println!(
+        "self-mask: both {both}, model only {model_only}, renderer only {truth_only}; coverage {:?}",
+        eyes.coverage(Pair::Head)
+    );
+    println!(
+        "foreground pixels {}, segments {}, blobs {}",
+        seg.foreground().iter().filter(|b| **b).count(),
+        seg.segments().len(),
+        blobs.len()
+    );
+    for b in &blobs {
+        println!("  blob at {:?}", b.centroid);
+    }
+    for (i, o) in (0..hw.sim().objects().len()).map(|i| (i, hw.sim().object_state(i))) {
+        println!("  object {i} at {:?}", o.pose.translation.vector);
+    }
+    Ok(())
+}
