@@ -3,9 +3,9 @@
 //! left image, its predicted background, the self-mask from the robot's model and the renderer's
 //! true self-mask as PPM files in `/tmp/eyes_probe/`, and prints their agreement.
 
-use control_basis::{Hardware, Plant};
 use control_basis::hardware::Image;
 use control_basis::math::Vec3;
+use control_basis::{Hardware, Plant};
 use dexter::eyes::{Eyes, Pair, SearchTrack};
 use dexter::vision::Side;
 use dexter_sim::hardware::{SimRobot, parked_sim};
@@ -21,7 +21,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let table_z = scene.spec.table.height;
     let t0 = std::time::Instant::now();
     let calibration = dexter_sim::calibrate::workcell_calibration(&scene)?;
-    println!("calibration: {} views in {:.2} s", calibration.view_count(), t0.elapsed().as_secs_f64());
+    println!(
+        "calibration: {} views in {:.2} s",
+        calibration.view_count(),
+        t0.elapsed().as_secs_f64()
+    );
     let mut sim = parked_sim(&scene, SimSettings::default())?;
     let mut hw = SimRobot::new(&mut sim, &scene, 1)?;
     let mut eyes = Eyes::new(&hw, table_z, calibration)?;
@@ -30,8 +34,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     head.look_at(&mut hw, &mut body, &Vec3::new(x, y, table_z + z))?;
     // Optionally move the right arm: `PROBE_ARM="q1 q2 … q7"` offsets (rad) from the parked pose.
     if let Ok(offsets) = std::env::var("PROBE_ARM") {
-        let names: Vec<String> = hw.joint_names().iter().filter(|n| n.starts_with("right/") && !n.contains("bhand")).cloned().collect();
-        for (name, d) in names.iter().zip(offsets.split_whitespace().filter_map(|t| t.parse::<f64>().ok())) {
+        let names: Vec<String> = hw
+            .joint_names()
+            .iter()
+            .filter(|n| n.starts_with("right/") && !n.contains("bhand"))
+            .cloned()
+            .collect();
+        for (name, d) in names
+            .iter()
+            .zip(offsets.split_whitespace().filter_map(|t| t.parse::<f64>().ok()))
+        {
             let j = hw.dof_index(name)?;
             let q = hw.joint_positions()[j];
             hw.set_joint_reference(j, q + d, 0.0);
@@ -42,7 +54,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let blobs = eyes.perceive(&mut hw, Pair::Head)?;
         let sizes: Vec<(usize, usize)> = blobs
             .iter()
-            .map(|b| (b.left.map_or(0, |s| s.features.pixel_count), b.right.map_or(0, |s| s.features.pixel_count)))
+            .map(|b| {
+                (
+                    b.left.map_or(0, |s| s.features.pixel_count),
+                    b.right.map_or(0, |s| s.features.pixel_count),
+                )
+            })
             .collect();
         println!("t={:.1} blobs (left px, right px) {sizes:?}", 0.1 * (k + 1) as f64);
     }

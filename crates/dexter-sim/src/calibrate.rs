@@ -41,8 +41,9 @@ pub fn empty_workcell(scene: &Scene) -> (Scene, String) {
 
 /// FNV-1a of `text`: the calibration's noise seed from its layout.
 fn layout_seed(text: &str) -> u64 {
-    text.bytes()
-        .fold(0xcbf2_9ce4_8422_2325_u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+    text.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
 }
 
 /// Runs the calibration phase of `scene`'s workcell: a fresh world without objects, the robot
@@ -65,17 +66,24 @@ pub fn calibrate(scene: &Scene, settings: &CalibrationSettings, seed: u64) -> Re
 /// process ([`calibrate`] with a seed derived from the layout).
 pub fn workcell_calibration(scene: &Scene) -> Result<Arc<Calibration>, SimError> {
     let (_, key) = empty_workcell(scene);
-    if let Some((_, c)) = cache().lock().ok().and_then(|c| c.iter().find(|(k, _)| *k == key).cloned()) {
+    if let Some((_, c)) = cache()
+        .lock()
+        .ok()
+        .and_then(|c| c.iter().find(|(k, _)| *k == key).cloned())
+    {
         return Ok(c);
     }
     let c = Arc::new(calibrate(scene, &CalibrationSettings::default(), layout_seed(&key))?);
-    if let Ok(mut cache) = cache().lock() {
-        if !cache.iter().any(|(k, _)| *k == key) {
-            if cache.len() >= CACHE_SIZE {
-                cache.remove(0);
-            }
-            cache.push((key, c.clone()));
-        }
+    // Two threads may have calibrated the same layout at once: every caller gets the kept one.
+    let Ok(mut cache) = cache().lock() else {
+        return Ok(c);
+    };
+    if let Some((_, kept)) = cache.iter().find(|(k, _)| *k == key) {
+        return Ok(kept.clone());
     }
+    if cache.len() >= CACHE_SIZE {
+        cache.remove(0);
+    }
+    cache.push((key, c.clone()));
     Ok(c)
 }

@@ -34,9 +34,10 @@ struct Link {
 /// The pose of `link` if only fixed joints lie between it and the root.
 pub fn fixed_pose(model: &RobotModel, link: usize) -> Option<Iso3> {
     let path = model.joints_from_root(link);
-    path.iter()
-        .all(|&j| !model.joints[j].kind.is_moving())
-        .then(|| path.iter().fold(Iso3::identity(), |acc, &j| acc * model.joints[j].origin))
+    path.iter().all(|&j| !model.joints[j].kind.is_moving()).then(|| {
+        path.iter()
+            .fold(Iso3::identity(), |acc, &j| acc * model.joints[j].origin)
+    })
 }
 
 impl Body {

@@ -18,9 +18,9 @@ use control_basis::math::Vec3;
 use crate::body::Body;
 use crate::error::RobotError;
 use crate::exec::Workspace;
+use crate::eyes::SELF_MARGIN;
 use crate::eyes::{Pair, SearchTrack};
 use crate::vision::background::mean_image;
-use crate::eyes::SELF_MARGIN;
 use crate::vision::{BackgroundBank, BackgroundView, Camera, SelfModel};
 
 /// Time between the frames averaged into one view (s): each is a new exposure.
@@ -179,9 +179,8 @@ impl Calibration {
                     }
                     hw.capture(k, shot)?;
                 }
-                let image = mean_image(&shots).ok_or_else(|| {
-                    RobotError::invalid("<calibration>", name, "the camera's frames changed size")
-                })?;
+                let image = mean_image(&shots)
+                    .ok_or_else(|| RobotError::invalid("<calibration>", name, "the camera's frames changed size"))?;
                 self_model.mask(hw, &camera, &mut mask)?;
                 let valid = mask.iter().map(|m| !m).collect();
                 let bank = match banks.iter().position(|(n, _)| n == name) {

@@ -16,8 +16,7 @@ use crate::body::Body;
 use crate::calibration::Calibration;
 use crate::error::RobotError;
 use crate::vision::{
-    Frame, SegmentConfig, SelfModel, StereoBlob, StereoCameras, StereoConfig, StereoPipeline, SupportPlane,
-    WarpScratch,
+    Frame, SegmentConfig, SelfModel, StereoBlob, StereoCameras, StereoConfig, StereoPipeline, SupportPlane, WarpScratch,
 };
 
 /// The backgrounds are warped again when a camera moved by more than this (px at the image scale).

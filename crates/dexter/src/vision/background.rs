@@ -126,9 +126,12 @@ impl BackgroundBank {
         // Views ordered by the angle between their optical axis and the current one.
         let axis = camera.axis();
         scratch.order.clear();
-        scratch
-            .order
-            .extend(self.views.iter().enumerate().map(|(k, v)| (-v.camera.axis().dot(&axis), k)));
+        scratch.order.extend(
+            self.views
+                .iter()
+                .enumerate()
+                .map(|(k, v)| (-v.camera.axis().dot(&axis), k)),
+        );
         scratch.order.sort_by(|a, b| a.0.total_cmp(&b.0));
         let k_inv = Mat3::new(
             1.0 / camera.fx,
@@ -169,7 +172,11 @@ impl BackgroundBank {
                 let q = Vec3::new(col as f64, row as f64, 1.0);
                 let dz = dz_row.dot(&q);
                 // Ray parameter to the plane; a ray that does not meet it ahead looks at infinity.
-                let s = if dz < -1e-9 && height < 0.0 { height / dz } else { f64::INFINITY };
+                let s = if dz < -1e-9 && height < 0.0 {
+                    height / dz
+                } else {
+                    f64::INFINITY
+                };
                 let pix = row as usize * w as usize + col as usize;
                 let mut hit = None;
                 for (i, wv) in scratch.warps.iter().enumerate() {
@@ -185,7 +192,10 @@ impl BackgroundBank {
                             let iw = wv.w as usize;
                             let (u0, v0) = (u as usize, v as usize);
                             let (u1, v1) = ((u0 + 1).min(iw - 1), (v0 + 1).min(wv.h as usize - 1));
-                            if !(valid[v0 * iw + u0] && valid[v0 * iw + u1] && valid[v1 * iw + u0] && valid[v1 * iw + u1])
+                            if !(valid[v0 * iw + u0]
+                                && valid[v0 * iw + u1]
+                                && valid[v1 * iw + u0]
+                                && valid[v1 * iw + u1])
                             {
                                 continue;
                             }
@@ -226,7 +236,10 @@ impl BackgroundBank {
 /// The mean of `frames` (same size), rounded.
 pub fn mean_image(frames: &[Image]) -> Option<Image> {
     let first = frames.first()?;
-    if frames.iter().any(|f| f.width != first.width || f.height != first.height) {
+    if frames
+        .iter()
+        .any(|f| f.width != first.width || f.height != first.height)
+    {
         return None;
     }
     let n = frames.len() as u32;
@@ -302,7 +315,10 @@ mod tests {
             }
         }
         // Only the sky/table horizon may fall outside (off the plane); the table is exact.
-        assert!(outside < truth.rgb.len() / 100, "{outside} channel values outside the interval");
+        assert!(
+            outside < truth.rgb.len() / 100,
+            "{outside} channel values outside the interval"
+        );
     }
 
     #[test]
@@ -320,7 +336,12 @@ mod tests {
         let (mut lo, mut hi) = (Image::default(), Image::default());
         let coverage = bank.render(&away, &mut lo, &mut hi, &mut WarpScratch::default());
         assert!(coverage < 0.5, "coverage {coverage}");
-        let n_full = lo.rgb.iter().zip(&hi.rgb).filter(|&(&l, &h)| l == 0 && h == 255).count();
+        let n_full = lo
+            .rgb
+            .iter()
+            .zip(&hi.rgb)
+            .filter(|&(&l, &h)| l == 0 && h == 255)
+            .count();
         assert!(n_full > 0);
     }
 

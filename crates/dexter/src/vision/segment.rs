@@ -73,6 +73,16 @@ pub struct Segment {
     pub bbox: [u32; 4],
     /// Whether it touches the image border (the object may be cut off, biasing size and centroid).
     pub touches_border: bool,
+    /// Whether it touches the robot's self-mask: the robot's body may hide part of the object.
+    pub touches_robot: bool,
+}
+
+impl Segment {
+    /// Whether the object may be cut off — by the image border or by the robot's body — so that its
+    /// size, moments and centroid are unreliable.
+    pub fn cut_off(&self) -> bool {
+        self.touches_border || self.touches_robot
+    }
 }
 
 const PENDING: u32 = u32::MAX;
@@ -90,6 +100,7 @@ pub struct Segmenter {
     background_hi: Image,
     has_background: bool,
     foreground: Vec<bool>,
+    masked: Vec<bool>,
     component: Vec<u32>,
     stack: Vec<u32>,
     pixels: Vec<u32>,
@@ -110,6 +121,7 @@ impl Segmenter {
             background_hi: Image::default(),
             has_background: false,
             foreground: Vec::new(),
+            masked: Vec::new(),
             component: Vec::new(),
             stack: Vec::new(),
             pixels: Vec::new(),
@@ -142,7 +154,10 @@ impl Segmenter {
         if lo.width != hi.width || lo.height != hi.height || lo.rgb.len() != hi.rgb.len() {
             return Err(invalid(
                 "background",
-                format!("lower bound {}×{}, upper {}×{}", lo.width, lo.height, hi.width, hi.height),
+                format!(
+                    "lower bound {}×{}, upper {}×{}",
+                    lo.width, lo.height, hi.width, hi.height
+                ),
             ));
         }
         self.background.copy_from(lo);
@@ -224,6 +239,8 @@ impl Segmenter {
                     d2 as f64 > t2
                 }),
         );
+        self.masked.clear();
+        self.masked.extend_from_slice(self_mask);
         if !self_mask.is_empty() {
             for (f, l) in self.foreground.iter_mut().zip(self_mask) {
                 if *l {
@@ -280,7 +297,14 @@ impl Segmenter {
             for &p in &self.pixels {
                 self.component[p as usize] = id;
             }
-            self.segments.push(features_of(&self.pixels, image, w, h));
+            let mut segment = features_of(&self.pixels, image, w, h);
+            segment.touches_robot = !self.masked.is_empty()
+                && self.pixels.iter().any(|&p| {
+                    let (u, v) = (p as usize % w, p as usize / w);
+                    (v.saturating_sub(1)..=(v + 1).min(h - 1))
+                        .any(|vv| (u.saturating_sub(1)..=(u + 1).min(w - 1)).any(|uu| self.masked[vv * w + uu]))
+                });
+            self.segments.push(segment);
         }
         for &p in &self.rejected {
             self.component[p as usize] = 0;
@@ -337,6 +361,7 @@ fn features_of(pixels: &[u32], image: &Image, w: usize, h: usize) -> Segment {
         },
         bbox,
         touches_border,
+        touches_robot: false,
     }
 }
 

@@ -15,10 +15,10 @@
 //! masked too (the robot cannot tell from its model what is in front of it); the tracker treats
 //! such pixels as hidden, not as empty.
 
+use control_basis::Hardware;
 use control_basis::hardware::Camera;
 use control_basis::math::{Iso3, Vec3};
 use control_basis::model::{RobotModel, VisualGeometry};
-use control_basis::Hardware;
 use nalgebra::Point3;
 
 use crate::body::Body;
@@ -113,7 +113,11 @@ impl SelfModel {
                 }
                 VisualGeometry::Mesh { .. } => continue,
             };
-            let pts: Vec<Vec3> = pts.iter().map(|p| v.origin * Point3::from(*p)).map(|p| p.coords).collect();
+            let pts: Vec<Vec3> = pts
+                .iter()
+                .map(|p| v.origin * Point3::from(*p))
+                .map(|p| p.coords)
+                .collect();
             let entry = match links.iter().position(|(l, _)| *l == v.link) {
                 Some(k) => k,
                 None => {

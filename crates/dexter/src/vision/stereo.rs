@@ -199,10 +199,10 @@ impl StereoBlob {
         }
     }
 
-    /// Whether a segment touches its image border: the object may be cut off, so its size, moments
-    /// and triangulated centroid are unreliable.
+    /// Whether a segment touches its image border or the robot's body: the object may be cut off,
+    /// so its size, moments and triangulated centroid are unreliable.
     pub fn truncated(&self) -> bool {
-        self.left.is_some_and(|s| s.touches_border) || self.right.is_some_and(|s| s.touches_border)
+        self.left.is_some_and(|s| s.cut_off()) || self.right.is_some_and(|s| s.cut_off())
     }
 
     /// The stereo size observation `(s_L, s_R)` of §5.1.2.2 in pixels.
@@ -259,8 +259,9 @@ impl StereoMatcher {
                 // Sizes as solid angles (px / f²), so cameras of different resolutions compare.
                 let (a, b) = (fl.pixel_count as f64, fr.pixel_count as f64);
                 let (sa, sb) = (a / (cams.left.fx * cams.left.fy), b / (cams.right.fx * cams.right.fy));
-                let truncated = l.touches_border || r.touches_border;
-                // A segment cut by the image border has lost an unknown part: sizes do not compare.
+                let truncated = l.cut_off() || r.cut_off();
+                // A segment cut by the image border or the robot's body has lost an unknown part:
+                // sizes do not compare.
                 let ratio = if truncated { 1.0 } else { sa.min(sb) / sa.max(sb) };
                 if ratio < config.min_size_ratio {
                     continue;
@@ -436,12 +437,14 @@ impl StereoPipeline {
         let Some(old) = self.background_cams.as_ref() else {
             return true;
         };
-        [(&old.left, &cams.left), (&old.right, &cams.right)].iter().any(|(a, b)| {
-            let angle = a.world_from_optical.rotation.angle_to(&b.world_from_optical.rotation);
-            let shift = (a.position() - b.position()).norm();
-            let f = 0.5 * (b.fx + b.fy);
-            !(angle * f <= pixels && shift * f <= pixels) || a.width != b.width || a.height != b.height
-        })
+        [(&old.left, &cams.left), (&old.right, &cams.right)]
+            .iter()
+            .any(|(a, b)| {
+                let angle = a.world_from_optical.rotation.angle_to(&b.world_from_optical.rotation);
+                let shift = (a.position() - b.position()).norm();
+                let f = 0.5 * (b.fx + b.fy);
+                !(angle * f <= pixels && shift * f <= pixels) || a.width != b.width || a.height != b.height
+            })
     }
 
     /// Stores both cameras' backgrounds at `cams` as per-pixel intervals `[lo, hi]` (see
