@@ -168,6 +168,10 @@ const LYING_ELONGATION: f64 = 1.6;
 /// vertical may be an object standing up ([`lying_footprint`]).
 const VERTICAL_SLACK: f64 = 0.35;
 
+/// One camera's view of a segment for [`lying_footprint`]: its image centroid (px), its
+/// covariance (px²) and the camera.
+pub type SilhouetteView<'a> = ([f64; 2], [[f64; 2]; 2], &'a control_basis::hardware::Camera);
+
 /// The footprint of an object with a round cross-section of `radius` seen at `centroid` (what the
 /// support-plane estimate measured as "round"), from its two silhouettes (image centroid, covariance
 /// in px², camera). `None` when either silhouette is not elongated ([`LYING_ELONGATION`]): a sphere,
@@ -186,7 +190,7 @@ const VERTICAL_SLACK: f64 = 0.35;
 /// footprint hid the bottle's length from the grasp planner, whose fingers then closed along it
 /// and stopped on the bottle (a knocked-over soy-sauce bottle, fault scene bump 28).
 pub fn lying_footprint(
-    views: [([f64; 2], [[f64; 2]; 2], &control_basis::hardware::Camera); 2],
+    views: [SilhouetteView<'_>; 2],
     centroid: &Vec3,
     radius: f64,
 ) -> Option<crate::vision::Footprint> {
@@ -200,7 +204,7 @@ pub fn lying_footprint(
         let [[a, b], [_, d]] = cov;
         let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
         let (l_min, l_max) = (0.5 * (a + d) - disc, 0.5 * (a + d) + disc);
-        if !(l_max > LYING_ELONGATION * l_min.max(0.0)) {
+        if l_max.is_nan() || l_max <= LYING_ELONGATION * l_min.max(0.0) {
             return None;
         }
         // The major eigenvector.
@@ -231,7 +235,7 @@ pub fn lying_footprint(
         };
         let w = on_plane(1.0)? - on_plane(-1.0)?;
         let len = w.xy().norm();
-        if !(len > 1e-6) {
+        if len.is_nan() || len <= 1e-6 {
             return None;
         }
         let mut ax = [w.x / len, w.y / len];
@@ -254,7 +258,7 @@ pub fn lying_footprint(
         });
     }
     let n = axis[0].hypot(axis[1]);
-    if !(n > 1e-9) {
+    if n.is_nan() || n <= 1e-9 {
         return None;
     }
     Some(crate::vision::Footprint {
