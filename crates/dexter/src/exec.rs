@@ -241,14 +241,20 @@ pub fn arms_reaching(hw: &dyn Hardware, table_z: f64, point: &Vec3) -> Result<Ve
     Ok(out)
 }
 
-/// The set predicates (4.17) over the monitors bound to `arms` (all when `None`).
-fn bound_x(o: &schema::monitor::Observation, arms: Option<&[String]>) -> Vec<bool> {
-    let Some(arms) = arms else {
-        return o.x.clone();
-    };
+/// The set predicates (4.17) over the monitors bound to `arms` (all when `None`); the monitor set
+/// of `reach` = (action index, arm) only over that arm's monitors — the arm ψ bound to the latest
+/// action: a reach is a controller of one arm and its object, and the other, parked hand resting
+/// near some segment (a phantom under it, a wall) is not reaching.
+fn bound_x(o: &schema::monitor::Observation, arms: Option<&[String]>, reach: Option<&(usize, String)>) -> Vec<bool> {
     let mut x = vec![false; o.x.len()];
     for h in &o.hits {
-        if h.arm.as_ref().is_none_or(|a| arms.contains(a)) {
+        if let Some((a, arm)) = reach
+            && h.action == *a
+            && h.arm.as_ref().is_some_and(|b| b != arm)
+        {
+            continue;
+        }
+        if arms.is_none_or(|arms| h.arm.as_ref().is_none_or(|a| arms.contains(a))) {
             x[h.action] = true;
         }
     }
@@ -304,6 +310,8 @@ pub struct RobotPlant<'a> {
     unseen: (Option<String>, usize),
     /// The library's action names (the entries of x).
     action_names: Vec<String>,
+    /// The reach monitor set's index and the arm ψ bound to the latest action ([`bound_x`]).
+    reach_arm: Option<(usize, String)>,
     sink: &'a mut dyn ExecSink,
     t0: f64,
     next_percept: f64,
@@ -360,6 +368,7 @@ impl<'a> RobotPlant<'a> {
             missed: false,
             unseen: (None, 0),
             action_names: library.actions.iter().map(|a| a.name.clone()).collect(),
+            reach_arm: None,
             plan_next_id: 0,
             sink,
             t0,
@@ -378,10 +387,14 @@ impl<'a> RobotPlant<'a> {
     /// still holding something from an earlier task does not pass for this task's grasp.
     pub fn bind_arms(&mut self, arms: &[Arm]) {
         self.bound_arms = Some(arms.iter().map(|a| a.prefix().to_string()).collect());
+        // The first arm acts first.
+        if let (Some(a), Some(arm)) = (self.action_names.iter().position(|n| n == "reach_object"), arms.first()) {
+            self.reach_arm = Some((a, arm.prefix().to_string()));
+        }
         if let Some(p) = self.percepts.last() {
             let p = p.clone();
             let o = self.bank.observe(&p);
-            self.last_x = bound_x(&o, self.bound_arms.as_deref());
+            self.last_x = bound_x(&o, self.bound_arms.as_deref(), self.reach_arm.as_ref());
         }
     }
 
@@ -623,7 +636,7 @@ impl<'a> RobotPlant<'a> {
         let t = self.hw.time_secs() - self.t0;
         let p = self.watcher.percept(self.hw, t)?;
         let o = self.bank.observe(&p);
-        self.last_x = bound_x(&o, self.bound_arms.as_deref());
+        self.last_x = bound_x(&o, self.bound_arms.as_deref(), self.reach_arm.as_ref());
         self.sink.percept(self.hw, self.watcher.eyes(), &p);
         self.percepts.push(p);
         self.next_percept = t + self.percept_period;
@@ -659,6 +672,7 @@ impl<'a> RobotPlant<'a> {
         let next = &mut self.next_percept;
         let sink = &mut *self.sink;
         let bound_arms = self.bound_arms.clone();
+        let reach_arm = self.reach_arm.clone();
         let mut callback = |h: &mut dyn Hardware, activity: &str| {
             sink.tick(h, activity);
             let t = h.time_secs() - t0;
@@ -666,7 +680,7 @@ impl<'a> RobotPlant<'a> {
                 match watcher.percept(h, t) {
                     Ok(p) => {
                         let o = bank.observe(&p);
-                        *last_x = bound_x(&o, bound_arms.as_deref());
+                        *last_x = bound_x(&o, bound_arms.as_deref(), reach_arm.as_ref());
                         sink.percept(h, watcher.eyes(), &p);
                         percepts.push(p);
                     }
@@ -875,6 +889,12 @@ impl SchemaPlant for RobotPlant<'_> {
             && !bound.contains(arm)
         {
             bound.push(arm.clone());
+        }
+        if let (Some(a), Some(arm)) = (
+            self.action_names.iter().position(|n| n == "reach_object"),
+            binding.arm.as_ref(),
+        ) {
+            self.reach_arm = Some((a, arm.clone()));
         }
         let outcome = match action {
             "search_track" => ActionOutcome::Converged,
