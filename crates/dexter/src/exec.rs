@@ -25,9 +25,9 @@ use crate::control::{HandControl, ReachControl};
 use crate::error::RobotError;
 use crate::eyes::Eyes;
 use crate::skills::{
-    GraspPlan, Held, Observer, SeenObject, TouchState, approach_grasp, close_grasp, finger_arc, hand_fingertips, idle,
-    lift_and_weigh, lower_until_supported, park_pose, plan_top_grasp, reachable, release_and_retreat, run_until,
-    transport_over,
+    GraspPlan, Held, MIN_LOAD, Observer, SeenObject, TouchState, approach_grasp, close_grasp, finger_arc,
+    hand_fingertips, idle, lift_and_weigh, lower_until_supported, park_pose, plan_top_grasp, reachable,
+    release_and_retreat, run_until, transport_over,
 };
 use crate::watch::Watcher;
 
@@ -159,6 +159,53 @@ fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
 }
 
+/// Where in a place region (`center`, `size`) to put an object of horizontal radius `radius`
+/// among `others` (centre, radius) already there: the point of a 1 cm grid inside the region (the
+/// object clear of the walls by [`WALL_ROOM`]) with the widest gap between the object's footprint
+/// and theirs, nearest the centre among equals (gaps count to the centimetre) — so objects already
+/// in a bin are not landed on. The centre when the region leaves no room to choose.
+pub fn free_spot(center: [f64; 2], size: [f64; 2], radius: f64, others: &[([f64; 2], f64)]) -> [f64; 2] {
+    let half = [size[0] / 2.0 - radius - WALL_ROOM, size[1] / 2.0 - radius - WALL_ROOM];
+    if others.is_empty() || half[0] <= 0.0 || half[1] <= 0.0 {
+        return center;
+    }
+    let n = [
+        (half[0] / 0.01 + 1e-9).floor() as i32,
+        (half[1] / 0.01 + 1e-9).floor() as i32,
+    ];
+    let mut best = (f64::NEG_INFINITY, f64::INFINITY, center);
+    for i in -n[0]..=n[0] {
+        for j in -n[1]..=n[1] {
+            let c = [center[0] + 0.01 * f64::from(i), center[1] + 0.01 * f64::from(j)];
+            let gap = others
+                .iter()
+                .map(|(o, r)| (o[0] - c[0]).hypot(o[1] - c[1]) - r)
+                .fold(f64::INFINITY, f64::min);
+            let off = (c[0] - center[0]).hypot(c[1] - center[1]);
+            let gap = (gap * 100.0).round();
+            if (gap, -off) > (best.0, -best.1) {
+                best = (gap, off, c);
+            }
+        }
+    }
+    best.2
+}
+
+/// How long (s) after an action converged the plant waits at most for its monitor set to see it.
+const MONITOR_WAIT_SECS: f64 = 1.0;
+
+/// Objects counted up to this height (m) when carrying over them (a segment merged with something
+/// above it may measure taller than any object on the table).
+const MAX_OBSTACLE_HEIGHT: f64 = 0.25;
+
+/// How long (s) the head looks into a place before a spot in it is chosen: a few frames for the
+/// tracker to see what lies there.
+const PLACE_LOOK_SECS: f64 = 0.6;
+
+/// The footprint radius (m) counted for an object seen in a place: objects lying in a bin are not
+/// measured on the table's plane, and a coarse silhouette disc may take a bin's wall along.
+const IN_PLACE_RADIUS: f64 = 0.06;
+
 /// Segments within this distance (m) of the transferred object's position are that object.
 const MERGE_RADIUS: f64 = 0.05;
 /// The scan before a handoff spot is chosen looks at the scan points this close (m, across the
@@ -194,14 +241,20 @@ pub fn arms_reaching(hw: &dyn Hardware, table_z: f64, point: &Vec3) -> Result<Ve
     Ok(out)
 }
 
-/// The set predicates (4.17) over the monitors bound to `arms` (all when `None`).
-fn bound_x(o: &schema::monitor::Observation, arms: Option<&[String]>) -> Vec<bool> {
-    let Some(arms) = arms else {
-        return o.x.clone();
-    };
+/// The set predicates (4.17) over the monitors bound to `arms` (all when `None`); the monitor set
+/// of `reach` = (action index, arm) only over that arm's monitors — the arm ψ bound to the latest
+/// action: a reach is a controller of one arm and its object, and the other, parked hand resting
+/// near some segment (a phantom under it, a wall) is not reaching.
+fn bound_x(o: &schema::monitor::Observation, arms: Option<&[String]>, reach: Option<&(usize, String)>) -> Vec<bool> {
     let mut x = vec![false; o.x.len()];
     for h in &o.hits {
-        if h.arm.as_ref().is_none_or(|a| arms.contains(a)) {
+        if let Some((a, arm)) = reach
+            && h.action == *a
+            && h.arm.as_ref().is_some_and(|b| b != arm)
+        {
+            continue;
+        }
+        if arms.is_none_or(|arms| h.arm.as_ref().is_none_or(|a| arms.contains(a))) {
             x[h.action] = true;
         }
     }
@@ -253,6 +306,12 @@ pub struct RobotPlant<'a> {
     destination: Option<[f64; 2]>,
     /// The last grasp closed on nothing (the object may have moved).
     missed: bool,
+    /// The object (as the binding names it) and how many reaches in a row did not see it.
+    unseen: (Option<String>, usize),
+    /// The library's action names (the entries of x).
+    action_names: Vec<String>,
+    /// The reach monitor set's index and the arm ψ bound to the latest action ([`bound_x`]).
+    reach_arm: Option<(usize, String)>,
     sink: &'a mut dyn ExecSink,
     t0: f64,
     next_percept: f64,
@@ -309,6 +368,9 @@ impl<'a> RobotPlant<'a> {
             unreached: Vec::new(),
             destination: None,
             missed: false,
+            unseen: (None, 0),
+            action_names: library.actions.iter().map(|a| a.name.clone()).collect(),
+            reach_arm: None,
             plan_next_id: 0,
             sink,
             t0,
@@ -327,10 +389,14 @@ impl<'a> RobotPlant<'a> {
     /// still holding something from an earlier task does not pass for this task's grasp.
     pub fn bind_arms(&mut self, arms: &[Arm]) {
         self.bound_arms = Some(arms.iter().map(|a| a.prefix().to_string()).collect());
+        // The first arm acts first.
+        if let (Some(a), Some(arm)) = (self.action_names.iter().position(|n| n == "reach_object"), arms.first()) {
+            self.reach_arm = Some((a, arm.prefix().to_string()));
+        }
         if let Some(p) = self.percepts.last() {
             let p = p.clone();
             let o = self.bank.observe(&p);
-            self.last_x = bound_x(&o, self.bound_arms.as_deref());
+            self.last_x = bound_x(&o, self.bound_arms.as_deref(), self.reach_arm.as_ref());
         }
     }
 
@@ -340,53 +406,78 @@ impl<'a> RobotPlant<'a> {
         self.settle(seconds)
     }
 
-    /// Where in a place region (centre, size) to put an object of horizontal radius `radius`: the
-    /// point of a 1 cm grid inside the region (the object clear of the walls by [`WALL_ROOM`]) farthest from
-    /// the objects seen in it, nearest the centre among equals — so objects already in a bin are
-    /// not landed on. Segments near `carrying_palm` are the carried object itself.
-    fn free_spot(&self, center: [f64; 2], size: [f64; 2], radius: f64, carrying_palm: Option<[f64; 3]>) -> [f64; 2] {
-        let half = [size[0] / 2.0 - radius - WALL_ROOM, size[1] / 2.0 - radius - WALL_ROOM];
-        if half[0] <= 0.0 || half[1] <= 0.0 {
-            return center;
+    /// The objects the latest percept holds (seen now or remembered), as seen on the table, but
+    /// not the one carried by the palm at `carrying_palm`.
+    fn seen_objects(&self, carrying_palm: Option<&Vec3>) -> Vec<SeenObject> {
+        let table_z = self.workspace.table_z;
+        let Some(p) = self.percepts.last() else {
+            return Vec::new();
+        };
+        p.segments
+            .iter()
+            .filter(|s| carrying_palm.is_none_or(|h| (Vec3::from(s.centroid) - h).norm() > CARRIED_CLEARANCE))
+            .map(|s| SeenObject::from_percept(s, table_z))
+            .collect()
+    }
+
+    /// What the hand of `arm` holds: the hold the last `hold` measured; or, when that was given up
+    /// (a carry that stopped) while the fingertips still hold the grasped object, the same object
+    /// weighed again now. `None` if the hand holds nothing.
+    fn held_or_felt(&mut self, arm: Arm) -> Option<Held> {
+        if self.held.is_some() {
+            return self.held;
         }
-        let inside: Vec<[f64; 2]> = self
-            .percepts
-            .last()
-            .map(|p| {
-                p.segments
-                    .iter()
-                    .filter(|s| {
-                        (s.centroid[0] - center[0]).abs() <= size[0] / 2.0 + 0.05
-                            && (s.centroid[1] - center[1]).abs() <= size[1] / 2.0 + 0.05
-                            && carrying_palm.is_none_or(|h| {
-                                (0..3).map(|i| (s.centroid[i] - h[i]).powi(2)).sum::<f64>().sqrt() > 0.15
-                            })
+        let touch = self.touch(arm);
+        let (Some((_, seen)), Some(palm)) = (self.target.as_ref(), self.grasp_palm) else {
+            return None;
+        };
+        if !touch.holding() || touch.load < MIN_LOAD {
+            return None;
+        }
+        self.held = Some(Held::new(seen, &palm, self.workspace.table_z, touch.load));
+        self.held
+    }
+
+    /// The objects seen in `place` now (centre (x, y) and footprint radius, m): the tracks of the
+    /// latest percept whose centroid lies in the place region (with 5 cm of margin: an object
+    /// leaning on a wall), except the one carried by the palm at `carrying_palm`.
+    fn seen_in_place(&self, place: &Place, carrying_palm: Option<[f64; 3]>) -> Vec<([f64; 2], f64)> {
+        let table_z = self.workspace.table_z;
+        let Some(p) = self.percepts.last() else {
+            return Vec::new();
+        };
+        p.segments
+            .iter()
+            .filter(|s| {
+                (s.centroid[0] - place.center[0]).abs() <= place.size[0] / 2.0 + 0.05
+                    && (s.centroid[1] - place.center[1]).abs() <= place.size[1] / 2.0 + 0.05
+                    && carrying_palm.is_none_or(|h| {
+                        (0..3).map(|i| (s.centroid[i] - h[i]).powi(2)).sum::<f64>().sqrt() > CARRIED_CLEARANCE
                     })
-                    .map(|s| [s.centroid[0], s.centroid[1]])
-                    .collect()
             })
-            .unwrap_or_default();
-        if inside.is_empty() {
-            return center;
+            .map(|s| {
+                let seen = SeenObject::from_percept(s, table_z);
+                (seen.extent.center, seen.radius().min(IN_PLACE_RADIUS))
+            })
+            .collect()
+    }
+
+    /// Where in `place` to put a carried object: looks into the place first (the head sees a part
+    /// of the table at a time, and tracks out of view are soon forgotten, so what was seen while
+    /// grasping says little about the bin), then [`free_spot`] among the objects seen in it.
+    fn place_spot(&mut self, place: &Place, held: &Held, arm: Arm) -> Result<[f64; 2], RobotError> {
+        let table_z = self.workspace.table_z;
+        self.look(
+            &Vec3::new(place.center[0], place.center[1], table_z + 0.03),
+            PLACE_LOOK_SECS,
+        )?;
+        let palm = self.percepts.last().map(|q| q.hands[arm.index()].palm);
+        let others = self.seen_in_place(place, palm);
+        let spot = free_spot(place.center, place.size, held.radius, &others);
+        if debug_exec() {
+            eprintln!("  place spot {spot:?} in {} among {others:?}", place.name);
         }
-        let n = [(half[0] / 0.01).floor() as i32, (half[1] / 0.01).floor() as i32];
-        let mut best = (f64::NEG_INFINITY, f64::INFINITY, center);
-        for i in -n[0]..=n[0] {
-            for j in -n[1]..=n[1] {
-                let c = [center[0] + 0.01 * f64::from(i), center[1] + 0.01 * f64::from(j)];
-                let clear = inside
-                    .iter()
-                    .map(|o| (o[0] - c[0]).hypot(o[1] - c[1]))
-                    .fold(f64::INFINITY, f64::min);
-                let off = (c[0] - center[0]).hypot(c[1] - center[1]);
-                // Clearance counts to the nearest centimetre; then the centre wins.
-                let clear = (clear * 100.0).round();
-                if (clear, -off) > (best.0, -best.1) {
-                    best = (clear, off, c);
-                }
-            }
-        }
-        best.2
+        Ok(spot)
     }
 
     /// The handoff spot (x, y).
@@ -547,7 +638,7 @@ impl<'a> RobotPlant<'a> {
         let t = self.hw.time_secs() - self.t0;
         let p = self.watcher.percept(self.hw, t)?;
         let o = self.bank.observe(&p);
-        self.last_x = bound_x(&o, self.bound_arms.as_deref());
+        self.last_x = bound_x(&o, self.bound_arms.as_deref(), self.reach_arm.as_ref());
         self.sink.percept(self.hw, self.watcher.eyes(), &p);
         self.percepts.push(p);
         self.next_percept = t + self.percept_period;
@@ -583,6 +674,7 @@ impl<'a> RobotPlant<'a> {
         let next = &mut self.next_percept;
         let sink = &mut *self.sink;
         let bound_arms = self.bound_arms.clone();
+        let reach_arm = self.reach_arm.clone();
         let mut callback = |h: &mut dyn Hardware, activity: &str| {
             sink.tick(h, activity);
             let t = h.time_secs() - t0;
@@ -590,7 +682,7 @@ impl<'a> RobotPlant<'a> {
                 match watcher.percept(h, t) {
                     Ok(p) => {
                         let o = bank.observe(&p);
-                        *last_x = bound_x(&o, bound_arms.as_deref());
+                        *last_x = bound_x(&o, bound_arms.as_deref(), reach_arm.as_ref());
                         sink.percept(h, watcher.eyes(), &p);
                         percepts.push(p);
                     }
@@ -724,6 +816,15 @@ impl<'a> RobotPlant<'a> {
         s.centroid[2] > self.workspace.table_z - 0.02
     }
 
+    /// Whether `c` lies over the table (within 2 cm of its edges) and not below its top: where an
+    /// object the robot can reach may rest.
+    fn on_table(&self, c: &Vec3) -> bool {
+        let ws = self.workspace;
+        (c.x - ws.table_center[0]).abs() <= ws.table_size[0] / 2.0 + 0.02
+            && (c.y - ws.table_center[1]).abs() <= ws.table_size[1] / 2.0 + 0.02
+            && c.z > ws.table_z - 0.05
+    }
+
     /// Whether the latest percept sees the track `id`.
     fn seen_now(&self, id: Option<u32>) -> bool {
         let Some(p) = self.percepts.last() else {
@@ -791,6 +892,12 @@ impl SchemaPlant for RobotPlant<'_> {
         {
             bound.push(arm.clone());
         }
+        if let (Some(a), Some(arm)) = (
+            self.action_names.iter().position(|n| n == "reach_object"),
+            binding.arm.as_ref(),
+        ) {
+            self.reach_arm = Some((a, arm.clone()));
+        }
         let outcome = match action {
             "search_track" => ActionOutcome::Converged,
             "reach_object" => {
@@ -841,10 +948,40 @@ impl SchemaPlant for RobotPlant<'_> {
                     Err(_) => (id, seen),
                 };
                 // Not seen where it should be (it rolled, or was knocked away): search the table.
+                if self.unseen.0 != binding.object {
+                    self.unseen = (binding.object.clone(), 0);
+                }
                 let (id, seen) = if self.seen_now(id) {
+                    self.unseen.1 = 0;
                     (id, seen)
+                } else if let Some(found) = self.search(&seen.centroid)? {
+                    self.unseen.1 = 0;
+                    found
                 } else {
-                    self.search(&seen.centroid)?.unwrap_or((id, seen))
+                    // Nowhere on the table. Last seen off it: it fell. Else reach where it was last
+                    // seen once (the cameras may have been blinded, or an arm hides it); not seen
+                    // again, it is gone.
+                    self.unseen.1 += 1;
+                    let c = seen.centroid;
+                    let why = if !self.on_table(&c) {
+                        Some(format!(
+                            "the object left the table (last seen at ({:.2}, {:.2}, {:.2}), not seen on the table since)",
+                            c.x, c.y, c.z
+                        ))
+                    } else if self.unseen.1 > 1 {
+                        Some(format!(
+                            "the object is gone: not seen where it was last seen ({:.2}, {:.2}) nor anywhere on the \
+                             table, twice (it left the table)",
+                            c.x, c.y
+                        ))
+                    } else {
+                        None
+                    };
+                    if let Some(why) = why {
+                        self.settle(0.3)?;
+                        return Ok(ActionOutcome::Failed(why));
+                    }
+                    (id, seen)
                 };
                 self.target = Some((id, seen.clone()));
                 self.held = None;
@@ -936,7 +1073,10 @@ impl SchemaPlant for RobotPlant<'_> {
             "place" => {
                 let arm = parse_arm(action, binding.arm.as_deref())?;
                 let k = arm.index();
-                let Some(held) = self.held else {
+                // The objects around (the head still looks at the lifted one and its neighbours).
+                let palm_now = self.reach[k].tool_pose(self.hw).translation.vector;
+                let mut around = self.seen_objects(Some(&palm_now));
+                let Some(held) = self.held_or_felt(arm) else {
                     return Ok(ActionOutcome::Failed("nothing held to place (no hold yet)".into()));
                 };
                 let (target, wall) = if binding.transfer {
@@ -954,14 +1094,24 @@ impl SchemaPlant for RobotPlant<'_> {
                         message: "no place".into(),
                     })?;
                     let p = self.workspace.place(name)?.clone();
-                    let palm = self.percepts.last().map(|q| q.hands[k].palm);
-                    (self.free_spot(p.center, p.size, held.radius, palm), p.wall_height)
+                    (self.place_spot(&p, &held, arm)?, p.wall_height)
                 };
+                // Carry the object's bottom over the walls and over every object seen near its way.
+                around.extend(self.seen_objects(Some(&palm_now)));
+                let from = [palm_now.x + held.offset_xy[0], palm_now.y + held.offset_xy[1]];
+                let clear = around
+                    .iter()
+                    .filter(|o| distance_to_segment(o.extent.center, from, target) < held.radius + o.radius() + 0.03)
+                    .map(|o| o.extent.height.min(MAX_OBSTACLE_HEIGHT))
+                    .fold(wall, f64::max);
+                if debug_exec() && clear > wall {
+                    eprintln!("  carrying over objects up to {clear:.3} m high");
+                }
                 self.watcher
                     .look_at(self.hw, &Vec3::new(target[0], target[1], table_z + 0.05))?;
                 let transfer = binding.transfer;
                 let r = self.with_observer(|hw, reach, hand, obs| {
-                    transport_over(hw, &mut reach[k], &held, target, table_z, wall, obs)?;
+                    transport_over(hw, &mut reach[k], &held, target, table_z, clear, obs)?;
                     lower_until_supported(hw, &mut reach[k], &held, table_z, obs);
                     if transfer {
                         // The transfer ends with the hand open: the other hand takes it from here.
@@ -983,7 +1133,11 @@ impl SchemaPlant for RobotPlant<'_> {
                 match r {
                     Ok(()) => ActionOutcome::Converged,
                     Err(why) => {
-                        self.held = None;
+                        // Forget the hold only if the fingertips lost it (the carry may have stopped
+                        // on an obstacle with the object still in the hand).
+                        if !self.touch(arm).holding() {
+                            self.held = None;
+                        }
                         ActionOutcome::Failed(why)
                     }
                 }
@@ -1010,8 +1164,35 @@ impl SchemaPlant for RobotPlant<'_> {
             }
             other => ActionOutcome::Failed(format!("Dexter has no controller for `{other}`")),
         };
-        // Let the monitors see the result.
+        // Let the monitors see the result: a controller's convergence shows in its monitor set
+        // within a few percepts (the palm comes to rest, the tracker catches up).
         self.settle(0.3)?;
+        let mut outcome = outcome;
+        if outcome == ActionOutcome::Converged
+            && action != "search_track"
+            && !binding.transfer
+            && let Some(a) = self.action_names.iter().position(|n| n == action)
+        {
+            let mut waited = 0.0;
+            while !self.last_x[a] && waited < MONITOR_WAIT_SECS {
+                self.settle(0.1)?;
+                waited += 0.1;
+            }
+            if !self.last_x[a] && action == "reach_object" {
+                // The hand is where the object was seen, and the monitors see no object there:
+                // the robot reached for a segment that is gone.
+                let id = self.target.as_ref().and_then(|t| t.0);
+                let present = self
+                    .percepts
+                    .last()
+                    .is_some_and(|p| id.is_some_and(|id| p.segments.iter().any(|s| s.id == id)));
+                if !present {
+                    outcome = ActionOutcome::Failed(
+                        "the hand reached where the object was seen, and no object is seen there (it is gone)".into(),
+                    );
+                }
+            }
+        }
         if debug_exec()
             && let Some(p) = self.percepts.last()
         {
@@ -1221,5 +1402,33 @@ impl schema::ProceduralPolicy for PickPlacePolicy {
             }),
             transfer,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 20 × 25 cm bin: an empty one takes the object in its middle; with a can (radius 3 cm)
+    /// already in the middle, a 3 cm object goes where the gap between them is widest (a corner:
+    /// the bin is small), inside the walls; with objects larger than the room left, the middle stands.
+    #[test]
+    fn a_free_spot_keeps_clear_of_what_is_seen_in_the_bin() {
+        let (center, size) = ([0.55, -0.45], [0.2, 0.25]);
+        assert_eq!(free_spot(center, size, 0.03, &[]), center);
+        let spot = free_spot(center, size, 0.03, &[(center, 0.03)]);
+        let gap = (spot[0] - center[0]).hypot(spot[1] - center[1]) - 0.06;
+        assert!(gap > 0.005, "spot {spot:?}, gap {gap}");
+        for i in 0..2 {
+            assert!(
+                (spot[i] - center[i]).abs() <= size[i] / 2.0 - 0.03 - WALL_ROOM + 1e-9,
+                "{spot:?}"
+            );
+        }
+        // A can near one wall: the spot is on the other side.
+        let can = [center[0], center[1] + 0.07];
+        let spot = free_spot(center, size, 0.03, &[(can, 0.03)]);
+        assert!(spot[1] < center[1] - 0.02, "{spot:?}");
+        assert_eq!(free_spot(center, size, 0.08, &[(can, 0.03)]), center);
     }
 }

@@ -108,15 +108,30 @@ impl SeenObject {
     }
 }
 
-/// The measured extent of a blob: prism or sphere from the support-plane estimate, else a coarse
-/// disc from the silhouette area at the triangulated range and a height from the centroid.
+/// The measured extent of a blob: prism or sphere from the support-plane estimate (a round
+/// cross-section whose silhouettes are elongated in both cameras is an object lying on its side:
+/// [`lying_footprint`], model `lying`), else a coarse disc from the silhouette area at the
+/// triangulated range and a height from the centroid.
 pub fn extent_of(blob: &StereoBlob, cams: &StereoCameras, table_z: f64) -> Option<schema::SeenExtent> {
     use crate::vision::CentroidSource;
     let c = blob.centroid?;
-    let footprint = blob.footprint;
+    let mut footprint = blob.footprint;
     let (height, model) = match blob.source {
         CentroidSource::Prism { height } => (height, "prism"),
-        CentroidSource::Round { radius } => (2.0 * radius, "round"),
+        CentroidSource::Round { radius } => {
+            let views = [(&blob.left, &cams.left), (&blob.right, &cams.right)]
+                .map(|(s, cam)| s.as_ref().map(|s| (s.features.centroid, s.features.covariance, cam)));
+            match views {
+                [Some(l), Some(r)] => match lying_footprint([l, r], &c, radius) {
+                    Some(f) => {
+                        footprint = Some(f);
+                        (2.0 * radius, if f.half_major > radius { "lying" } else { "round" })
+                    }
+                    None => (2.0 * radius, "round"),
+                },
+                _ => (2.0 * radius, "round"),
+            }
+        }
         CentroidSource::Triangulated => ((2.0 * (c.z - table_z)).clamp(0.02, 0.4), "coarse"),
     };
     let f = match footprint {
@@ -141,6 +156,116 @@ pub fn extent_of(blob: &StereoBlob, cams: &StereoCameras, table_z: f64) -> Optio
         half_major: f.half_major,
         half_minor: f.half_minor,
         model: model.into(),
+    })
+}
+
+/// Silhouettes whose image covariance has eigenvalues further apart than this factor in both
+/// cameras are elongated: a sphere's, stretched by 1/cos θ off-axis, stay below 1.4 in the head's
+/// field of view (the vision's own test, `vision::support`, uses the same factor for the radius).
+const LYING_ELONGATION: f64 = 1.6;
+
+/// An elongated silhouette whose major axis lies within this angle (rad) of the image of the
+/// vertical may be an object standing up ([`lying_footprint`]).
+const VERTICAL_SLACK: f64 = 0.35;
+
+/// One camera's view of a segment for [`lying_footprint`]: its image centroid (px), its
+/// covariance (px²) and the camera.
+pub type SilhouetteView<'a> = ([f64; 2], [[f64; 2]; 2], &'a control_basis::hardware::Camera);
+
+/// The footprint of an object with a round cross-section of `radius` seen at `centroid` (what the
+/// support-plane estimate measured as "round"), from its two silhouettes (image centroid, covariance
+/// in px², camera). `None` when either silhouette is not elongated ([`LYING_ELONGATION`]): a sphere,
+/// whose footprint is the disc of its radius.
+///
+/// An elongated silhouette whose major axis does not run along the image of the vertical is an
+/// object lying on its side, its axis at the centroid's height: each silhouette's major axis, a band
+/// of variance L²/12 along it, is cast through its ends onto that horizontal plane, and the two
+/// cameras' axes and lengths are averaged. One that runs along the image of the vertical (within
+/// [`VERTICAL_SLACK`], in either camera) is either a round-topped object standing up or one lying
+/// along the line of sight (foreshortened): the disc of `radius` with its major axis along the line
+/// of sight, so that a grasp closes across it (ties go across the major axis, [`plan_top_grasp`]) —
+/// right for both.
+///
+/// The support-plane estimate fits a lying bottle as a sphere of the bottle's radius; its disc
+/// footprint hid the bottle's length from the grasp planner, whose fingers then closed along it
+/// and stopped on the bottle (a knocked-over soy-sauce bottle, fault scene bump 28).
+pub fn lying_footprint(
+    views: [SilhouetteView<'_>; 2],
+    centroid: &Vec3,
+    radius: f64,
+) -> Option<crate::vision::Footprint> {
+    let mut first: Option<[f64; 2]> = None;
+    let mut axis = [0.0; 2];
+    let mut half = 0.0;
+    let mut upright = false;
+    let mut sight = Vec3::zeros();
+    for (uv, cov, cam) in views {
+        sight += centroid - cam.position();
+        let [[a, b], [_, d]] = cov;
+        let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+        let (l_min, l_max) = (0.5 * (a + d) - disc, 0.5 * (a + d) + disc);
+        if l_max.is_nan() || l_max <= LYING_ELONGATION * l_min.max(0.0) {
+            return None;
+        }
+        // The major eigenvector.
+        let e = if b.abs() > 1e-12 {
+            [b, l_max - a]
+        } else if a >= d {
+            [1.0, 0.0]
+        } else {
+            [0.0, 1.0]
+        };
+        let n = e[0].hypot(e[1]);
+        let e = [e[0] / n, e[1] / n];
+        // The image of the vertical through the centroid.
+        let (u0, v0) = cam.project_unbounded(centroid)?;
+        let (u1, v1) = cam.project_unbounded(&(centroid + Vec3::new(0.0, 0.0, 0.05)))?;
+        let up = (u1 - u0).hypot(v1 - v0);
+        if up > 1e-9 && (e[0] * (u1 - u0) + e[1] * (v1 - v0)).abs() / up > VERTICAL_SLACK.cos() {
+            upright = true;
+        }
+        let h = (3.0 * l_max).sqrt();
+        let on_plane = |k: f64| -> Option<Vec3> {
+            let (o, dir) = cam.ray(uv[0] + k * h * e[0], uv[1] + k * h * e[1]);
+            if dir.z.abs() < 1e-6 {
+                return None;
+            }
+            let t = (centroid.z - o.z) / dir.z;
+            (t > 0.0 && t.is_finite()).then(|| o + t * dir)
+        };
+        let w = on_plane(1.0)? - on_plane(-1.0)?;
+        let len = w.xy().norm();
+        if len.is_nan() || len <= 1e-6 {
+            return None;
+        }
+        let mut ax = [w.x / len, w.y / len];
+        match first {
+            Some(f) if f[0] * ax[0] + f[1] * ax[1] < 0.0 => ax = [-ax[0], -ax[1]],
+            Some(_) => {}
+            None => first = Some(ax),
+        }
+        axis[0] += ax[0];
+        axis[1] += ax[1];
+        half += 0.25 * len;
+    }
+    if upright {
+        let n = sight.xy().norm();
+        return (n > 1e-9).then(|| crate::vision::Footprint {
+            center: [centroid.x, centroid.y],
+            major_axis: [sight.x / n, sight.y / n],
+            half_major: radius,
+            half_minor: radius,
+        });
+    }
+    let n = axis[0].hypot(axis[1]);
+    if n.is_nan() || n <= 1e-9 {
+        return None;
+    }
+    Some(crate::vision::Footprint {
+        center: [centroid.x, centroid.y],
+        major_axis: [axis[0] / n, axis[1] / n],
+        half_major: half.max(radius),
+        half_minor: radius,
     })
 }
 
@@ -224,6 +349,10 @@ pub fn plan_top_grasp_geometry(
     }
 }
 
+/// A negligible extent (m) added along the footprint's major axis when choosing the closing
+/// direction: ties between equally narrow directions go across the major axis.
+const TIE_BIAS: f64 = 1e-6;
+
 /// The share of a coarse height the guarded descent of [`plan_top_grasp`] may come down to: the
 /// palm's goal is planned for an object this much of the measured height (a centroid 4 cm too high
 /// doubles a 10 cm can's coarse height; the palm then stops on the real top).
@@ -233,7 +362,9 @@ const COARSE_HEIGHT_FLOOR: f64 = 0.4;
 /// principal axes and measured height; §6.2.1), for a hand at orientation `current`.
 pub fn plan_top_grasp(arc: &[(f64, f64, f64)], seen: &SeenObject, table_z: f64, current: &Iso3) -> GraspPlan {
     let e = &seen.extent;
-    let half = |d: Vec3| e.half_extent_along([d.x, d.y]);
+    // Among equally narrow directions (a disc), the fingers close across the major axis.
+    let half =
+        |d: Vec3| e.half_extent_along([d.x, d.y]) + TIE_BIAS * (d.x * e.major_axis[0] + d.y * e.major_axis[1]).abs();
     let plan = plan_top_grasp_geometry(arc, &half, e.center, table_z, table_z + e.height, table_z, current);
     if e.model != "coarse" {
         return plan;
@@ -695,8 +826,8 @@ impl Held {
     }
 }
 
-/// Reach ◁ Grasp: carry the held object up to a safe height (clearing walls of `wall_height`) and
-/// over `target` (x, y of where the object's centre should go): a straight line, the configuration
+/// Reach ◁ Grasp: carry the held object up to a safe height (its bottom clearing walls and objects
+/// of `wall_height` above the table) and over `target` (x, y of where the object's centre should go): a straight line, the configuration
 /// servo if that stalls. Fails if the fingertips lose the object or the place is not reached.
 #[allow(clippy::too_many_arguments)]
 pub fn transport_over(
@@ -745,6 +876,10 @@ pub fn transport_over(
         // Stop where the hand is.
         let here = reach.tool_pose(hw);
         reach.set_goal(hw, here);
+        if TouchState::of(&hand_fingertips(hw, arm, &mut buf)).holding() {
+            // Still in the hand: something took its load (it met an obstacle on the way).
+            return Err("the carried object met an obstacle (the fingertips felt its load taken)".into());
+        }
         return Err("object dropped during transport (the fingertips lost the load)".into());
     }
     if !reach.at_goal(hw, 0.01, 0.05) {
@@ -986,4 +1121,132 @@ pub fn choose_arm(
         ));
     }
     Ok(Err(reasons.join("; ")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use control_basis::hardware::Camera;
+    use nalgebra::Point3;
+
+    /// A head camera (160 × 120, the head's focal length) at `eye`, looking at the table.
+    fn camera(eye: [f64; 3]) -> Camera {
+        let world_from_optical = Iso3::face_towards(
+            &Point3::from(eye),
+            &Point3::new(0.6, 0.0, 0.75),
+            &Vec3::new(0.0, 0.0, -1.0),
+        );
+        Camera {
+            world_from_optical,
+            width: 160,
+            height: 120,
+            fx: 160.0,
+            fy: 160.0,
+            cx: 80.0,
+            cy: 60.0,
+        }
+    }
+
+    /// A capped cylinder of `radius` and half length `half` with its axis `axis` through `center`.
+    fn cylinder(center: Vec3, axis: Vec3, radius: f64, half: f64) -> impl Fn(Vec3) -> bool {
+        move |p: Vec3| {
+            let d = p - center;
+            let along = d.dot(&axis);
+            along.abs() <= half && (d - along * axis).norm() <= radius
+        }
+    }
+
+    /// The silhouette (image centroid, covariance) of the solid `inside`, rasterised by marching
+    /// every pixel's ray.
+    fn silhouette(cam: &Camera, inside: impl Fn(Vec3) -> bool) -> ([f64; 2], [[f64; 2]; 2]) {
+        let (mut n, mut su, mut sv, mut suu, mut suv, mut svv) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        for v in 0..cam.height {
+            for u in 0..cam.width {
+                let (o, d) = cam.ray(f64::from(u), f64::from(v));
+                let hit = (0..700).any(|k| inside(o + (0.3 + 0.002 * f64::from(k)) * d));
+                if hit {
+                    let (u, v) = (f64::from(u), f64::from(v));
+                    n += 1.0;
+                    su += u;
+                    sv += v;
+                    suu += u * u;
+                    suv += u * v;
+                    svv += v * v;
+                }
+            }
+        }
+        assert!(n > 20.0, "the cylinder is in view");
+        let (mu, mv) = (su / n, sv / n);
+        let cuv = suv / n - mu * mv;
+        ([mu, mv], [[suu / n - mu * mu, cuv], [cuv, svv / n - mv * mv]])
+    }
+
+    /// A bottle (radius 3.5 cm, 18 cm long) lying on the table at four headings: its footprint
+    /// runs along its axis, about its length, and the planned grasp closes across it. A ball is
+    /// not elongated: no footprint (the disc of its radius stands).
+    #[test]
+    fn a_lying_bottle_is_grasped_across_its_axis() {
+        let (l, r) = (camera([0.05, 0.03, 1.45]), camera([0.05, -0.03, 1.45]));
+        let (radius, half, table_z) = (0.035, 0.09, 0.75);
+        let center = Vec3::new(0.6, 0.08, table_z + radius);
+        let arc: Vec<(f64, f64, f64)> = (0..=100)
+            .map(|k| {
+                let m = FLEX_CLOSED * f64::from(k) / 100.0;
+                (m, 0.09 - 0.06 * m / FLEX_CLOSED, 0.02 + 0.08 * m / FLEX_CLOSED)
+            })
+            .collect();
+        for deg in [0.0_f64, 45.0, 90.0, 135.0] {
+            let axis = Vec3::new(deg.to_radians().cos(), deg.to_radians().sin(), 0.0);
+            let (ul, cl) = silhouette(&l, cylinder(center, axis, radius, half));
+            let (ur, cr) = silhouette(&r, cylinder(center, axis, radius, half));
+            let f = lying_footprint([(ul, cl, &l), (ur, cr, &r)], &center, radius)
+                .unwrap_or_else(|| panic!("{deg}°: a lying bottle is elongated"));
+            let along = (f.major_axis[0] * axis.x + f.major_axis[1] * axis.y).abs();
+            assert!(along > 0.98, "{deg}°: major axis {:?}", f.major_axis);
+            if deg > 0.0 {
+                assert!(
+                    (0.065..0.12).contains(&f.half_major),
+                    "{deg}°: half length {}",
+                    f.half_major
+                );
+            } else {
+                // Along the line of sight: it might as well stand.
+                assert_eq!(f.half_major, radius);
+            }
+            let seen = SeenObject {
+                centroid: center,
+                extent: schema::SeenExtent {
+                    height: 2.0 * radius,
+                    center: f.center,
+                    major_axis: f.major_axis,
+                    half_major: f.half_major,
+                    half_minor: f.half_minor,
+                    model: "lying".into(),
+                },
+            };
+            let plan = plan_top_grasp(&arc, &seen, table_z, &Iso3::identity());
+            let closing = plan.grasp.rotation * Vec3::y();
+            assert!(
+                closing.dot(&axis).abs() < 0.26,
+                "{deg}°: fingers close along {closing:?}"
+            );
+            assert!(plan.width < 0.08, "{deg}°: width {}", plan.width);
+        }
+        // A jar standing up (round-topped): the disc of its radius, across the line of sight.
+        for (x, y) in [(0.6, 0.08), (0.75, 0.0), (0.45, -0.2)] {
+            let c = Vec3::new(x, y, table_z + 0.0475);
+            let standing = |p: Vec3| {
+                let d = p - c;
+                d.z.abs() <= 0.0475 && d.xy().norm() <= 0.04
+            };
+            let ((ul, cl), (ur, cr)) = (silhouette(&l, standing), silhouette(&r, standing));
+            let f = lying_footprint([(ul, cl, &l), (ur, cr, &r)], &Vec3::new(x, y, table_z + 0.04), 0.04)
+                .expect("a standing jar's silhouette is elongated");
+            assert_eq!((f.half_major, f.half_minor), (0.04, 0.04), "at ({x}, {y})");
+        }
+        let ball = Vec3::new(0.6, 0.08, table_z + 0.04);
+        let sphere = |p: Vec3| (p - ball).norm() <= 0.04;
+        let ((ul, cl), (ur, cr)) = (silhouette(&l, sphere), silhouette(&r, sphere));
+        assert!(lying_footprint([(ul, cl, &l), (ur, cr, &r)], &ball, 0.04).is_none());
+    }
 }

@@ -85,8 +85,9 @@ pub struct SeenExtent {
     pub half_major: f64,
     /// Half extent along the minor axis (m).
     pub half_minor: f64,
-    /// `prism` (flat top measured), `round` (a sphere's radius) or `coarse` (from the silhouette
-    /// size only).
+    /// `prism` (flat top measured), `round` (a sphere's radius), `lying` (a round cross-section
+    /// lying on its side: height its diameter, footprint along its axis) or `coarse` (from the
+    /// silhouette size only).
     pub model: String,
 }
 
