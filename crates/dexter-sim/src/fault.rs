@@ -1,18 +1,19 @@
-//! Injected faults (world side): the world, from its truth, decides when a fault fires and does it —
-//! drops the held object, bumps the object the hand is about to grasp, blocks an arm's path to the
-//! object, covers the head cameras, or sends bursts of noise through the encoders and fingertip
-//! sensors. The robot is never told: it has to notice from its own sensors (the fingertips lose the
-//! load, a grasp closes on nothing, a reach does not converge, the cameras lose the object) and take
-//! one of the schema's contingencies (§3.3.3).
+//! Injected faults (world side): the world, from its truth, decides when a fault fires and does it
+//! **through the physics** — the holding hand's fingers open for a moment during transport (the
+//! object falls, tips, rolls or bounces wherever the physics puts it), an impulse pushes the object
+//! as the hand arrives above it, a fixed post appears in the path of the arm that reaches for the
+//! object — or covers the head cameras, or sends bursts of noise through the encoders and fingertip
+//! sensors. Nothing is teleported. The robot is never told: it has to notice from its own sensors
+//! (the fingertips lose the load, a grasp closes on nothing, a reach does not converge, the cameras
+//! lose the object) and take one of the schema's contingencies (§3.3.3).
 //!
 //! One [`Fault`] is armed per run and hooked into [`crate::hardware::SimRobot`] at one place: its
-//! trigger is evaluated after every advance of the hardware, its sensor effects are applied where
-//! the robot reads. Idle (armed, or done), it allocates nothing per step; the buffers it needs are
-//! made when it is armed.
+//! trigger is evaluated after every advance of the hardware, its effects on the motor references
+//! and the sensors are applied where the robot commands and reads. Idle (armed, or done), it
+//! allocates nothing per step; the buffers it needs are made when it is armed.
 
 use control_basis::hardware::{ForceTorque, Image};
-use control_basis::math::{Iso3, Vec3};
-use control_basis::{Chain, ChainBinding, ChainState};
+use control_basis::math::{Iso3, Rot3, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::error::SimError;
@@ -25,12 +26,14 @@ use bayes::rng::{Draw, Generator};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum FaultKind {
-    /// The held object falls out of the hand during transport.
+    /// The holding hand's fingers open for a moment during transport (the world overrides their
+    /// motor references; the robot is not told): the object falls where the physics puts it.
     Drop,
-    /// The object is pushed 4–8 cm sideways as the hand arrives above it, so the grasp misses.
+    /// An impulse pushes the object sideways as the hand arrives above it, so the grasp misses;
+    /// where it ends (slid, tipped, rolled) is the physics'.
     Bump,
-    /// The path of the arm that reaches for the object first is blocked near the object: that arm
-    /// cannot come within [`BLOCK_RADIUS`] of where the object lay.
+    /// A fixed post ([`OBSTACLE_SIZE`]) appears on the table between the object and the arm that
+    /// starts to reach for it: that arm cannot get through; the other arm's side stays free.
     BlockedArm,
     /// The head cameras are covered (black images) for a while as the hand arrives at the object.
     Occlusion,
@@ -73,9 +76,18 @@ impl std::fmt::Display for FaultKind {
     }
 }
 
-/// Radius (m) of the region around the object's starting place that a blocked arm's palm cannot
-/// enter.
-pub const BLOCK_RADIUS: f64 = 0.12;
+/// The blocking post (m): 22 cm wide across the arm's path, 6 cm thick along it (thick enough that
+/// a hand pressed against it by its motors does not pass through) and 55 cm tall (above the
+/// hover height of every reach, 32–45 cm above the table).
+pub const OBSTACLE_SIZE: [f64; 3] = [0.06, 0.22, 0.55];
+
+/// Room (m) between the object's side and the post's face: the other hand's open fingers fit
+/// between them.
+pub const OBSTACLE_GAP: f64 = 0.07;
+
+/// How much nearer (m) to the object an arm's palm must have come since the fault was armed for
+/// that arm to count as reaching for it (the blocked-arm trigger).
+pub const REACH_STARTED: f64 = 0.02;
 
 /// What to inject, and when.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -84,14 +96,15 @@ pub struct FaultSpec {
     pub kind: FaultKind,
     /// The object it concerns (index into the world's objects).
     pub object: usize,
-    /// Seed of its random choices (drop offset, bump direction, noise).
+    /// Seed of its random choices (push size and direction, noise).
     pub seed: u64,
     /// Drop: the object must be this high (m) above where it rested, and the hand have moved this
     /// far (m) sideways since it was lifted.
     pub drop_after: (f64, f64),
-    /// Bump: the push (m), uniform in this range, in a random direction.
+    /// Bump: the push, uniform in this range, as the distance (m) it would slide the object on the
+    /// table (the impulse is `m √(2 μ g d)`); where it ends is the physics'.
     pub bump: (f64, f64),
-    /// Occlusion and sensor noise: how long (s).
+    /// Drop: how long the fingers are held open; occlusion and sensor noise: how long (s).
     pub duration_secs: f64,
     /// Sensor noise: encoder (rad) and force (N) standard deviations during the burst.
     pub noise: (f64, f64),
@@ -108,6 +121,7 @@ impl FaultSpec {
             bump: (0.04, 0.08),
             duration_secs: match kind {
                 FaultKind::Occlusion => 3.0,
+                FaultKind::Drop => 0.5,
                 _ => 0.6,
             },
             noise: (0.01, 1.5),
@@ -124,25 +138,17 @@ pub struct FaultRecord {
     pub fired: bool,
     /// When (s, simulated).
     pub fired_at: Option<f64>,
-    /// What it did.
+    /// What it did (and, for a drop or a push, where the object first came to rest).
     pub detail: String,
 }
 
-/// The blocked arm's kinematics: its chain from the world to the palm, the commanded and last
-/// admissible configurations.
-struct Blocked {
-    arm: Arm,
-    center: [f64; 2],
-    chain: Chain,
-    state: ChainState,
-    binding: ChainBinding,
-    /// The robot's commanded references (q, q̇) of every motor unit (plant order).
-    q_cmd: Vec<f64>,
-    qd_cmd: Vec<f64>,
-    /// The arm's last commanded configuration whose palm is outside the blocked region (chain
-    /// order), and a buffer.
-    q_ok: Vec<f64>,
-    q_chain: Vec<f64>,
+/// A drop under way: the hand whose fingers the world holds open, and the robot's latest
+/// references of their flexion (kept for when the fingers are given back).
+#[derive(Debug, Clone, Copy)]
+struct OpenHand {
+    hand: usize,
+    q_cmd: [f64; 3],
+    qd_cmd: [f64; 3],
 }
 
 /// An armed fault and its state during a run.
@@ -150,20 +156,33 @@ pub struct Fault {
     spec: FaultSpec,
     rng: Generator,
     table_z: f64,
-    /// The object's pose and height at the start.
+    /// The object's pose, height and horizontal radius (m) at the start.
     rest: Iso3,
     height: f64,
+    radius: f64,
+    /// Its mass (kg) and its friction on the table (the mean of both coefficients, Rapier's rule).
+    mass: f64,
+    friction: f64,
     /// The two palms' links, and the six fingertips' (left F1–F3, right F1–F3).
     palms: [usize; 2],
     tips: [usize; 6],
-    /// Table and places (x, y centre and half size), for where a pushed or dropped object may land.
+    /// The flexion motor units (F1–F3 medial joints) of each hand.
+    flex: [[usize; 3]; 2],
+    /// Each palm's horizontal distance (m) to the object when the fault was armed.
+    palm_start: [f64; 2],
+    /// Table and places (x, y centre and half size), for where a pushed object may be aimed.
     table: ([f64; 2], [f64; 2]),
     places: Vec<([f64; 2], [f64; 2])>,
     /// Drop: where the object was when it was first lifted.
     lifted_at: Option<[f64; 2]>,
-    /// Occlusion / noise: active until this time.
+    /// Drop, occlusion, noise: active until this time.
     until: Option<f64>,
-    blocked: Option<Blocked>,
+    /// Drop: the hand held open.
+    open: Option<OpenHand>,
+    /// Drop and bump: the outcome is still to be noted (the object has not come to rest yet).
+    settling: bool,
+    /// Blocked arm: the arm, once the post is in its path.
+    blocked: Option<Arm>,
     /// Sensor noise: the noisy encoder readings, and noise samples (force, per sensor and axis)
     /// cycled through by physics step.
     q_noisy: Vec<f64>,
@@ -192,16 +211,30 @@ impl Fault {
         }
         let table_z = scene.spec.table.height;
         let rest = sim.object_state(spec.object).pose;
-        let height = (2.0 * (rest.translation.z - table_z)).max(0.02);
+        let object = &sim.objects()[spec.object];
+        let collider = sim.world().colliders.get(object.collider);
+        let (height, radius) = match collider {
+            Some(c) => {
+                let aabb = c.compute_aabb();
+                let (lo, hi) = (aabb.mins, aabb.maxs);
+                ((hi.z - table_z).max(0.02), 0.5 * (hi.x - lo.x).max(hi.y - lo.y))
+            }
+            None => ((2.0 * (rest.translation.z - table_z)).max(0.02), 0.04),
+        };
+        let friction = 0.5 * (collider.map_or(0.5, |c| c.friction()) + scene.spec.table.friction);
+        let mass = object.mass;
         let palm = |arm: Arm| sim.model().link(&dexter::control::tool_link(arm));
         let palms = [palm(Arm::Left)?, palm(Arm::Right)?];
         let mut tips = [0; 6];
-        for (k, t) in tips.iter_mut().enumerate() {
+        let mut flex = [[0; 3]; 2];
+        for k in 0..6 {
             let arm = Arm::BOTH[k / 3];
-            *t = sim
-                .model()
-                .link(&format!("{}/bhand/finger_{}/tip_link", arm.prefix(), k % 3 + 1))?;
+            let finger = format!("{}/bhand/finger_{}", arm.prefix(), k % 3 + 1);
+            tips[k] = sim.model().link(&format!("{finger}/tip_link"))?;
+            flex[k / 3][k % 3] = sim.dof(&format!("{finger}/med_joint"))?;
         }
+        let at = rest.translation.vector;
+        let palm_start = std::array::from_fn(|k| (sim.link_pose(palms[k]).translation.vector - at).xy().norm());
         let t = &scene.spec.table;
         let n = sim.joint_names().len();
         let (q_noisy, ft_noise) = if spec.kind == FaultKind::SensorNoise {
@@ -214,8 +247,13 @@ impl Fault {
             table_z,
             rest,
             height,
+            radius,
+            mass,
+            friction,
             palms,
             tips,
+            flex,
+            palm_start,
             table: (t.center, [t.size[0] / 2.0, t.size[1] / 2.0]),
             places: scene
                 .spec
@@ -230,6 +268,8 @@ impl Fault {
                 .collect(),
             lifted_at: None,
             until: None,
+            open: None,
+            settling: false,
             blocked: None,
             q_noisy,
             ft_noise,
@@ -263,51 +303,20 @@ impl Fault {
             .all(|(pc, ph)| (xy[0] - pc[0]).abs() > ph[0] + r + 0.03 || (xy[1] - pc[1]).abs() > ph[1] + r + 0.03)
     }
 
-    /// The object at rest on the table at `xy`, upright as it started.
-    fn rest_at(&self, sim: &mut DexterSim, xy: [f64; 2]) {
-        let mut pose = self.rest;
-        pose.translation.vector.x = xy[0];
-        pose.translation.vector.y = xy[1];
-        sim.teleport_object(self.spec.object, &pose);
-    }
-
-    /// Whether the fault intercepts the robot's reference of motor unit `dof` (it then keeps it; see
-    /// [`Fault::before_advance`]).
+    /// Whether the fault intercepts the robot's reference of motor unit `dof`: during a drop, the
+    /// open hand's flexion references are the world's; the robot's are kept and given back when the
+    /// fingers are.
     pub fn command(&mut self, dof: usize, q: f64, qd: f64) -> bool {
-        match self.blocked.as_mut() {
-            Some(b) if dof < b.q_cmd.len() => {
-                b.q_cmd[dof] = q;
-                b.qd_cmd[dof] = qd;
-                (0..b.chain.dof()).any(|i| b.binding.plant_index(i) == dof)
-            }
-            _ => false,
-        }
-    }
-
-    /// Before the physics steps: the blocked arm gets the robot's references while they keep its
-    /// palm outside the blocked region, else the last ones that did (the arm stops at the
-    /// obstacle).
-    pub fn before_advance(&mut self, sim: &mut DexterSim) {
-        let Some(b) = self.blocked.as_mut() else {
-            return;
+        let Some(o) = self.open.as_mut() else {
+            return false;
         };
-        b.binding.gather(&b.q_cmd, &mut b.q_chain);
-        if b.state.set_q(&b.chain, &b.q_chain).is_err() {
-            return;
-        }
-        control_basis::forward_kinematics(&b.chain, &mut b.state);
-        let p = b.state.tip_pose().translation.vector;
-        let inside = (p.x - b.center[0]).hypot(p.y - b.center[1]) < BLOCK_RADIUS;
-        if !inside {
-            b.q_ok.copy_from_slice(&b.q_chain);
-        }
-        for i in 0..b.chain.dof() {
-            let d = b.binding.plant_index(i);
-            if inside {
-                sim.set_joint_target(d, b.q_ok[i], 0.0);
-            } else {
-                sim.set_joint_target(d, b.q_cmd[d], b.qd_cmd[d]);
+        match self.flex[o.hand].iter().position(|&d| d == dof) {
+            Some(f) => {
+                o.q_cmd[f] = q;
+                o.qd_cmd[f] = qd;
+                true
             }
+            None => false,
         }
     }
 
@@ -322,11 +331,20 @@ impl Fault {
         if let Some(until) = self.until {
             if t >= until {
                 self.until = None;
+                if let Some(o) = self.open.take() {
+                    // The fingers are the robot's again: they go where it last commanded them.
+                    for (f, &d) in self.flex[o.hand].iter().enumerate() {
+                        sim.set_joint_target(d, o.q_cmd[f], o.qd_cmd[f]);
+                    }
+                }
             } else if self.spec.kind == FaultKind::SensorNoise {
                 self.noisy_encoders(sim);
             }
         }
         if self.record.fired {
+            if self.settling {
+                self.note_rest(sim);
+            }
             return;
         }
         let o = sim.object_state(self.spec.object);
@@ -363,26 +381,33 @@ impl Fault {
                     return;
                 };
                 if self.spec.kind == FaultKind::Drop && (xy[0] - l[0]).hypot(xy[1] - l[1]) > self.spec.drop_after.1 {
-                    // It slips out and lands below the hand, a little to the side.
-                    let r = self.height.min(0.1) * 0.5;
-                    let mut land = xy;
-                    for _ in 0..8 {
-                        let a = std::f64::consts::TAU * self.rng.uniform();
-                        let d = 0.03 * self.rng.uniform();
-                        let c = [xy[0] + d * a.cos(), xy[1] + d * a.sin()];
-                        if self.free_on_table(c, r) {
-                            land = c;
-                            break;
-                        }
+                    // The grip fails: the holding hand's fingers open (the robot's references of
+                    // them are kept, not applied) and the physics lets the object fall.
+                    let hand = (0..2)
+                        .min_by(|&a, &b| (palm(a) - at).norm().total_cmp(&(palm(b) - at).norm()))
+                        .expect("two hands");
+                    let targets = sim.joint_targets();
+                    let velocities = sim.joint_target_velocities();
+                    let open = OpenHand {
+                        hand,
+                        q_cmd: self.flex[hand].map(|d| targets[d]),
+                        qd_cmd: self.flex[hand].map(|d| velocities[d]),
+                    };
+                    for &d in &self.flex[hand] {
+                        sim.set_joint_target(d, 0.0, 0.0);
                     }
-                    self.rest_at(sim, land);
+                    self.open = Some(open);
+                    self.until = Some(t + self.spec.duration_secs);
+                    self.settling = true;
                     self.fire(
                         t,
                         format!(
-                            "dropped {:.0} cm above the table, landed at ({:.3}, {:.3})",
-                            100.0 * (at.z - rest_z),
-                            land[0],
-                            land[1]
+                            "the {} hand's fingers opened for {:.1} s {:.0} cm above the table at ({:.3}, {:.3})",
+                            Arm::BOTH[hand],
+                            self.spec.duration_secs,
+                            100.0 * (at.z - rest_z + 0.5 * self.height),
+                            at.x,
+                            at.y
                         ),
                     );
                 }
@@ -405,83 +430,148 @@ impl Fault {
                     );
                     return;
                 }
-                let r = 0.5 * self.height.min(0.1);
-                let (lo, hi) = self.spec.bump;
-                // Pushed clear of the descending hand's fingertips (a push under a fingertip would
-                // be a collision of the hand with the object, not a missed grasp): of 16 random
-                // pushes on the table, the one farthest from the fingertips.
-                let tips: [Vec3; 3] = std::array::from_fn(|f| sim.link_pose(self.tips[3 * k + f]).translation.vector);
-                let mut best: Option<(f64, [f64; 2], f64)> = None;
-                for _ in 0..16 {
-                    let a = std::f64::consts::TAU * self.rng.uniform();
-                    let d = lo + (hi - lo) * self.rng.uniform();
-                    let c = [at.x + d * a.cos(), at.y + d * a.sin()];
-                    if !self.free_on_table(c, r) {
-                        continue;
-                    }
-                    let clear = tips
-                        .iter()
-                        .map(|t| (t.x - c[0]).hypot(t.y - c[1]))
-                        .fold(f64::INFINITY, f64::min);
-                    if best.is_none_or(|b| clear > b.0) {
-                        best = Some((clear, c, d));
-                    }
-                }
-                if let Some((_, c, d)) = best {
-                    self.rest_at(sim, c);
-                    self.fire(
-                        t,
-                        format!(
-                            "pushed {:.1} cm to ({:.3}, {:.3}) as the {} hand arrived above it",
-                            100.0 * d,
-                            c[0],
-                            c[1],
-                            Arm::BOTH[k]
-                        ),
-                    );
-                }
+                self.bump(sim, k, &at);
             }
             FaultKind::BlockedArm => {
-                let (k, p) = nearest_palm();
-                if !(on_table && (p - at).xy().norm() < 0.20) {
+                if !on_table {
                     return;
                 }
-                let arm = Arm::BOTH[k];
-                let Ok(chain) = Chain::new(sim.model(), "world", &dexter::control::tool_link(arm)) else {
+                // The arm that reaches for the object: the palm that came nearer to it since the
+                // fault was armed (an arm moved out of the way goes farther).
+                let Some((k, d)) = (0..2)
+                    .map(|k| (k, (palm(k) - at).xy().norm()))
+                    .filter(|&(k, d)| d < self.palm_start[k] - REACH_STARTED)
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+                else {
                     return;
                 };
-                let Ok(binding) = ChainBinding::by_name(&chain, sim.joint_names()) else {
-                    return;
-                };
-                let mut q_chain = vec![0.0; chain.dof()];
-                binding.gather(sim.joint_targets(), &mut q_chain);
-                self.blocked = Some(Blocked {
-                    arm,
-                    center: [at.x, at.y],
-                    state: chain.new_state(),
-                    q_cmd: sim.joint_targets().to_vec(),
-                    qd_cmd: sim.joint_target_velocities().to_vec(),
-                    q_ok: q_chain.clone(),
-                    q_chain,
-                    chain,
-                    binding,
-                });
-                self.fire(
-                    t,
-                    format!(
-                        "the {arm} arm's path blocked within {:.0} cm of ({:.3}, {:.3})",
-                        100.0 * BLOCK_RADIUS,
-                        at.x,
-                        at.y
-                    ),
-                );
+                self.block(sim, k, d, &at);
             }
         }
     }
 
+    /// The push: an impulse on the object, low on its side, in the random direction (of 16) that
+    /// aims it farthest from the descending hand's fingertips while it would stay on the table; its
+    /// size is the one that would slide it `spec.bump` on the table. Whether it slides, tips or
+    /// rolls, and where it ends, is the physics'.
+    fn bump(&mut self, sim: &mut DexterSim, k: usize, at: &Vec3) {
+        let (lo, hi) = self.spec.bump;
+        let tips: [Vec3; 3] = std::array::from_fn(|f| sim.link_pose(self.tips[3 * k + f]).translation.vector);
+        let mut best: Option<(f64, f64, f64)> = None;
+        for _ in 0..16 {
+            let a = std::f64::consts::TAU * self.rng.uniform();
+            let d = lo + (hi - lo) * self.rng.uniform();
+            let c = [at.x + d * a.cos(), at.y + d * a.sin()];
+            if !self.free_on_table(c, self.radius) {
+                continue;
+            }
+            let clear = tips
+                .iter()
+                .map(|t| (t.x - c[0]).hypot(t.y - c[1]))
+                .fold(f64::INFINITY, f64::min);
+            if best.is_none_or(|b| clear > b.0) {
+                best = Some((clear, a, d));
+            }
+        }
+        let Some((_, a, d)) = best else {
+            return;
+        };
+        let g = sim.settings().gravity;
+        let speed = (2.0 * self.friction * g * d).sqrt();
+        let dir = Vec3::new(a.cos(), a.sin(), 0.0);
+        // A third of the way up its side, facing the push: a hand's shove, not a lift.
+        let point = Vec3::new(at.x, at.y, self.table_z + self.height / 3.0) - self.radius * dir;
+        sim.push_object(self.spec.object, &(self.mass * speed * dir), &point);
+        self.settling = true;
+        self.fire(
+            sim.time(),
+            format!(
+                "pushed at {speed:.2} m/s towards ({:.3}, {:.3}) (would slide {:.1} cm) as the {} hand arrived above it",
+                dir.x,
+                dir.y,
+                100.0 * d,
+                Arm::BOTH[k]
+            ),
+        );
+    }
+
+    /// The post: across the path of arm `k`'s palm (horizontally `d` from the object), on the
+    /// palm's side of the object, [`OBSTACLE_GAP`] from its side — or nearer the object if the palm
+    /// is already close. Not put while it would touch the robot or the object.
+    fn block(&mut self, sim: &mut DexterSim, k: usize, d: f64, at: &Vec3) {
+        let p = sim.link_pose(self.palms[k]).translation.vector;
+        let u = (p - at).xy();
+        let n = u.norm();
+        if n < 1e-6 {
+            return;
+        }
+        let u = Vec3::new(u.x / n, u.y / n, 0.0);
+        let half = Vec3::new(0.5 * OBSTACLE_SIZE[0], 0.5 * OBSTACLE_SIZE[1], 0.5 * OBSTACLE_SIZE[2]);
+        let yaw = u.y.atan2(u.x);
+        for step in 0..4 {
+            let gap = OBSTACLE_GAP - 0.01 * step as f64;
+            let c = self.radius + gap + half.x;
+            if c + half.x > d {
+                continue;
+            }
+            let pose = Iso3::from_parts(
+                (Vec3::new(at.x, at.y, self.table_z + half.z) + c * u).into(),
+                Rot3::from_axis_angle(&Vec3::z_axis(), yaw),
+            );
+            if sim.clearance_of_box(&half, &pose, 0.02) < 0.01 {
+                continue;
+            }
+            sim.add_obstacle(&half, &pose);
+            let arm = Arm::BOTH[k];
+            self.blocked = Some(arm);
+            let w = pose.translation.vector;
+            self.fire(
+                sim.time(),
+                format!(
+                    "a {:.0} × {:.0} × {:.0} cm post put at ({:.3}, {:.3}), {:.0} cm from the object's side, in the {arm} arm's path",
+                    100.0 * OBSTACLE_SIZE[0],
+                    100.0 * OBSTACLE_SIZE[1],
+                    100.0 * OBSTACLE_SIZE[2],
+                    w.x,
+                    w.y,
+                    100.0 * gap
+                ),
+            );
+            return;
+        }
+    }
+
+    /// After a drop or a push: once the object has come to rest, notes where (and whether it lies
+    /// tipped over) in the record.
+    fn note_rest(&mut self, sim: &DexterSim) {
+        let o = sim.object_state(self.spec.object);
+        let since = self.record.fired_at.map_or(0.0, |f| sim.time() - f);
+        if since < 0.3 || o.linvel.norm() > 0.01 || sim.object_angvel(self.spec.object).norm() > 0.05 {
+            return;
+        }
+        self.settling = false;
+        let up = o.pose.rotation * Vec3::z();
+        let up0 = self.rest.rotation * Vec3::z();
+        let tilt = up.dot(&up0).clamp(-1.0, 1.0).acos().to_degrees();
+        let p = o.pose.translation.vector;
+        let moved = (p - self.rest.translation.vector).xy().norm();
+        self.record.detail.push_str(&format!(
+            "; came to rest at ({:.3}, {:.3}, {:.3}), {:.1} cm from its start, {}",
+            p.x,
+            p.y,
+            p.z,
+            100.0 * moved,
+            if tilt > 30.0 {
+                format!("tipped over ({tilt:.0}°)")
+            } else {
+                "upright".into()
+            }
+        ));
+    }
+
     /// The blocked arm, once the fault fired.
     pub fn blocked_arm(&self) -> Option<Arm> {
-        self.blocked.as_ref().map(|b| b.arm)
+        self.blocked
     }
 
     fn draw_ft_noise(&mut self) {
@@ -717,13 +807,6 @@ mod tests {
         (scene, sim)
     }
 
-    fn moved(sim: &mut DexterSim, dx: f64, dz: f64) {
-        let mut p = sim.object_state(0).pose;
-        p.translation.vector.x += dx;
-        p.translation.vector.z += dz;
-        sim.teleport_object(0, &p);
-    }
-
     #[test]
     fn kinds_parse_from_their_names() {
         for k in FaultKind::ALL {
@@ -733,53 +816,171 @@ mod tests {
         assert_eq!(FaultKind::parse("fire"), None);
     }
 
+    /// The robot's configuration with `arm`'s palm at `at` (top-down, as parked), by IK from now.
+    fn palm_at(sim: &DexterSim, arm: Arm, at: Vec3) -> Vec<f64> {
+        use control_basis::{Chain, ChainBinding, IkSettings, inverse_kinematics};
+        let chain = Chain::new(sim.model(), "world", &dexter::control::tool_link(arm)).unwrap();
+        let binding = ChainBinding::by_name(&chain, sim.joint_names()).unwrap();
+        let mut guess = vec![0.0; chain.dof()];
+        binding.gather(sim.joint_positions(), &mut guess);
+        let rotation = dexter::skills::park_pose(arm, 0.75).rotation;
+        let settings = IkSettings {
+            position_tolerance: 1e-4,
+            orientation_tolerance: 1e-3,
+            restarts: 50,
+            seed: 1,
+            ..IkSettings::default()
+        };
+        let sol = inverse_kinematics(&chain, &Iso3::from_parts(at.into(), rotation), &guess, &settings).unwrap();
+        assert!(sol.converged, "{arm} palm at {at:?}: {}", sol.position_error);
+        let mut q = sim.joint_targets().to_vec();
+        binding.scatter(sol.q.as_slice(), &mut q);
+        q
+    }
+
+    fn palm(sim: &DexterSim, arm: Arm) -> Vec3 {
+        sim.link_pose_by_name(&dexter::control::tool_link(arm))
+            .unwrap()
+            .translation
+            .vector
+    }
+
     #[test]
-    fn a_drop_fires_once_the_lifted_object_moves_sideways_and_puts_it_on_the_table() {
-        let (scene, mut sim) = world([0.6, 0.0]);
-        let rest = sim.object_state(0).pose.translation.vector;
-        let mut f = Fault::new(FaultSpec::new(FaultKind::Drop, 0, 3), &sim, &scene).unwrap();
-        f.after_advance(&mut sim);
-        assert!(!f.record().fired, "on the table");
-        moved(&mut sim, 0.0, 0.08);
-        f.after_advance(&mut sim);
-        assert!(!f.record().fired, "lifted, not yet carried");
-        moved(&mut sim, 0.05, 0.0);
-        f.after_advance(&mut sim);
-        assert!(f.record().fired, "{:?}", f.record());
-        let now = sim.object_state(0).pose.translation.vector;
+    fn a_drop_opens_the_holding_hand_once_the_lifted_object_moves_sideways_and_teleports_nothing() {
+        // Nearer the left palm: the left hand is the one that "holds" it.
+        let (scene, mut sim) = world([0.6, 0.1]);
+        let fault = Fault::new(FaultSpec::new(FaultKind::Drop, 0, 3), &sim, &scene).unwrap();
+        let flex = |h: usize| fault.flex[h];
+        let (left, right) = (flex(0), flex(1));
+        let mut hw = crate::hardware::SimRobot::new(&mut sim, &scene, 1)
+            .unwrap()
+            .with_fault(fault);
+        for &d in left.iter().chain(&right) {
+            hw.set_joint_reference(d, 1.2, 0.0);
+        }
+        hw.advance(0.001).unwrap();
+        assert!(!hw.fault().unwrap().record().fired, "on the table");
+        let mut p = hw.sim().object_state(0).pose;
+        p.translation.vector.z += 0.08;
+        hw.sim_mut().teleport_object(0, &p);
+        hw.advance(0.001).unwrap();
+        assert!(!hw.fault().unwrap().record().fired, "lifted, not yet carried");
+        let mut p = hw.sim().object_state(0).pose;
+        p.translation.vector.x += 0.05;
+        hw.sim_mut().teleport_object(0, &p);
+        hw.advance(0.001).unwrap();
+        let record = hw.fault().unwrap().record().clone();
+        assert!(record.fired, "{record:?}");
+        assert!(record.detail.contains("left hand"), "{record:?}");
+        // No teleport: the object is where it was, one millisecond of fall lower.
+        let now = hw.sim().object_state(0).pose.translation.vector;
+        assert!((now - p.translation.vector).norm() < 1e-3, "{now:?}");
+        // The left hand's fingers are the world's (open); the right hand's stay the robot's.
+        for &d in &left {
+            assert_eq!(hw.sim().joint_targets()[d], 0.0);
+            hw.set_joint_reference(d, 1.5, 0.0);
+            assert_eq!(hw.sim().joint_targets()[d], 0.0, "kept by the fault");
+        }
+        for &d in &right {
+            assert_eq!(hw.sim().joint_targets()[d], 1.2);
+        }
+        // After the moment, the fingers go where the robot last commanded them.
+        hw.advance(0.6).unwrap();
+        for &d in &left {
+            assert_eq!(hw.sim().joint_targets()[d], 1.5);
+            hw.set_joint_reference(d, 0.3, 0.0);
+            assert_eq!(hw.sim().joint_targets()[d], 0.3);
+        }
+        // The object fell under gravity and lies on the table.
+        hw.advance(1.0).unwrap();
+        let end = hw.sim().object_state(0).pose.translation.vector;
+        assert!((end.z - scene.spec.table.height - 0.05).abs() < 0.02, "{end:?}");
+    }
+
+    #[test]
+    fn a_bump_pushes_the_object_as_the_hand_arrives_and_the_physics_decides_where_it_ends() {
+        let (scene, mut sim) = world([0.6, 0.05]);
+        let start = sim.object_state(0).pose.translation.vector;
+        let fault = Fault::new(FaultSpec::new(FaultKind::Bump, 0, 5), &sim, &scene).unwrap();
+        let q = palm_at(&sim, Arm::Left, Vec3::new(0.61, 0.05, 0.75 + 0.1 + 0.11));
+        sim.set_configuration(&q).unwrap();
+        let mut hw = crate::hardware::SimRobot::new(&mut sim, &scene, 1)
+            .unwrap()
+            .with_fault(fault);
+        hw.advance(0.001).unwrap();
+        let record = hw.fault().unwrap().record().clone();
+        assert!(record.fired, "{record:?}");
+        let o = hw.sim().object_state(0);
         assert!(
-            (now.z - rest.z).abs() < 1e-9 && (now.xy() - rest.xy()).norm() < 0.09,
-            "{now:?}"
+            (o.pose.translation.vector - start).norm() < 2e-3,
+            "an impulse, not a teleport"
+        );
+        assert!(o.linvel.xy().norm() > 0.3, "{:?}", o.linvel);
+        hw.advance(1.5).unwrap();
+        let o = hw.sim().object_state(0);
+        let moved = (o.pose.translation.vector - start).xy().norm();
+        assert!((0.02..0.25).contains(&moved), "moved {moved}");
+        assert!(o.linvel.norm() < 0.01, "at rest");
+        assert!(
+            hw.fault().unwrap().record().detail.contains("came to rest"),
+            "{record:?}"
         );
     }
 
     #[test]
-    fn a_blocked_arm_keeps_its_references_outside_the_region() {
-        // Near the left arm's parked palm (0.42, 0.32): the left arm is the one blocked.
-        let (scene, mut sim) = world([0.5, 0.22]);
-        let spec = FaultSpec::new(FaultKind::BlockedArm, 0, 1);
-        let fault = Fault::new(spec, &sim, &scene).unwrap();
+    fn a_blocked_arm_gets_a_post_in_its_path_that_stops_it_and_the_cameras_see() {
+        let (scene, mut sim) = world([0.6, 0.06]);
+        let at = sim.object_state(0).pose.translation.vector;
+        let fault = Fault::new(FaultSpec::new(FaultKind::BlockedArm, 0, 1), &sim, &scene).unwrap();
+        // The right arm moves away, the left palm 4 cm nearer the object: the left arm reaches.
+        let park = palm(&sim, Arm::Left);
+        let toward = park + 0.04 * Vec3::new(at.x - park.x, at.y - park.y, 0.0).normalize();
+        let q = palm_at(&sim, Arm::Left, toward);
+        sim.set_configuration(&q).unwrap();
         let mut hw = crate::hardware::SimRobot::new(&mut sim, &scene, 1)
             .unwrap()
             .with_fault(fault);
-        hw.advance(0.005).unwrap();
-        let f = hw.fault().unwrap();
-        assert!(f.record().fired, "{:?}", f.record());
-        assert_eq!(f.blocked_arm(), Some(Arm::Left));
-        // Every reference of the left arm is the fault's to pass on or hold; the right arm's are not.
-        let (l, r) = (
-            hw.sim().dof("left/base_yaw_joint").unwrap(),
-            hw.sim().dof("right/base_yaw_joint").unwrap(),
+        hw.advance(0.001).unwrap();
+        let record = hw.fault().unwrap().record().clone();
+        assert!(record.fired, "{record:?}");
+        assert_eq!(hw.fault().unwrap().blocked_arm(), Some(Arm::Left));
+        assert_eq!(hw.sim().obstacles().len(), 1);
+        let post = hw.sim().obstacles()[0].pose.translation.vector;
+        // Between the left palm and the object, on the left arm's side.
+        let (to_post, to_palm) = ((post - at).xy(), (toward - at).xy());
+        assert!(
+            to_post.dot(&to_palm) > 0.0 && to_post.norm() < to_palm.norm(),
+            "{post:?}"
         );
-        let (ql, qr) = (hw.sim().joint_targets()[l], hw.sim().joint_targets()[r]);
-        hw.set_joint_reference(l, ql + 0.1, 0.0);
-        hw.set_joint_reference(r, qr + 0.1, 0.0);
-        assert_eq!(
-            hw.sim().joint_targets()[l],
-            ql,
-            "kept by the fault until the next advance"
-        );
-        assert_eq!(hw.sim().joint_targets()[r], qr + 0.1);
+        // The head cameras see it.
+        let cam = hw.sim_cameras().camera(hw.sim(), 0).unwrap();
+        let mut cameras = crate::hardware::SimCameras::new(hw.sim(), &scene, 1).unwrap();
+        cameras.sync(hw.sim());
+        let mut r = crate::vision::Renderer::new(0.0, &scene.spec.light, 1).unwrap();
+        r.render(&cam, cameras.render_scene()).unwrap();
+        let seen = r
+            .labels()
+            .iter()
+            .filter(|l| **l == Some(crate::vision::ItemLabel::Obstacle(0)))
+            .count();
+        assert!(seen > 100, "{seen} pixels of the post");
+        // The left arm driven to above the object stops at the post; the right arm gets there.
+        let above = Vec3::new(at.x, at.y, park.z);
+        let q_left = palm_at(hw.sim(), Arm::Left, above);
+        let q_right = palm_at(hw.sim(), Arm::Right, above);
+        let names = hw.sim().joint_names().to_vec();
+        for (i, name) in names.iter().enumerate() {
+            if name.starts_with("left/") && !name.contains("bhand") {
+                hw.set_joint_reference(i, q_left[i], 0.0);
+            }
+            if name.starts_with("right/") && !name.contains("bhand") {
+                hw.set_joint_reference(i, q_right[i], 0.0);
+            }
+        }
+        hw.advance(3.0).unwrap();
+        let (l, r) = (palm(hw.sim(), Arm::Left), palm(hw.sim(), Arm::Right));
+        assert!((l - above).xy().norm() > 0.08, "the left palm got through: {l:?}");
+        assert!((r - above).norm() < 0.03, "the right palm did not get there: {r:?}");
     }
 
     #[test]

@@ -32,6 +32,10 @@ pub const CAMERAS: [(&str, &str); 4] = [
     ("chassis/right", "chassis/right_camera_optical_frame"),
 ];
 
+/// Colour (HSV) of an obstacle put on the table during a run: a dull grey-brown, like a wooden
+/// post, unlike the table, the bins and the catalog's objects.
+pub const OBSTACLE_HSV: [f64; 3] = [30.0, 0.25, 0.45];
+
 /// The render scene kept in step with the simulator and one noisy renderer per camera.
 #[derive(Debug)]
 pub struct SimCameras {
@@ -40,6 +44,8 @@ pub struct SimCameras {
     robot_items: Vec<(usize, rapier3d_f64::prelude::ColliderHandle)>,
     /// Render item of each sim object.
     object_items: Vec<usize>,
+    /// How many of the world's obstacles ([`DexterSim::obstacles`]) the render scene has.
+    obstacles: usize,
     renderers: Vec<Renderer>,
     spec: crate::scene::CameraSpec,
     infos: Vec<CameraInfo>,
@@ -104,6 +110,7 @@ impl SimCameras {
             scene: rs,
             robot_items,
             object_items,
+            obstacles: 0,
             renderers,
             spec,
             infos,
@@ -111,11 +118,22 @@ impl SimCameras {
         })
     }
 
-    /// Moves every object and robot link of the render scene to where the physics has it.
+    /// Moves every object and robot link of the render scene to where the physics has it, and adds
+    /// the obstacles put into the world since the last sync.
     pub fn sync(&mut self, sim: &DexterSim) {
         if self.synced_at == Some(sim.steps()) {
             return;
         }
+        for (k, o) in sim.obstacles().iter().enumerate().skip(self.obstacles) {
+            let h = o.half_extents;
+            self.scene.push(RenderItem::uniform_box(
+                [2.0 * h.x, 2.0 * h.y, 2.0 * h.z],
+                o.pose,
+                OBSTACLE_HSV,
+                ItemLabel::Obstacle(k),
+            ));
+        }
+        self.obstacles = sim.obstacles().len();
         for (i, &k) in self.object_items.iter().enumerate() {
             self.scene.items[k].set_object_pose(&sim.object_state(i).pose);
         }
@@ -304,9 +322,6 @@ impl Hardware for SimRobot<'_> {
             return Err(HardwareError::Interrupted);
         }
         let n = ((dt_secs / self.sim.settings().dt).round() as usize).max(1);
-        if let Some(f) = self.fault.as_mut() {
-            f.before_advance(self.sim);
-        }
         for _ in 0..n {
             self.sim.step();
         }

@@ -51,6 +51,9 @@ mod groups {
     pub const OBJECT: Group = Group::GROUP_2;
     pub const HAND: Group = Group::GROUP_3;
     pub const ARM: Group = Group::GROUP_4;
+    /// Obstacles put on the table during a run ([`super::DexterSim::add_obstacle`]): they stop the
+    /// arms and hands as well as objects.
+    pub const OBSTACLE: Group = Group::GROUP_5;
 }
 
 /// The default tolerances of [`SimSettings::mass_matrix_reuse`]: 1e-4 rad on the joint coordinates
@@ -221,6 +224,18 @@ pub struct SimObject {
     pub mass: f64,
 }
 
+/// A fixed box put into the world during a run ([`DexterSim::add_obstacle`]): it stops the arms,
+/// the hands and the objects.
+#[derive(Debug, Clone)]
+pub struct SimObstacle {
+    /// Half extents (m) along its own axes.
+    pub half_extents: Vec3,
+    /// Its pose (world).
+    pub pose: Iso3,
+    /// Its collider (on a fixed body).
+    pub collider: ColliderHandle,
+}
+
 /// Which part of the robot a collider belongs to (for the sensors).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Part {
@@ -246,6 +261,7 @@ pub struct DexterSim {
     collider_part: HashMap<ColliderHandle, Part>,
     objects: Vec<SimObject>,
     object_by_collider: HashMap<ColliderHandle, usize>,
+    obstacles: Vec<SimObstacle>,
     /// Motor references.
     q_ref: Vec<f64>,
     qd_ref: Vec<f64>,
@@ -331,6 +347,7 @@ impl DexterSim {
             collider_part: HashMap::new(),
             objects: Vec::new(),
             object_by_collider: HashMap::new(),
+            obstacles: Vec::new(),
             q_ref: Vec::new(),
             qd_ref: Vec::new(),
             q: Vec::new(),
@@ -458,7 +475,7 @@ impl DexterSim {
             let body = handles[&root];
             let part = part_of(&link.name);
             let (membership, filter) = match part {
-                Part::Palm(_) | Part::Finger(..) => (groups::HAND, groups::OBJECT | groups::STATIC),
+                Part::Palm(_) | Part::Finger(..) => (groups::HAND, groups::OBJECT | groups::STATIC | groups::OBSTACLE),
                 Part::Other
                     if !model.links[root]
                         .parent_joint
@@ -466,7 +483,7 @@ impl DexterSim {
                 {
                     (groups::STATIC, groups::OBJECT | groups::HAND)
                 }
-                Part::Other => (groups::ARM, groups::OBJECT),
+                Part::Other => (groups::ARM, groups::OBJECT | groups::OBSTACLE),
             };
             let is_finger = link.name.contains("/finger_");
             for (ci, c) in ul.collision.iter().enumerate() {
@@ -1042,6 +1059,72 @@ impl DexterSim {
             pose: iso_from_glam(b.position()),
             linvel: vec_from_glam(b.linvel()),
         }
+    }
+
+    /// Gives object `i` the impulse `impulse` (N·s, world) at the world point `at`: a push, whose
+    /// outcome (slide, tip, roll) is the physics'.
+    pub fn push_object(&mut self, i: usize, impulse: &Vec3, at: &Vec3) {
+        if let Some(b) = self.world.bodies.get_mut(self.objects[i].body) {
+            b.apply_impulse_at_point(vec_to_glam(impulse), vec_to_glam(at), true);
+        }
+    }
+
+    /// Puts a fixed box of half extents `half_extents` at `pose` into the world: it collides with
+    /// the arms, the hands and the objects from the next step on. Returns its index in
+    /// [`DexterSim::obstacles`].
+    pub fn add_obstacle(&mut self, half_extents: &Vec3, pose: &Iso3) -> usize {
+        let body = self
+            .world
+            .insert_body(RigidBodyBuilder::fixed().pose(iso_to_glam(pose)).build());
+        let collider = ColliderBuilder::cuboid(half_extents.x, half_extents.y, half_extents.z)
+            .friction(0.5)
+            .contact_skin(self.settings.contact_skin)
+            .collision_groups(InteractionGroups::new(
+                groups::OBSTACLE,
+                groups::OBJECT | groups::HAND | groups::ARM,
+                InteractionTestMode::And,
+            ))
+            .build();
+        let collider = self.world.insert_collider(collider, Some(body));
+        self.world.wake_up_all(true);
+        self.obstacles.push(SimObstacle {
+            half_extents: *half_extents,
+            pose: *pose,
+            collider,
+        });
+        self.obstacles.len() - 1
+    }
+
+    /// The obstacles put into the world so far ([`DexterSim::add_obstacle`]).
+    pub fn obstacles(&self) -> &[SimObstacle] {
+        &self.obstacles
+    }
+
+    /// The smallest distance (m) from a box of half extents `half_extents` at `pose` to the robot's
+    /// links and the objects, up to `limit` (a pair farther apart by their bounding boxes counts as
+    /// `limit`); for putting an obstacle where it touches nothing. Allocates nothing.
+    pub fn clearance_of_box(&self, half_extents: &Vec3, pose: &Iso3, limit: f64) -> f64 {
+        use rapier3d_f64::parry::bounding_volume::BoundingVolume as _;
+        let shape = rapier3d_f64::parry::shape::Cuboid::new(vec_to_glam(half_extents));
+        let at = iso_to_glam(pose);
+        let aabb = rapier3d_f64::parry::shape::Shape::compute_aabb(&shape, &at).loosened(limit);
+        let mut best = limit;
+        let colliders = self
+            .collider_part
+            .keys()
+            .chain(self.objects.iter().map(|o| &o.collider));
+        for &h in colliders {
+            let Some(c) = self.world.colliders.get(h) else {
+                continue;
+            };
+            if !c.compute_aabb().intersects(&aabb) {
+                continue;
+            }
+            let d =
+                rapier3d_f64::parry::query::distance(&at, &shape, c.position(), c.shape()).map_or(0.0, |d| d.distance);
+            best = best.min(d.max(0.0));
+        }
+        best
     }
 
     /// Angular velocity of object `i` (rad/s).

@@ -30,6 +30,9 @@ pub enum ItemLabel {
     Robot,
     /// A movable object, with an identifier chosen by the caller (e.g. its placement index).
     Object(usize),
+    /// An obstacle put on the table during a run (a blocked-arm fault): not part of the
+    /// background, seen like any other thing.
+    Obstacle(usize),
 }
 
 /// Surface colour of a render item.

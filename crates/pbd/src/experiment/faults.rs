@@ -67,10 +67,19 @@ pub struct KindSummary {
     pub not_fired: usize,
     /// Fired, and the object still ended in its place.
     pub recovered: usize,
-    /// recovered / fired.
+    /// recovered / fired: the conditional rate.
     pub fraction: f64,
     /// 95 % Wilson interval of the fraction.
     pub interval: (f64, f64),
+    /// Scenes whose object ended in its place, the fault fired or not.
+    #[serde(default)]
+    pub succeeded: usize,
+    /// succeeded / scenes: the unconditional rate.
+    #[serde(default)]
+    pub unconditional: f64,
+    /// 95 % Wilson interval of the unconditional rate.
+    #[serde(default)]
+    pub unconditional_interval: (f64, f64),
     /// What the executive did in the fired scenes (`re_grasp`, `other_arm`, `hand_over`, `none`,
     /// `gave_up`): count.
     pub responses: BTreeMap<String, usize>,
@@ -113,7 +122,7 @@ impl std::fmt::Display for FaultsReport {
         for k in &self.kinds {
             writeln!(
                 out,
-                "  {:<13} recovered {:>3}/{:<3} = {:.2} (95 % CI {:.2}-{:.2}){}; not fired {}; did: {}",
+                "  {:<13} recovered {:>3}/{:<3} = {:.2} (95 % CI {:.2}-{:.2}){}; in place (fired or not) {}/{} = {:.2} (95 % CI {:.2}-{:.2}); not fired {}; did: {}",
                 k.kind.name(),
                 k.recovered,
                 k.fired,
@@ -123,6 +132,11 @@ impl std::fmt::Display for FaultsReport {
                 k.target
                     .map(|t| format!(", target {:.2} {}", t, if k.fraction >= t { "met" } else { "MISSED" }))
                     .unwrap_or_default(),
+                k.succeeded,
+                k.scenes,
+                k.unconditional,
+                k.unconditional_interval.0,
+                k.unconditional_interval.1,
                 k.not_fired,
                 join_counts(&k.responses)
             )?;
@@ -141,11 +155,12 @@ fn join_counts(m: &BTreeMap<String, usize>) -> String {
     m.iter().map(|(k, n)| format!("{k} {n}")).collect::<Vec<_>>().join(", ")
 }
 
-/// The issue's recovery targets: 90 % for a drop and a missed grasp, 80 % for a blocked arm.
+/// The issue's recovery targets (issue 35): 90 % for a drop and a missed grasp, 85 % for a blocked
+/// arm.
 pub fn target(kind: FaultKind) -> Option<f64> {
     match kind {
         FaultKind::Drop | FaultKind::Bump => Some(0.9),
-        FaultKind::BlockedArm => Some(0.8),
+        FaultKind::BlockedArm => Some(0.85),
         FaultKind::Occlusion | FaultKind::SensorNoise => None,
     }
 }
@@ -158,6 +173,7 @@ pub fn summarize(kinds: &[FaultKind], trials: &[FaultTrial]) -> Vec<KindSummary>
             let of: Vec<&FaultTrial> = trials.iter().filter(|t| t.kind == kind).collect();
             let fired: Vec<&&FaultTrial> = of.iter().filter(|t| t.fired).collect();
             let recovered = fired.iter().filter(|t| t.recovered).count();
+            let succeeded = of.iter().filter(|t| t.success).count();
             let mut responses = BTreeMap::new();
             let mut reasons = BTreeMap::new();
             for t in &fired {
@@ -178,6 +194,13 @@ pub fn summarize(kinds: &[FaultKind], trials: &[FaultTrial]) -> Vec<KindSummary>
                     recovered as f64 / fired.len() as f64
                 },
                 interval: wilson(recovered, fired.len()),
+                succeeded,
+                unconditional: if of.is_empty() {
+                    0.0
+                } else {
+                    succeeded as f64 / of.len() as f64
+                },
+                unconditional_interval: wilson(succeeded, of.len()),
                 responses,
                 reasons,
                 target: target(kind),
@@ -250,18 +273,28 @@ pub fn run(args: &FaultsOptions, progress: &dyn Progress) -> Result<FaultsReport
     })
 }
 
-/// Recovered fraction per kind, with its 95 % interval as whiskers.
+/// Recovered fraction per kind (of the fired scenes, and of all scenes), with 95 % intervals as
+/// whiskers.
 fn figure(s: &[KindSummary]) -> Figure {
     Figure::GroupedBars {
         title: "recovered after an injected fault (95 % Wilson intervals)".into(),
-        y_label: "recovered / fired".into(),
+        y_label: "fraction".into(),
         y_max: 1.05,
         categories: s
             .iter()
             .map(|k| format!("{} ({}/{})", k.kind.name(), k.recovered, k.fired))
             .collect(),
-        groups: vec![("recovered".into(), s.iter().map(|k| k.fraction).collect())],
-        intervals: vec![s.iter().map(|k| k.interval).collect()],
+        groups: vec![
+            ("recovered / fired".into(), s.iter().map(|k| k.fraction).collect()),
+            (
+                "in place / scenes (fired or not)".into(),
+                s.iter().map(|k| k.unconditional).collect(),
+            ),
+        ],
+        intervals: vec![
+            s.iter().map(|k| k.interval).collect(),
+            s.iter().map(|k| k.unconditional_interval).collect(),
+        ],
     }
 }
 
@@ -304,15 +337,15 @@ fn markdown(args: &FaultsOptions, s: &[KindSummary], sim_time: f64, wall_time: f
         "# Injected faults\n\n{} scenes per fault kind from `{}` (seed {}): one object at a random pose both arms reach, \
          to a random bin; the world injects the fault, the robot notices it from its own sensors. Recovered = the fault \
          fired and the object ended at rest in its bin (the evaluator's truth); scenes where it never fired are \
-         counted apart.\n\n",
+         counted apart. In place = the object ended in its bin, the fault fired or not (the unconditional rate).\n\n",
         args.scenes, args.scene, args.seed
     );
-    m.push_str("| fault | scenes | fired | recovered | fraction | 95 % CI | target | re-grasp | other arm | hand-over | carried on | gave up |\n");
-    m.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    m.push_str("| fault | scenes | fired | recovered | fraction | 95 % CI | target | in place | unconditional | 95 % CI | re-grasp | other arm | hand-over | carried on | gave up |\n");
+    m.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for k in s {
         let n = |r: &str| k.responses.get(r).copied().unwrap_or(0);
         m.push_str(&format!(
-            "| {} | {} | {} | {} | {:.3} | {:.3}–{:.3} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.3} | {:.3}–{:.3} | {} | {} | {:.3} | {:.3}–{:.3} | {} | {} | {} | {} | {} |\n",
             k.kind.name(),
             k.scenes,
             k.fired,
@@ -323,6 +356,10 @@ fn markdown(args: &FaultsOptions, s: &[KindSummary], sim_time: f64, wall_time: f
             k.target
                 .map(|t| format!("≥ {t:.2} ({})", if k.fraction >= t { "met" } else { "missed" }))
                 .unwrap_or_else(|| "-".into()),
+            k.succeeded,
+            k.unconditional,
+            k.unconditional_interval.0,
+            k.unconditional_interval.1,
             n("re_grasp"),
             n("other_arm"),
             n("hand_over"),
@@ -376,6 +413,7 @@ mod tests {
         let s = summarize(&[FaultKind::Drop], &t);
         assert_eq!((s[0].scenes, s[0].fired, s[0].not_fired, s[0].recovered), (3, 2, 1, 1));
         assert_eq!(s[0].fraction, 0.5);
+        assert_eq!((s[0].succeeded, s[0].unconditional), (2, 2.0 / 3.0));
         assert_eq!(s[0].reasons.get("grasp: missed"), Some(&1));
         assert_eq!(s[0].responses.get("re_grasp"), Some(&1));
         assert_eq!(s[0].target, Some(0.9));
