@@ -139,17 +139,8 @@ impl SkillSession {
     /// One percept of the head's stereo pair (§5.1.2): the tracked segments (centroid, HSV histogram,
     /// colour terms, extent), the hands (palm, fingertip loads), the places.
     pub fn perceive(&mut self, sim: &mut DexterSim, scene: &Scene, stop: Stop<'_>) -> anyhow::Result<Percept> {
-        let table_z = scene.spec.table.height;
         let mut hw = self.hardware(sim, scene, stop)?;
-        if self.watcher.is_none() {
-            self.watcher = Some(Watcher::new(
-                &hw,
-                workspace(scene).place_percepts(),
-                table_z,
-                dexter_sim::calibrate::workcell_calibration(scene)?,
-            )?);
-        }
-        let watcher = self.watcher.as_mut().expect("created above");
+        let watcher = watcher_on(&mut self.watcher, &hw, scene)?;
         let t = control_basis::Plant::time_secs(&hw);
         Ok(watcher.percept(&mut hw, t)?)
     }
@@ -170,15 +161,7 @@ impl SkillSession {
         let frame_secs = 1.0 / scene.spec.camera.rate_hz;
         let t0 = sim.time();
         let mut hw = self.hardware(sim, scene, stop)?;
-        if self.watcher.is_none() {
-            self.watcher = Some(Watcher::new(
-                &hw,
-                workspace(scene).place_percepts(),
-                table_z,
-                dexter_sim::calibrate::workcell_calibration(scene)?,
-            )?);
-        }
-        let eyes = self.watcher.as_mut().expect("created above").eyes_mut();
+        let eyes = watcher_on(&mut self.watcher, &hw, scene)?.eyes_mut();
         let mut nothing = |_: &mut dyn Hardware, _: &str| {};
         let mut obs = Observer::new(&mut nothing);
         let nominal = control_basis::math::Vec3::from(near);
@@ -354,4 +337,21 @@ impl SkillSession {
         let mut obs = WorldObserver::new(&mut nothing).with_stop(stop);
         Ok(pick_and_place_in(sim, scene, request, &mut obs)?)
     }
+}
+
+/// The session's watcher, made on first use with the eyes calibrated in `scene`'s workcell.
+fn watcher_on<'w>(
+    watcher: &'w mut Option<Watcher>,
+    hw: &dyn Hardware,
+    scene: &Scene,
+) -> anyhow::Result<&'w mut Watcher> {
+    if watcher.is_none() {
+        *watcher = Some(Watcher::new(
+            hw,
+            workspace(scene).place_percepts(),
+            scene.spec.table.height,
+            dexter_sim::calibrate::workcell_calibration(scene)?,
+        )?);
+    }
+    Ok(watcher.as_mut().expect("made above"))
 }
