@@ -77,13 +77,13 @@ impl std::fmt::Display for FaultKind {
 }
 
 /// The blocking post (m): 22 cm wide across the arm's path, 6 cm thick along it (thick enough that
-/// a hand pressed against it by its motors does not pass through) and 55 cm tall (above the
-/// hover height of every reach, 32–45 cm above the table).
-pub const OBSTACLE_SIZE: [f64; 3] = [0.06, 0.22, 0.55];
+/// a hand pressed against it by its motors does not pass through) and 50 cm tall (the hand of an
+/// arm hovering 32–45 cm above the table on its way to the object hits it).
+pub const OBSTACLE_SIZE: [f64; 3] = [0.06, 0.22, 0.50];
 
-/// Room (m) between the object's side and the post's face: the other hand's open fingers fit
-/// between them.
-pub const OBSTACLE_GAP: f64 = 0.07;
+/// Room (m) between the object's side and the post's face: the other hand's pre-shaped fingers,
+/// up to 10 cm from its palm, fit between them.
+pub const OBSTACLE_GAP: f64 = 0.10;
 
 /// How much nearer (m) to the object an arm's palm must have come since the fault was armed for
 /// that arm to count as reaching for it (the blocked-arm trigger).
@@ -508,7 +508,7 @@ impl Fault {
         let u = Vec3::new(u.x / n, u.y / n, 0.0);
         let half = Vec3::new(0.5 * OBSTACLE_SIZE[0], 0.5 * OBSTACLE_SIZE[1], 0.5 * OBSTACLE_SIZE[2]);
         let yaw = u.y.atan2(u.x);
-        for step in 0..4 {
+        for step in 0..5 {
             let gap = OBSTACLE_GAP - 0.01 * step as f64;
             let c = self.radius + gap + half.x;
             if c + half.x > d {

@@ -211,6 +211,34 @@ const MERGE_RADIUS: f64 = 0.05;
 /// The scan before a handoff spot is chosen looks at the scan points this close (m, across the
 /// table) to the table's centre line.
 const HANDOFF_SCAN_HALF_WIDTH: f64 = 0.25;
+/// Room (m) between the straight carry to a handoff spot and a seen segment's side: the carried
+/// object and the fingers around it. The carry is low (8 cm above the table), so a thing on the way
+/// would knock the object out of the hand.
+const CARRY_PATH_ROOM: f64 = 0.08;
+/// Horizontal radius (m) assumed for a segment seen without a measured extent.
+const SEEN_RADIUS: f64 = 0.05;
+/// A seen thing taller than this (m) stands in the way of a hand moving at hover height (32 cm or
+/// more above the table).
+const TALL_THING: f64 = 0.25;
+
+/// A segment as the handoff planner sees it: centre (x, y), horizontal radius (its measured half
+/// length, or [`SEEN_RADIUS`]) and height (measured, or 0), m.
+#[derive(Debug, Clone, Copy)]
+struct SeenThing {
+    at: [f64; 2],
+    radius: f64,
+    height: f64,
+}
+
+impl SeenThing {
+    fn of(s: &schema::SegmentPercept) -> Self {
+        SeenThing {
+            at: [s.centroid[0], s.centroid[1]],
+            radius: s.extent.as_ref().map_or(SEEN_RADIUS, |e| e.half_major),
+            height: s.extent.as_ref().map_or(0.0, |e| e.height),
+        }
+    }
+}
 /// A segment this close (m) to a carrying palm is the carried object.
 const CARRIED_CLEARANCE: f64 = 0.15;
 
@@ -494,7 +522,9 @@ impl<'a> RobotPlant<'a> {
     /// Chooses the handoff spot for a transfer of the object seen near `object_at` (5.32): a free
     /// patch of table that both arms reach pointing down, as seen now — at least
     /// [`HANDOFF_CLEARANCE`] (at least [`HANDOFF_MIN_CLEARANCE`]) from every other segment the cameras see and clear of the places'
-    /// walls, and one the head can look at — preferring spots clear of where a reach failed
+    /// walls, and one the head can look at — preferring spots the object can be carried to in a
+    /// straight line without passing another seen segment ([`CARRY_PATH_ROOM`]), then spots clear
+    /// of where a reach failed
     /// ([`UNREACHED_CLEARANCE`], and the failed arm's ways there from its parked pose and on to the
     /// destination, [`RobotPlant::set_destination`]), then the table's centre line at a
     /// comfortable reach (x = 0.55 m); when no spot is clear, one whose ways are clear, farthest
@@ -505,25 +535,43 @@ impl<'a> RobotPlant<'a> {
         self.plan_handoff_among(object_at, &[])
     }
 
-    /// [`RobotPlant::plan_handoff`] keeping clear also of `also_seen` (segment centres seen
-    /// elsewhere, [`RobotPlant::scan_handoff_region`]).
-    fn plan_handoff_among(&mut self, object_at: &Vec3, also_seen: &[[f64; 2]]) -> Result<Option<[f64; 2]>, RobotError> {
+    /// [`RobotPlant::plan_handoff`] keeping clear also of `also_seen` (segments seen elsewhere,
+    /// [`RobotPlant::scan_handoff_region`]).
+    fn plan_handoff_among(
+        &mut self,
+        object_at: &Vec3,
+        also_seen: &[SeenThing],
+    ) -> Result<Option<[f64; 2]>, RobotError> {
         let ws = self.workspace;
         let table_z = ws.table_z;
-        let others: Vec<[f64; 2]> = self
+        // Other segments, as seen.
+        let sized: Vec<SeenThing> = self
             .percepts
             .last()
-            .map(|p| {
-                p.segments
-                    .iter()
-                    .map(|s| [s.centroid[0], s.centroid[1]])
-                    .collect::<Vec<_>>()
-            })
+            .map(|p| p.segments.iter().map(SeenThing::of).collect::<Vec<_>>())
             .unwrap_or_default()
             .into_iter()
             .chain(also_seen.iter().copied())
-            .filter(|c| (c[0] - object_at.x).hypot(c[1] - object_at.y) > MERGE_RADIUS)
+            .filter(|t| (t.at[0] - object_at.x).hypot(t.at[1] - object_at.y) > MERGE_RADIUS)
             .collect();
+        let others: Vec<[f64; 2]> = sized.iter().map(|t| t.at).collect();
+        // Whether the straight carry from `object_at` to spot `c` (low: 8 cm above the table,
+        // below most things' tops) passes a seen thing (nearer than it started: an object picked up
+        // beside a thing may be carried away from it), or a failed arm's way from its parked pose
+        // to `c` (at hover height) passes a thing taller than that.
+        let carry_blocked = |c: [f64; 2]| {
+            sized.iter().any(|t| {
+                let room = t.radius + CARRY_PATH_ROOM;
+                let start = (t.at[0] - object_at.x).hypot(t.at[1] - object_at.y);
+                let path = distance_to_segment(t.at, [object_at.x, object_at.y], c);
+                (path < room && path < start - 0.01)
+                    || (t.height > TALL_THING
+                        && self.unreached.iter().any(|(arm, _)| {
+                            let park = park_pose(*arm, table_z).translation.vector;
+                            distance_to_segment(t.at, [park.x, park.y], c) < room
+                        }))
+            })
+        };
         let margin = 0.12;
         let (x0, x1) = (
             ws.table_center[0] - ws.table_size[0] / 2.0 + margin,
@@ -560,26 +608,36 @@ impl<'a> RobotPlant<'a> {
                             || (c[1] - p.center[1]).abs() > p.size[1] / 2.0 + p.wall_thickness + 0.08
                     });
                 if free {
-                    candidates.push((c, clearance(c), room < HANDOFF_CLEARANCE));
+                    candidates.push((c, clearance(c), (carry_blocked(c), room < HANDOFF_CLEARANCE)));
                 }
             }
         }
         // Spots clear of the failed reaches in every respect first, by comfort; then those whose
         // ways are clear, the farthest from the failed reaches first; then the rest, the clearest
         // ways first (the failed reach lay where the arms meet). Within each, spots with the full
-        // room around them ([`HANDOFF_CLEARANCE`]) before those with less.
+        // room around them ([`HANDOFF_CLEARANCE`]) before those with less. Spots the object can be
+        // carried to without passing a seen thing come before all others.
         let cost = |c: &[f64; 2]| (c[1] - ws.table_center[1]).abs() + 0.5 * (c[0] - 0.55).abs();
         let rank = |&(ways, spot): &(f64, f64)| u8::from(ways < 0.0) + u8::from(spot < 0.0 || ways < 0.0);
         candidates.sort_by(|a, b| {
-            rank(&a.1)
-                .cmp(&rank(&b.1))
-                .then(a.2.cmp(&b.2))
+            a.2.0
+                .cmp(&b.2.0)
+                .then(rank(&a.1).cmp(&rank(&b.1)))
+                .then(a.2.1.cmp(&b.2.1))
                 .then_with(|| match rank(&a.1) {
                     0 => cost(&a.0).total_cmp(&cost(&b.0)),
                     1 => b.1.1.total_cmp(&a.1.1),
                     _ => b.1.0.total_cmp(&a.1.0),
                 })
         });
+        if debug_exec() {
+            let blocked = candidates.iter().filter(|c| c.2.0).count();
+            eprintln!(
+                "  handoff candidates {} ({blocked} with a seen thing on the way), things seen {:?}",
+                candidates.len(),
+                sized
+            );
+        }
         for (c, _, _) in candidates {
             // The head must see the spot (both cameras, for stereo) to find the object there.
             let seen_at = Vec3::new(c[0], c[1], table_z + 0.05);
@@ -598,11 +656,12 @@ impl<'a> RobotPlant<'a> {
     }
 
     /// Looks over the middle of the table, where handoff spots lie (the scan points within
-    /// [`HANDOFF_SCAN_HALF_WIDTH`] of its centre line), and returns the centres (x, y) of the
-    /// segments seen there on the table, but not the one carried by the palm at `carrying_palm`:
+    /// [`HANDOFF_SCAN_HALF_WIDTH`] of its centre line), and returns the centres (x, y), horizontal
+    /// radii and heights (m; measured, or [`SEEN_RADIUS`] and 0) of the segments seen there on
+    /// the table, but not the one carried by the palm at `carrying_palm`:
     /// the head sees a part of the table at a time (tracks out of view are soon forgotten), and a
     /// spot chosen from the latest view alone may lie on an object out of it.
-    fn scan_handoff_region(&mut self, carrying_palm: &Vec3) -> Result<Vec<[f64; 2]>, RobotError> {
+    fn scan_handoff_region(&mut self, carrying_palm: &Vec3) -> Result<Vec<SeenThing>, RobotError> {
         let table_z = self.workspace.table_z;
         let cy = self.workspace.table_center[1];
         let mut seen = Vec::new();
@@ -617,7 +676,7 @@ impl<'a> RobotPlant<'a> {
             for s in p.segments.iter().filter(|s| s.seen) {
                 let c = Vec3::from(s.centroid);
                 if c.z > table_z - 0.02 && (c - carrying_palm).norm() > CARRIED_CLEARANCE {
-                    seen.push([c.x, c.y]);
+                    seen.push(SeenThing::of(s));
                 }
             }
         }

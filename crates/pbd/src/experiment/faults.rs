@@ -1,13 +1,15 @@
 //! `pbd experiment faults`: injected faults (issue 18, item 3). Per fault kind, N seeded scenes —
 //! one object at a random pose both arms reach, to go to a random bin — in which the world injects
-//! the fault ([`dexter_sim::fault`]): the held object drops during transport, the object is bumped
-//! as the hand arrives so the grasp misses, the arm that reaches first finds its path blocked, the
-//! head cameras are covered, or the encoders and fingertips send a burst of noise. The robot is not
+//! the fault ([`dexter_sim::fault`]) through the physics: the holding hand's fingers open during
+//! transport and the object falls, an impulse pushes the object as the hand arrives so the grasp
+//! misses, a post appears in the path of the arm that reaches first; or the head cameras are
+//! covered, or the encoders and fingertips send a burst of noise. The robot is not
 //! told; it notices from its own sensors and takes the schema's contingencies (§3.3.3): re-grasp,
 //! other arm, hand-over — or gives up with a reason.
 //!
 //! Per kind: scenes, scenes where the fault fired, recovered (fired, and the object ended in its
-//! place by the evaluator's truth) with a 95 % Wilson interval over the fired scenes, what the
+//! place by the evaluator's truth) with a 95 % Wilson interval over the fired scenes (the
+//! conditional rate), in place over all scenes, fired or not (the unconditional rate), what the
 //! executive did, and why the unrecovered ones failed. Each scene is a pure function of
 //! (options, kind, index) ([`dexter_sim::fault::fault_trial`]), run on the thread pool. Files:
 //! `faults.csv` (one row per scene), `summary.md`, and the figure `recovered.svg` (returned for the
