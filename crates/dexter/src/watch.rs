@@ -119,7 +119,6 @@ impl Tracker {
         &mut self,
         seen: Vec<SegmentPercept>,
         views: &[[[f64; 2]; 2]],
-        cut: &[bool],
         mono: &[MonoView],
         cams: [&crate::vision::Camera; 2],
         t: f64,
@@ -222,9 +221,7 @@ impl Tracker {
                 .iter()
                 .flatten()
                 .any(|(_, palm)| dist(&s.centroid, palm) < CARRIED_RADIUS);
-            // A view cut off by the image border or the robot's body has a biased centroid: it
-            // may keep a track seen but never starts one (one object, one track).
-            if !used_s[i] && !carried_piece && !cut.get(i).copied().unwrap_or(false) {
+            if !used_s[i] && !carried_piece {
                 self.whole_pixels.push(pixels(&s));
                 self.tracks.push(SegmentPercept { id: self.next_id, ..s });
                 self.last_seen.push(t);
@@ -584,7 +581,6 @@ impl Watcher {
         let mut seen = Vec::new();
         let mut views = Vec::new();
         let mut mono = Vec::new();
-        let mut cut = Vec::new();
         let mut gaze_candidates = Vec::new();
         for b in blobs {
             if debug_blobs() {
@@ -639,7 +635,6 @@ impl Watcher {
             let o = off(&l, &cams.left).max(off(&r, &cams.right));
             gaze_candidates.push((o, seg.centroid));
             views.push([l.features.centroid, r.features.centroid]);
-            cut.push(b.truncated());
             seen.push(seg);
         }
         let mut occluders: Vec<([f64; 3], f64)> = Vec::with_capacity(10);
@@ -651,7 +646,7 @@ impl Watcher {
             }
         }
         self.tracker
-            .update(seen, &views, &cut, &mono, [&cams.left, &cams.right], t, &occluders);
+            .update(seen, &views, &mono, [&cams.left, &cams.right], t, &occluders);
         let gaze = gaze_candidates
             .iter()
             .filter(|(o, _)| *o < 0.12)
