@@ -24,7 +24,7 @@ fn look(hw: &mut SimRobot<'_>, eyes: &mut Eyes, at: Vec3) -> ((usize, usize, usi
         .perceive(hw, Pair::Head)
         .unwrap()
         .iter()
-        .filter(|b| !b.truncated())
+        .filter(|b| !b.left.is_some_and(|s| s.cut_off()) && !b.right.is_some_and(|s| s.cut_off()))
         .filter_map(|b| b.centroid)
         .collect();
     let mask = eyes.self_masks(Pair::Head).0.to_vec();

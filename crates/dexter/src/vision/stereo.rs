@@ -199,10 +199,12 @@ impl StereoBlob {
         }
     }
 
-    /// Whether a segment touches its image border or the robot's body: the object may be cut off,
-    /// so its size, moments and triangulated centroid are unreliable.
+    /// Whether a segment touches its image border: the object may be cut off, so its size, moments
+    /// and triangulated centroid are unreliable. (A segment touching the robot's self-mask is not
+    /// counted here: looking steeply down, the robot's chest borders the middle of the image, and a
+    /// foveated object there must still count as seen whole; see [`Segment::cut_off`].)
     pub fn truncated(&self) -> bool {
-        self.left.is_some_and(|s| s.cut_off()) || self.right.is_some_and(|s| s.cut_off())
+        self.left.is_some_and(|s| s.touches_border) || self.right.is_some_and(|s| s.touches_border)
     }
 
     /// The stereo size observation `(s_L, s_R)` of §5.1.2.2 in pixels.

@@ -274,7 +274,7 @@ impl SupportEstimator {
         triangulated: &Vec3,
         plane: &SupportPlane,
     ) -> Option<(Vec3, CentroidSource, Option<Footprint>)> {
-        if views.iter().any(|v| v.segment.cut_off()) || !triangulated.iter().all(|x| x.is_finite()) {
+        if views.iter().any(|v| v.segment.touches_border) || !triangulated.iter().all(|x| x.is_finite()) {
             return None;
         }
         self.columns.clear();
