@@ -245,7 +245,8 @@ impl ExecSink for RobotSink<'_> {
         }
     }
 
-    fn percept(&mut self, hw: &dyn Hardware, _eyes: &Eyes, p: &Percept) {
+    fn percept(&mut self, hw: &dyn Hardware, eyes: &Eyes, p: &Percept) {
+        debug_frames(hw.time_secs(), eyes);
         let mut l = self.0.borrow_mut();
         let truth: Vec<(String, [f64; 3])> = l
             .names
@@ -261,6 +262,38 @@ impl ExecSink for RobotSink<'_> {
 
     fn step(&mut self, hw: &dyn Hardware, event: &schema::StepEvent<'_>) {
         self.0.borrow_mut().log.step(hw.time_secs(), event);
+    }
+}
+
+/// For debugging: with `PBD_DEBUG_FRAMES=DIR`, every percept's head images are written to `DIR` as
+/// PPM files, `t<ms>-<l|r>.ppm`, with the foreground tinted green and the robot's self-mask blue.
+fn debug_frames(t: f64, eyes: &Eyes) {
+    static DIR: std::sync::OnceLock<Option<std::path::PathBuf>> = std::sync::OnceLock::new();
+    let Some(dir) = DIR.get_or_init(|| std::env::var_os("PBD_DEBUG_FRAMES").map(Into::into)) else {
+        return;
+    };
+    let _ = std::fs::create_dir_all(dir);
+    let (images, masks) = (eyes.images(dexter::eyes::Pair::Head), eyes.self_masks(dexter::eyes::Pair::Head));
+    let pipeline = eyes.pipeline(dexter::eyes::Pair::Head);
+    for (k, (side, image, mask)) in [
+        (dexter::vision::Side::Left, images.0, masks.0),
+        (dexter::vision::Side::Right, images.1, masks.1),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let fg = pipeline.segmenter(side).foreground();
+        let mut out = image.clone();
+        for (i, px) in out.rgb.chunks_exact_mut(3).enumerate() {
+            if fg.get(i).copied().unwrap_or(false) {
+                px[1] = px[1].saturating_add(90);
+            }
+            if mask.get(i).copied().unwrap_or(false) {
+                px[2] = px[2].saturating_add(90);
+            }
+        }
+        let name = format!("t{:06}-{}.ppm", (t * 1000.0).round() as i64, ["l", "r"][k]);
+        let _ = out.save_ppm(dir.join(name));
     }
 }
 

@@ -34,6 +34,9 @@ struct Tracker {
     last_seen: Vec<f64>,
     /// Per track: its largest pixel count (both cameras) seen with no arm near a line of sight.
     whole_pixels: Vec<f64>,
+    /// Per track: whether it was ever seen whole — in both cameras, cut by neither the image border
+    /// nor the robot's body ([`crate::vision::Segment::cut_off`]).
+    whole: Vec<bool>,
     /// Per hand: the carried track's id and the palm position at the last update.
     carried: [Option<(u32, [f64; 3])>; 2],
     /// Per hand: frames in a row the carrying hand did not hold.
@@ -63,6 +66,11 @@ const MOVED_SHARE: f64 = 0.55;
 /// … and its centroid is within this height (m) of the track's (mismatched stereo pairs of a
 /// partly hidden object measured 4–7 cm high).
 const MOVED_DZ: f64 = 0.035;
+/// Margin (px) around a cut segment's bounding box within which a track's projection makes the
+/// segment a view of that track.
+const BOX_MARGIN_PX: f64 = 2.0;
+/// A stereo centroid this far (m) below the table top is a false match.
+const BELOW_TABLE: f64 = 0.01;
 /// A carried track stays latched to its hand until the hand has not held for this many frames.
 const UNHELD_FRAMES: u32 = 3;
 /// An unmatched segment this close (m) to a palm that carries something is a piece of that object.
@@ -70,6 +78,11 @@ const CARRIED_RADIUS: f64 = 0.12;
 /// The association gate for a track near a palm (m): a partly hidden segment's centroid moves by up
 /// to the size of the hidden part.
 const OCCLUDED_GATE: f64 = 0.12;
+/// The association gate for a segment cut by the image border or the robot's body in either camera
+/// (m): its centroid lies off by up to the size of the hidden part, and a stereo pair of one whole
+/// and one cut view triangulates the difference as depth (a lying can cut by the arm in one camera
+/// measured 9.6 cm from its whole view, and started a second track).
+const CUT_GATE: f64 = 0.12;
 
 impl Tracker {
     /// Moves carried tracks with their palms; `holding[k]` says whether hand k holds something.
@@ -115,10 +128,18 @@ impl Tracker {
         }
     }
 
+    /// Associates this frame's segments with the tracks. `cut[i]`: segment `i` is cut by the image
+    /// border or the robot's body in either camera — its centroid is biased, so it is gated wider
+    /// ([`CUT_GATE`]), it does not overwrite a track seen whole, and it starts a track only with no
+    /// track within [`CUT_GATE`]; a track never seen whole is dropped once a track seen whole lies
+    /// within [`CUT_GATE`] of it.
+    #[allow(clippy::too_many_arguments)]
     fn update(
         &mut self,
         seen: Vec<SegmentPercept>,
+        cut: &[bool],
         views: &[[[f64; 2]; 2]],
+        boxes: &[[[u32; 4]; 2]],
         mono: &[MonoView],
         cams: [&crate::vision::Camera; 2],
         t: f64,
@@ -143,12 +164,36 @@ impl Tracker {
                         .any(|(p, r)| eyes.iter().any(|e| sight_distance(e, &tr.centroid, p) < *r))
             })
             .collect();
+        // Whether track j projects inside segment i's bounding box in either camera: a cut view's
+        // triangulated centroid may be far off (a sliver beside the arm in one camera matched with
+        // the whole object in the other measured 14 cm away), its image is not.
+        let inside = |i: usize, tr: &SegmentPercept| {
+            (0..2).any(|k| {
+                let b = boxes[i][k];
+                project(cams[k], &Vec3::from(tr.centroid)).is_some_and(|(u, v)| {
+                    u >= f64::from(b[0]) - BOX_MARGIN_PX
+                        && u <= f64::from(b[2]) + BOX_MARGIN_PX
+                        && v >= f64::from(b[1]) - BOX_MARGIN_PX
+                        && v <= f64::from(b[3]) + BOX_MARGIN_PX
+                })
+            })
+        };
         // Greedy nearest-first assignment.
         let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
         for (i, s) in seen.iter().enumerate() {
             for (j, tr) in self.tracks.iter().enumerate() {
                 let d = dist(&s.centroid, &tr.centroid);
-                let gate = if near_palm[j] { OCCLUDED_GATE } else { TRACK_GATE };
+                if cut[i] && d >= CUT_GATE && !near_palm[j] && inside(i, tr) {
+                    pairs.push((d, i, j));
+                    continue;
+                }
+                let gate = if near_palm[j] {
+                    OCCLUDED_GATE
+                } else if cut[i] {
+                    CUT_GATE
+                } else {
+                    TRACK_GATE
+                };
                 if d < gate {
                     pairs.push((d, i, j));
                 }
@@ -177,7 +222,11 @@ impl Tracker {
             } else if near_palm[j] && px < OCCLUDED_SHARE * self.whole_pixels[j] && !moved {
                 // Partly hidden by the hand: keep what was seen whole.
                 self.tracks[j].seen = true;
+            } else if cut[i] && self.whole[j] {
+                // Cut by the border or the robot's body: keep what was seen whole.
+                self.tracks[j].seen = true;
             } else {
+                self.whole[j] |= !cut[i];
                 self.tracks[j] = SegmentPercept { id, ..seen[i].clone() };
                 if !near_palm[j] {
                     // The largest view: an arm not yet near a line of sight may already hide a little.
@@ -221,8 +270,21 @@ impl Tracker {
                 .iter()
                 .flatten()
                 .any(|(_, palm)| dist(&s.centroid, palm) < CARRIED_RADIUS);
-            if !used_s[i] && !carried_piece {
+            // A cut view near a track is a piece of that object (seen whole elsewhere, or to be).
+            let cut_piece = cut[i]
+                && self
+                    .tracks
+                    .iter()
+                    .any(|tr| dist(&s.centroid, &tr.centroid) < CUT_GATE || inside(i, tr));
+            if !used_s[i] && !carried_piece && !cut_piece {
+                if debug_blobs() {
+                    eprintln!(
+                        "NEW t={t:.2} track {} at {:?} pixels {:?} cut {}",
+                        self.next_id, s.centroid, s.pixels, cut[i]
+                    );
+                }
                 self.whole_pixels.push(pixels(&s));
+                self.whole.push(!cut[i]);
                 self.tracks.push(SegmentPercept { id: self.next_id, ..s });
                 self.last_seen.push(t);
                 self.next_id += 1;
@@ -254,8 +316,24 @@ impl Tracker {
                         };
                         self.last_seen[old] = self.last_seen[new];
                         self.whole_pixels[old] = self.whole_pixels[new];
+                        self.whole[old] = self.whole[new];
+                    }
+                    if debug_blobs() {
+                        eprintln!("MERGE t={t:.2} track {} into {}", self.tracks[new].id, self.tracks[old].id);
                     }
                     keep[new] = false;
+                } else if keep[a]
+                    && keep[b]
+                    && !carried_pair
+                    && self.whole[a] != self.whole[b]
+                    && dist(&self.tracks[a].centroid, &self.tracks[b].centroid) < CUT_GATE
+                {
+                    // A track only ever seen cut, beside one seen whole: the same object.
+                    let drop = if self.whole[a] { b } else { a };
+                    if debug_blobs() {
+                        eprintln!("MERGE t={t:.2} cut track {} into a whole one", self.tracks[drop].id);
+                    }
+                    keep[drop] = false;
                 }
             }
         }
@@ -275,6 +353,7 @@ impl Tracker {
         retain_mask(&mut self.tracks, &keep);
         retain_mask(&mut self.last_seen, &keep);
         retain_mask(&mut self.whole_pixels, &keep);
+        retain_mask(&mut self.whole, &keep);
     }
 }
 
@@ -579,6 +658,8 @@ impl Watcher {
         let table_z = self.table_z;
         let blobs = self.eyes.perceive(hw, Pair::Head)?;
         let mut seen = Vec::new();
+        let mut cut = Vec::new();
+        let mut boxes = Vec::new();
         let mut views = Vec::new();
         let mut mono = Vec::new();
         let mut gaze_candidates = Vec::new();
@@ -591,7 +672,22 @@ impl Watcher {
                     b.right.map(|s| (s.features.pixel_count, s.features.centroid))
                 );
             }
-            let (Some(c), Some(l), Some(r)) = (b.centroid, b.left, b.right) else {
+            // A stereo pair whose centroid lies below the table top matched two different things
+            // (or one whole and one cut view): only its single views count.
+            let centroid = b.centroid.filter(|c| c.z > table_z - BELOW_TABLE);
+            let (Some(c), Some(l), Some(r)) = (centroid, b.left, b.right) else {
+                if centroid.is_none()
+                    && let (Some(l), Some(r)) = (b.left, b.right)
+                {
+                    for (camera, s) in [(0, l), (1, r)] {
+                        mono.push(MonoView {
+                            camera,
+                            centroid: s.features.centroid,
+                            term: dominant_term(&crate::vision::color::kept_color_terms(&s.features.color_terms)),
+                        });
+                    }
+                    continue;
+                }
                 let one = match (b.left, b.right) {
                     (Some(l), None) => Some((0, l)),
                     (None, Some(r)) => Some((1, r)),
@@ -635,6 +731,8 @@ impl Watcher {
             let o = off(&l, &cams.left).max(off(&r, &cams.right));
             gaze_candidates.push((o, seg.centroid));
             views.push([l.features.centroid, r.features.centroid]);
+            cut.push(l.cut_off() || r.cut_off());
+            boxes.push([l.bbox, r.bbox]);
             seen.push(seg);
         }
         let mut occluders: Vec<([f64; 3], f64)> = Vec::with_capacity(10);
@@ -646,7 +744,7 @@ impl Watcher {
             }
         }
         self.tracker
-            .update(seen, &views, &mono, [&cams.left, &cams.right], t, &occluders);
+            .update(seen, &cut, &views, &boxes, &mono, [&cams.left, &cams.right], t, &occluders);
         let gaze = gaze_candidates
             .iter()
             .filter(|(o, _)| *o < 0.12)
