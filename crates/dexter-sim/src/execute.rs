@@ -273,7 +273,10 @@ fn debug_frames(t: f64, eyes: &Eyes) {
         return;
     };
     let _ = std::fs::create_dir_all(dir);
-    let (images, masks) = (eyes.images(dexter::eyes::Pair::Head), eyes.self_masks(dexter::eyes::Pair::Head));
+    let (images, masks) = (
+        eyes.images(dexter::eyes::Pair::Head),
+        eyes.self_masks(dexter::eyes::Pair::Head),
+    );
     let pipeline = eyes.pipeline(dexter::eyes::Pair::Head);
     for (k, (side, image, mask)) in [
         (dexter::vision::Side::Left, images.0, masks.0),
@@ -500,6 +503,9 @@ pub fn execute_scene_with_fault(
         let mut matched = vec![false; truth0.len()];
         for d in decisions {
             let obj = match_object(&d.at);
+            // A second segment of an object already decided on (a duplicate track): whatever
+            // the robot does with it, it is not a success of its own.
+            let duplicate = obj.is_some_and(|i| matched[i]);
             if let Some(i) = obj {
                 matched[i] = true;
             }
@@ -618,7 +624,12 @@ pub fn execute_scene_with_fault(
                 }
                 None => (false, d.at),
             };
-            let failure = (!success).then(|| failure_cause(&exec, obj.is_some()));
+            let success = success && !duplicate;
+            let failure = if duplicate {
+                Some("perception: a second segment of an object already decided on (a duplicate track)".into())
+            } else {
+                (!success).then(|| failure_cause(&exec, obj.is_some()))
+            };
             {
                 let t = plant.hw.time_secs();
                 logger.borrow_mut().log.outcome(t, &label, success);

@@ -34,6 +34,7 @@ pub mod geometry;
 pub mod grasp_grid;
 pub mod grasp_trial;
 pub mod hardware;
+pub mod perception;
 pub mod physics;
 pub mod pick_place;
 

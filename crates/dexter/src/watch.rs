@@ -32,6 +32,8 @@ use crate::eyes::{Eyes, Pair, SearchTrack};
 struct Tracker {
     tracks: Vec<SegmentPercept>,
     last_seen: Vec<f64>,
+    /// The time of the last update (s).
+    last_t: Option<f64>,
     /// Per track: its largest pixel count (both cameras) seen with no arm near a line of sight.
     whole_pixels: Vec<f64>,
     /// Per track: whether it was ever seen whole — in both cameras, cut by neither the image border
@@ -48,8 +50,9 @@ struct Tracker {
 const TRACK_GATE: f64 = 0.08;
 /// Tracks closer than this are merged (m).
 const MERGE_GAP: f64 = 0.04;
-/// Unseen, uncarried tracks are dropped after this long (s).
-const FORGET_SECS: f64 = 2.0;
+/// Unseen, uncarried tracks are dropped after this long in view of both cameras (s): time while
+/// the track is outside an image, behind the robot's body or near an arm does not count.
+const FORGET_SECS: f64 = 1.0;
 /// A palm within this distance (m) of a line of sight from a head camera to a track may hide part
 /// of it (the open hand reaches about this far from the palm).
 const OCCLUSION_RADIUS: f64 = 0.16;
@@ -142,6 +145,7 @@ impl Tracker {
         boxes: &[[[u32; 4]; 2]],
         mono: &[MonoView],
         cams: [&crate::vision::Camera; 2],
+        masks: [&[bool]; 2],
         t: f64,
         occluders: &[([f64; 3], f64)],
     ) {
@@ -170,6 +174,9 @@ impl Tracker {
         let inside = |i: usize, tr: &SegmentPercept| {
             (0..2).any(|k| {
                 let b = boxes[i][k];
+                if b[0] > b[2] {
+                    return false;
+                }
                 project(cams[k], &Vec3::from(tr.centroid)).is_some_and(|(u, v)| {
                     u >= f64::from(b[0]) - BOX_MARGIN_PX
                         && u <= f64::from(b[2]) + BOX_MARGIN_PX
@@ -222,8 +229,9 @@ impl Tracker {
             } else if near_palm[j] && px < OCCLUDED_SHARE * self.whole_pixels[j] && !moved {
                 // Partly hidden by the hand: keep what was seen whole.
                 self.tracks[j].seen = true;
-            } else if cut[i] && self.whole[j] {
-                // Cut by the border or the robot's body: keep what was seen whole.
+            } else if cut[i] && (self.whole[j] || dist(&seen[i].centroid, &self.tracks[j].centroid) >= CUT_GATE) {
+                // Cut by the border or the robot's body: keep what was seen whole, or where it was
+                // when only its image explains the segment.
                 self.tracks[j].seen = true;
             } else {
                 self.whole[j] |= !cut[i];
@@ -319,7 +327,10 @@ impl Tracker {
                         self.whole[old] = self.whole[new];
                     }
                     if debug_blobs() {
-                        eprintln!("MERGE t={t:.2} track {} into {}", self.tracks[new].id, self.tracks[old].id);
+                        eprintln!(
+                            "MERGE t={t:.2} track {} into {}",
+                            self.tracks[new].id, self.tracks[old].id
+                        );
                     }
                     keep[new] = false;
                 } else if keep[a]
@@ -338,8 +349,14 @@ impl Tracker {
             }
         }
         for (j, k) in keep.iter_mut().enumerate() {
-            // Object permanence: a track an arm may be hiding is kept.
-            let hidden = near_palm.get(j).copied().unwrap_or(false);
+            // Object permanence: a track an arm may be hiding is kept, and so is one the cameras
+            // cannot see now (outside either image, or behind the robot's own body): only a track
+            // that should be seen and is not is forgotten.
+            let hidden = near_palm.get(j).copied().unwrap_or(false) || !in_view(cams, masks, &self.tracks[j].centroid);
+            if hidden && !self.tracks[j].seen {
+                // Time out of view does not count against it.
+                self.last_seen[j] += t - self.last_t.unwrap_or(t);
+            }
             if t - self.last_seen[j] > FORGET_SECS && !carried.contains(&self.tracks[j].id) && !hidden {
                 if debug_blobs() {
                     eprintln!(
@@ -352,6 +369,7 @@ impl Tracker {
         }
         retain_mask(&mut self.tracks, &keep);
         retain_mask(&mut self.last_seen, &keep);
+        self.last_t = Some(t);
         retain_mask(&mut self.whole_pixels, &keep);
         retain_mask(&mut self.whole, &keep);
     }
@@ -369,6 +387,26 @@ struct MonoView {
 /// How far (px, at the head cameras' 160 × 120) a one-camera blob may lie from a track's projection
 /// to count as a view of it: about 5 cm at the table's range.
 const MONO_GATE_PX: f64 = 10.0;
+
+/// How far (px) inside the image border a track must project to count as in view.
+const IN_VIEW_MARGIN_PX: f64 = 4.0;
+
+/// Whether `p` is in view of both cameras: in front of them, at least [`IN_VIEW_MARGIN_PX`] inside
+/// each image, and not behind the robot's own body (`masks`, the self-masks; empty = none).
+fn in_view(cams: [&crate::vision::Camera; 2], masks: [&[bool]; 2], p: &[f64; 3]) -> bool {
+    cams.iter().zip(masks).all(|(cam, mask)| {
+        let Some((u, v)) = project(cam, &Vec3::from(*p)) else {
+            return false;
+        };
+        let (w, h) = (f64::from(cam.width), f64::from(cam.height));
+        if !(u >= IN_VIEW_MARGIN_PX && u < w - IN_VIEW_MARGIN_PX && v >= IN_VIEW_MARGIN_PX && v < h - IN_VIEW_MARGIN_PX)
+        {
+            return false;
+        }
+        let i = v as usize * cam.width as usize + u as usize;
+        !mask.get(i).copied().unwrap_or(false)
+    })
+}
 
 /// `(u, v)` (px) of the world point `p` in `cam`, if in front of it.
 fn project(cam: &crate::vision::Camera, p: &Vec3) -> Option<(f64, f64)> {
@@ -732,7 +770,14 @@ impl Watcher {
             gaze_candidates.push((o, seg.centroid));
             views.push([l.features.centroid, r.features.centroid]);
             cut.push(l.cut_off() || r.cut_off());
-            boxes.push([l.bbox, r.bbox]);
+            // The box of a view cut by the border or the body says less than a whole one: with
+            // one whole view, only its box explains other tracks.
+            const NO_BOX: [u32; 4] = [1, 0, 0, 0];
+            boxes.push(match (l.cut_off(), r.cut_off()) {
+                (true, false) => [NO_BOX, r.bbox],
+                (false, true) => [l.bbox, NO_BOX],
+                _ => [l.bbox, r.bbox],
+            });
             seen.push(seg);
         }
         let mut occluders: Vec<([f64; 3], f64)> = Vec::with_capacity(10);
@@ -743,8 +788,18 @@ impl Watcher {
                 occluders.push((std::array::from_fn(|j| e[j] + s * (palm[j] - e[j])), FOREARM_RADIUS));
             }
         }
-        self.tracker
-            .update(seen, &cut, &views, &boxes, &mono, [&cams.left, &cams.right], t, &occluders);
+        let masks = self.eyes.self_masks(Pair::Head);
+        self.tracker.update(
+            seen,
+            &cut,
+            &views,
+            &boxes,
+            &mono,
+            [&cams.left, &cams.right],
+            [masks.0, masks.1],
+            t,
+            &occluders,
+        );
         let gaze = gaze_candidates
             .iter()
             .filter(|(o, _)| *o < 0.12)

@@ -298,18 +298,110 @@ impl Segmenter {
                 self.component[p as usize] = id;
             }
             let mut segment = features_of(&self.pixels, image, w, h);
-            segment.touches_robot = !self.masked.is_empty()
-                && self.pixels.iter().any(|&p| {
-                    let (u, v) = (p as usize % w, p as usize / w);
-                    (v.saturating_sub(1)..=(v + 1).min(h - 1))
-                        .any(|vv| (u.saturating_sub(1)..=(u + 1).min(w - 1)).any(|uu| self.masked[vv * w + uu]))
-                });
+            segment.touches_robot = touches_mask(&self.masked, &self.pixels, w, h);
             self.segments.push(segment);
         }
         for &p in &self.rejected {
             self.component[p as usize] = 0;
         }
     }
+}
+
+impl Segmenter {
+    /// Splits segment `index` (of the last [`Segmenter::segment`] on `image`) in two by colour:
+    /// each pixel goes to the histogram, `a` or `b`, that gives its colour bin the larger share;
+    /// pixels whose bin neither holds (or both equally) go to the part whose centroid is nearer. Part `a` replaces
+    /// the segment, part `b` is appended (and labelled in the component map). Used when the other
+    /// camera of a stereo pair sees two objects where this one sees one component (they touch in
+    /// this view). Returns `false`, changing nothing, when either part would have fewer than
+    /// `min_pixels` or less than `min_share` of the segment.
+    pub fn split_by_colour(
+        &mut self,
+        image: &Image,
+        index: usize,
+        a: &ColorHistogram,
+        b: &ColorHistogram,
+        min_share: f64,
+    ) -> bool {
+        let (w, h) = (image.width as usize, image.height as usize);
+        let Some(seg) = self.segments.get(index).copied() else {
+            return false;
+        };
+        if self.component.len() != w * h {
+            return false;
+        }
+        let id = index as u32 + 1;
+        let (na, nb) = (a.normalized(), b.normalized());
+        // Scratch: `stack` holds the pixels of part a, `pixels` those of part b, `rejected` the
+        // undecided ones (all three are free between frames and reserved to the image size).
+        self.stack.clear();
+        self.pixels.clear();
+        self.rejected.clear();
+        let [u0, v0, u1, v1] = seg.bbox;
+        for v in v0 as usize..=(v1 as usize).min(h - 1) {
+            for u in u0 as usize..=(u1 as usize).min(w - 1) {
+                let p = v * w + u;
+                if self.component[p] != id {
+                    continue;
+                }
+                let c = image.px(p);
+                let bin = hsv_bin(rgb_to_hsv(c.map(|x| f64::from(x) / 255.0)));
+                if na[bin] > nb[bin] {
+                    self.stack.push(p as u32);
+                } else if nb[bin] > na[bin] {
+                    self.pixels.push(p as u32);
+                } else {
+                    self.rejected.push(p as u32);
+                }
+            }
+        }
+        let mean = |px: &[u32]| {
+            let n = px.len().max(1) as f64;
+            let (su, sv) = px.iter().fold((0.0, 0.0), |(su, sv), &p| {
+                (su + (p as usize % w) as f64, sv + (p as usize / w) as f64)
+            });
+            (su / n, sv / n)
+        };
+        if self.stack.is_empty() || self.pixels.is_empty() {
+            return false;
+        }
+        let (ca, cb) = (mean(&self.stack), mean(&self.pixels));
+        for k in 0..self.rejected.len() {
+            let p = self.rejected[k];
+            let (u, v) = ((p as usize % w) as f64, (p as usize / w) as f64);
+            if (u - ca.0).hypot(v - ca.1) <= (u - cb.0).hypot(v - cb.1) {
+                self.stack.push(p);
+            } else {
+                self.pixels.push(p);
+            }
+        }
+        let n = seg.features.pixel_count as f64;
+        let least = (self.config.min_pixels.max(1) as f64).max(min_share * n);
+        if (self.stack.len() as f64) < least || (self.pixels.len() as f64) < least {
+            return false;
+        }
+        let new_id = self.segments.len() as u32 + 1;
+        for &p in &self.pixels {
+            self.component[p as usize] = new_id;
+        }
+        let mut part_a = features_of(&self.stack, image, w, h);
+        part_a.touches_robot = touches_mask(&self.masked, &self.stack, w, h);
+        let mut part_b = features_of(&self.pixels, image, w, h);
+        part_b.touches_robot = touches_mask(&self.masked, &self.pixels, w, h);
+        self.segments[index] = part_a;
+        self.segments.push(part_b);
+        true
+    }
+}
+
+/// Whether any of `pixels` is next to (or on) a pixel of `mask` (empty = no mask).
+fn touches_mask(mask: &[bool], pixels: &[u32], w: usize, h: usize) -> bool {
+    !mask.is_empty()
+        && pixels.iter().any(|&p| {
+            let (u, v) = (p as usize % w, p as usize / w);
+            (v.saturating_sub(1)..=(v + 1).min(h - 1))
+                .any(|vv| (u.saturating_sub(1)..=(u + 1).min(w - 1)).any(|uu| mask[vv * w + uu]))
+        })
 }
 
 /// Features of the pixels `pixels` (linear indices) of `image`.
@@ -378,6 +470,44 @@ mod tests {
             }
         }
         im
+    }
+
+    #[test]
+    fn touching_objects_of_two_colours_split_by_the_other_views_colours() {
+        let bg = img(20, 10, |_, _| [100, 100, 100]);
+        // A red 4×4 square at u 2..6 touching a blue 5×4 one at u 6..11: one component.
+        let im = img(20, 10, |u, v| match (u, v) {
+            (2..6, 3..7) => [200, 0, 0],
+            (6..11, 3..7) => [0, 0, 200],
+            _ => [100, 100, 100],
+        });
+        let mut s = Segmenter::new(SegmentConfig {
+            diff_threshold: 0.1,
+            min_pixels: 3,
+        });
+        s.set_background(&bg);
+        assert_eq!(s.segment(&im, &[]).unwrap().len(), 1);
+        let hist = |rgb: [u8; 3]| {
+            let mut h = ColorHistogram::default();
+            h.counts[crate::vision::color::rgb8_bin(rgb)] = 10;
+            h
+        };
+        let (red, blue, green) = (hist([200, 0, 0]), hist([0, 0, 200]), hist([0, 200, 0]));
+        // A part below the share asked for: nothing changes.
+        assert!(!s.split_by_colour(&im, 0, &red, &blue, 0.5));
+        assert_eq!(s.segments().len(), 1);
+        assert!(s.split_by_colour(&im, 0, &red, &blue, 0.15));
+        let segs = s.segments();
+        assert_eq!(segs.len(), 2);
+        assert_eq!((segs[0].features.pixel_count, segs[1].features.pixel_count), (16, 20));
+        assert_eq!(segs[0].features.centroid, [3.5, 4.5]);
+        assert_eq!(segs[1].features.centroid, [8.0, 4.5]);
+        assert_eq!((s.component_map()[3 * 20 + 5], s.component_map()[3 * 20 + 6]), (1, 2));
+        // A histogram no pixel of the segment falls in: no split.
+        assert_eq!(s.segment(&im, &[]).unwrap().len(), 1);
+        assert!(!s.split_by_colour(&im, 0, &green, &blue, 0.15));
+        assert_eq!(s.segments().len(), 1);
+        assert!(!s.split_by_colour(&im, 7, &red, &blue, 0.15));
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! segment → match → support-plane pipeline for a stereo pair.
 
 use crate::error::RobotError;
+use crate::vision::color::ColorHistogram;
 use crate::vision::segment::{Segment, SegmentConfig, Segmenter};
 use crate::vision::support::{CentroidSource, Footprint, SupportEstimator, SupportPlane, View};
 use control_basis::hardware::{Camera, Image, Intrinsics};
@@ -359,6 +360,25 @@ fn correct(cams: &StereoCameras, tri: &Triangulation, l: &Segment, r: &Segment, 
     }
 }
 
+/// A merged segment is at least this many times the size of the unmatched segment it holds.
+const MERGED_SIZE: f64 = 1.3;
+/// … and holds at least this share of its colours (histogram intersection).
+const MERGED_SHARE: f64 = 0.15;
+/// The two objects' colour distributions intersect less than this.
+const MERGED_DISTINCT: f64 = 0.5;
+/// Each part of a split holds at least this share of the merged segment.
+const MERGED_MIN_PART: f64 = 0.15;
+
+/// Overlap of the row ranges of two bounding boxes, as a share of the first's height.
+fn rows_overlap(a: &[u32; 4], b: &[u32; 4]) -> f64 {
+    let lo = a[1].max(b[1]);
+    let hi = a[3].min(b[3]);
+    if hi < lo {
+        return 0.0;
+    }
+    f64::from(hi - lo + 1) / f64::from(a[3] - a[1] + 1)
+}
+
 /// The stereo pipeline of one camera pair with every buffer reused: two segmenters (each with the
 /// background of its camera), a matcher and the support-plane estimator. It takes images — from
 /// [`control_basis::Hardware::capture`] or anywhere else — and never renders.
@@ -483,12 +503,94 @@ impl StereoPipeline {
         let [sl, sr] = &self.segmenters;
         self.matcher
             .match_segments(cams, sl.segments(), sr.segments(), &self.config, out);
+        // Objects that touch in one view are one component there and two in the other: split the
+        // merged one by the colours of the two, then match again (at most twice).
+        for _ in 0..2 {
+            if !self.split_merged([frames[0].image, frames[1].image]) {
+                break;
+            }
+            let [sl, sr] = &self.segmenters;
+            self.matcher
+                .match_segments(cams, sl.segments(), sr.segments(), &self.config, out);
+        }
         if let Some(plane) = self.config.support {
             for blob in out.iter_mut() {
                 self.refine_on_support(cams, [frames[0].image, frames[1].image], blob, &plane);
             }
         }
         Ok(())
+    }
+
+    /// One split of a merged segment ([`Segmenter::split_by_colour`]), if one is found: a segment
+    /// `s` of camera B that matched nothing, and a segment `m` of camera A that covers the rows of
+    /// `s`, is at least [`MERGED_SIZE`] times its size and holds at least [`MERGED_SHARE`] of its
+    /// colours; the other part's colours come from `m`'s match in camera B, or, when `m` matched
+    /// nothing, from another unmatched segment of camera B on the rows of `m`. The two colour
+    /// distributions must differ (intersection below [`MERGED_DISTINCT`]): a split by colour of two
+    /// objects of one colour would be a guess.
+    fn split_merged(&mut self, images: [&Image; 2]) -> bool {
+        let matched_right = |j: usize| self.matcher.used_right.get(j).copied().unwrap_or(false);
+        let mut found: Option<(usize, usize, ColorHistogram, ColorHistogram)> = None;
+        'search: for b in 0..2 {
+            let a = 1 - b;
+            let (seg_a, seg_b) = (self.segmenters[a].segments(), self.segmenters[b].segments());
+            // The match in camera B of segment i of camera A, and whether segment j of B matched.
+            let match_of = |i: usize| -> Option<usize> {
+                if a == 0 {
+                    self.matcher
+                        .match_of_left
+                        .get(i)
+                        .copied()
+                        .flatten()
+                        .map(|(j, _)| j as usize)
+                } else {
+                    self.matcher
+                        .match_of_left
+                        .iter()
+                        .position(|m| m.is_some_and(|(j, _)| j as usize == i))
+                }
+            };
+            let is_matched_b = |j: usize| {
+                if b == 1 {
+                    matched_right(j)
+                } else {
+                    self.matcher.match_of_left.get(j).is_some_and(|m| m.is_some())
+                }
+            };
+            for (j, sb) in seg_b.iter().enumerate() {
+                if is_matched_b(j) {
+                    continue;
+                }
+                for (i, m) in seg_a.iter().enumerate() {
+                    if (m.features.pixel_count as f64) < MERGED_SIZE * sb.features.pixel_count as f64
+                        || rows_overlap(&sb.bbox, &m.bbox) < 0.5
+                        || m.features.histogram.intersection(&sb.features.histogram) < MERGED_SHARE
+                    {
+                        continue;
+                    }
+                    let partner = match match_of(i) {
+                        Some(n) => Some(n),
+                        None => seg_b
+                            .iter()
+                            .enumerate()
+                            .position(|(k, o)| k != j && !is_matched_b(k) && rows_overlap(&o.bbox, &m.bbox) >= 0.5),
+                    };
+                    let Some(n) = partner.filter(|&n| n != j) else {
+                        continue;
+                    };
+                    let hn = seg_b[n].features.histogram;
+                    if hn.intersection(&sb.features.histogram) >= MERGED_DISTINCT {
+                        continue;
+                    }
+                    found = Some((a, i, hn, sb.features.histogram));
+                    break 'search;
+                }
+            }
+        }
+        let Some((a, i, keep, other)) = found else {
+            return false;
+        };
+        self.segmenters[a].split_by_colour(images[a], i, &keep, &other, MERGED_MIN_PART)
     }
 
     /// Replaces a matched blob's centroid by the support-plane estimate when it applies.
