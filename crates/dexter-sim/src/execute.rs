@@ -544,22 +544,21 @@ pub fn execute_scene_with_fault(
                 let t = plant.hw.time_secs();
                 l.log.activity(t, &format!("{label} (segment {}) → {place}", d.segment));
             }
-            // Look where it was decided on, then find it: its track, or (the tracker may have re-identified it while
-            // the head looked elsewhere) the seen segment nearest where it was decided on.
+            // Look where it was decided on, then find it: its track, or (the tracker may have lost or
+            // re-identified it while the robot worked elsewhere) the seen segment nearest where it was
+            // decided on, looking there and, failing that, over the table.
             plant.look(&Vec3::from(d.at), 0.6).map_err(from_robot)?;
-            let now = plant.last_percept().and_then(|p| {
-                p.segments.iter().find(|s| s.id == d.segment).or_else(|| {
-                    p.segments
-                        .iter()
-                        .map(|s| ((Vec3::from(s.centroid) - Vec3::from(d.at)).xy().norm(), s))
-                        .filter(|(dist, _)| *dist < 0.08)
-                        .min_by(|a, b| a.0.total_cmp(&b.0))
-                        .map(|(_, s)| s)
-                })
+            let by_id = plant.last_percept().and_then(|p| {
+                p.segments
+                    .iter()
+                    .find(|s| s.id == d.segment)
+                    .map(|s| (s.id, Vec3::from(s.centroid)))
             });
-            let (segment_now, at) = now
-                .map(|s| (s.id, Vec3::from(s.centroid)))
-                .unwrap_or((d.segment, Vec3::from(d.at)));
+            let now = match by_id {
+                Some(found) => Some(found),
+                None => plant.find(&Vec3::from(d.at)).map_err(from_robot)?,
+            };
+            let (segment_now, at) = now.unwrap_or((d.segment, Vec3::from(d.at)));
             plant.set_destination(Some(&place));
             plant.plan_handoff(&at).map_err(from_robot)?;
             let handoff = plant.handoff();

@@ -896,6 +896,33 @@ impl<'a> RobotPlant<'a> {
     /// segment nearest `last` (where it was last seen) within [`SEARCH_GATE`], on the table (not in
     /// a place, not carried, at the table's height). `None` if nothing is seen there.
     fn search(&mut self, last: &Vec3) -> Result<Option<(Option<u32>, SeenObject)>, RobotError> {
+        self.search_within(last, SEARCH_GATE)
+    }
+
+    /// The tracked segment the robot decided on at `at` before it acts on it: the one seen within
+    /// [`TARGET_GATE`] of `at` after looking there, else the nearest within [`TARGET_GATE`] found
+    /// by a scan of the table ([`Workspace::scan_points`]) — its track may have been lost while
+    /// the robot worked on other objects. Its id and centroid, or `None` if it is not seen there.
+    pub fn find(&mut self, at: &Vec3) -> Result<Option<(u32, Vec3)>, RobotError> {
+        self.look(at, 0.6)?;
+        let near = self.percepts.last().and_then(|p| {
+            p.segments
+                .iter()
+                .filter(|s| s.seen)
+                .map(|s| ((Vec3::from(s.centroid) - at).xy().norm(), s))
+                .filter(|(d, _)| *d < TARGET_GATE)
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .map(|(_, s)| (s.id, Vec3::from(s.centroid)))
+        });
+        if near.is_some() {
+            return Ok(near);
+        }
+        Ok(self
+            .search_within(at, TARGET_GATE)?
+            .and_then(|(id, seen)| id.map(|id| (id, seen.centroid))))
+    }
+
+    fn search_within(&mut self, last: &Vec3, gate: f64) -> Result<Option<(Option<u32>, SeenObject)>, RobotError> {
         let table_z = self.workspace.table_z;
         let mut best: Option<(f64, u32, SeenObject)> = None;
         for at in self.workspace.scan_points() {
@@ -912,7 +939,7 @@ impl<'a> RobotPlant<'a> {
                     .hands
                     .iter()
                     .any(|h| (Vec3::from(h.palm) - c).norm() < 0.12 && h.load.abs() > 0.5);
-                if d < SEARCH_GATE && on_table && !in_place && !carried && best.as_ref().is_none_or(|b| d < b.0) {
+                if d < gate && on_table && !in_place && !carried && best.as_ref().is_none_or(|b| d < b.0) {
                     best = Some((d, s.id, SeenObject::from_percept(s, table_z)));
                 }
             }

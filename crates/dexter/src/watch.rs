@@ -870,6 +870,128 @@ mod tests {
         })
     }
 
+    /// The bounding box (px) of a 20 × 16 px silhouette centred on `p`'s projection in each camera.
+    fn boxes_around(cams: [&Camera; 2], p: Vec3) -> [[u32; 4]; 2] {
+        views(cams, p).map(|[u, v]| [(u - 10.0) as u32, (v - 8.0) as u32, (u + 10.0) as u32, (v + 8.0) as u32])
+    }
+
+    #[test]
+    fn a_cut_view_far_from_a_whole_track_is_that_object_when_its_image_holds_it() {
+        let (l, r) = (camera([0.05, 0.03, 1.45]), camera([0.05, -0.03, 1.45]));
+        let cams = [&l, &r];
+        let no_mask: [&[bool]; 2] = [&[], &[]];
+        let mut tracker = Tracker::default();
+        let whole = track();
+        let at = Vec3::from(whole.centroid);
+        tracker.update(
+            vec![whole.clone()],
+            &[false],
+            &[views(cams, at)],
+            &[boxes_around(cams, at)],
+            &[],
+            cams,
+            no_mask,
+            0.0,
+            &[],
+        );
+        assert_eq!(tracker.tracks.len(), 1);
+        // The arm hides most of it in one camera: the pair triangulates 14 cm off, above the table.
+        let cut = SegmentPercept {
+            centroid: [0.52, 0.05, 0.88],
+            pixels: [20, 80],
+            ..whole.clone()
+        };
+        tracker.update(
+            vec![cut.clone()],
+            &[true],
+            &[views(cams, at)],
+            &[boxes_around(cams, at)],
+            &[],
+            cams,
+            no_mask,
+            0.1,
+            &[],
+        );
+        assert_eq!(
+            tracker.tracks.len(),
+            1,
+            "a cut view of a tracked object starts no track"
+        );
+        assert_eq!(tracker.tracks[0].centroid, whole.centroid, "nor moves the whole view");
+        assert!(tracker.tracks[0].seen);
+        // A whole view that far is another object.
+        let other = Vec3::new(0.52, 0.05, 0.7735);
+        let far = SegmentPercept {
+            centroid: [0.52, 0.05, 0.7735],
+            ..whole.clone()
+        };
+        tracker.update(
+            vec![far],
+            &[false],
+            &[views(cams, other)],
+            &[boxes_around(cams, other)],
+            &[],
+            cams,
+            no_mask,
+            0.2,
+            &[],
+        );
+        assert_eq!(tracker.tracks.len(), 2);
+    }
+
+    #[test]
+    fn a_track_out_of_view_is_kept_and_one_in_view_unseen_is_forgotten() {
+        let (l, r) = (camera([0.05, 0.03, 1.45]), camera([0.05, -0.03, 1.45]));
+        let cams = [&l, &r];
+        let no_mask: [&[bool]; 2] = [&[], &[]];
+        let mut tracker = Tracker::default();
+        // One object in view, one behind the cameras' field (far to the side).
+        let seen = track();
+        let aside = SegmentPercept {
+            centroid: [0.6, 1.5, 0.7735],
+            ..track()
+        };
+        let segs = vec![seen.clone(), aside.clone()];
+        let v = [views(cams, Vec3::from(seen.centroid)), [[0.0; 2]; 2]];
+        let b = [boxes_around(cams, Vec3::from(seen.centroid)), [[0; 4]; 2]];
+        tracker.update(segs, &[false, false], &v, &b, &[], cams, no_mask, 0.0, &[]);
+        assert_eq!(tracker.tracks.len(), 2);
+        // Nothing seen for 5 s: the one in view goes after 1 s, the one out of view stays.
+        for k in 1..=50 {
+            tracker.update(Vec::new(), &[], &[], &[], &[], cams, no_mask, 0.1 * f64::from(k), &[]);
+        }
+        assert_eq!(tracker.tracks.len(), 1);
+        assert_eq!(tracker.tracks[0].centroid, aside.centroid);
+        // Behind the robot's body (its self-mask over the whole image) a track is out of view too.
+        let mask = vec![true; 160 * 120];
+        let mut tracker = Tracker::default();
+        tracker.update(
+            vec![seen.clone()],
+            &[false],
+            &v[..1],
+            &b[..1],
+            &[],
+            cams,
+            no_mask,
+            0.0,
+            &[],
+        );
+        for k in 1..=50 {
+            tracker.update(
+                Vec::new(),
+                &[],
+                &[],
+                &[],
+                &[],
+                cams,
+                [&mask, &mask],
+                0.1 * f64::from(k),
+                &[],
+            );
+        }
+        assert_eq!(tracker.tracks.len(), 1);
+    }
+
     #[test]
     fn a_view_outside_the_tracks_silhouette_in_both_images_is_a_move() {
         let (l, r) = (camera([0.05, 0.03, 1.45]), camera([0.05, -0.03, 1.45]));
