@@ -784,7 +784,7 @@ impl<'a> RobotPlant<'a> {
             if let Some(c) = last
                 && let Some((_, s)) = segments
                     .iter()
-                    .filter(|s| s.seen && self.above_table(s))
+                    .filter(|s| s.seen && self.may_be_target(s))
                     .map(|s| ((Vec3::from(s.centroid) - c).xy().norm(), s))
                     .filter(|(d, _)| *d < REACQUIRE_GATE)
                     .min_by(|a, b| a.0.total_cmp(&b.0))
@@ -800,7 +800,7 @@ impl<'a> RobotPlant<'a> {
         {
             let near = segments
                 .iter()
-                .filter(|s| s.seen && self.above_table(s))
+                .filter(|s| s.seen && self.may_be_target(s))
                 .map(|s| ((Vec3::from(s.centroid) - seen.centroid).xy().norm(), s))
                 .filter(|(d, _)| *d < TARGET_GATE)
                 .min_by(|a, b| a.0.total_cmp(&b.0))
@@ -855,7 +855,7 @@ impl<'a> RobotPlant<'a> {
             _ => p
                 .segments
                 .iter()
-                .filter(|s| s.seen && s.id >= self.plan_next_id && self.above_table(s))
+                .filter(|s| s.seen && s.id >= self.plan_next_id && self.may_be_target(s))
                 .map(off)
                 .filter(|d| *d < REACQUIRE_GATE)
                 .min_by(f64::total_cmp)
@@ -873,6 +873,21 @@ impl<'a> RobotPlant<'a> {
     /// robot could grasp can be.
     fn above_table(&self, s: &schema::SegmentPercept) -> bool {
         s.centroid[2] > self.workspace.table_z - 0.02
+    }
+
+    /// Whether a segment may be the object the robot is after: [above the table](Self::above_table)
+    /// and no taller than [`TALL_THING`] (a post or a wall the hand cannot grasp is an obstacle,
+    /// never the target to re-acquire). A coarse extent's height is twice its centroid's height
+    /// and doubles any error in it: there the centroid itself must lie lower than that.
+    fn may_be_target(&self, s: &schema::SegmentPercept) -> bool {
+        self.above_table(s)
+            && s.extent.as_ref().is_none_or(|e| {
+                if e.model == "coarse" {
+                    s.centroid[2] - self.workspace.table_z <= TALL_THING
+                } else {
+                    e.height <= TALL_THING
+                }
+            })
     }
 
     /// Whether `c` lies over the table (within 2 cm of its edges) and not below its top: where an
@@ -908,7 +923,7 @@ impl<'a> RobotPlant<'a> {
         let near = self.percepts.last().and_then(|p| {
             p.segments
                 .iter()
-                .filter(|s| s.seen)
+                .filter(|s| s.seen && self.may_be_target(s))
                 .map(|s| ((Vec3::from(s.centroid) - at).xy().norm(), s))
                 .filter(|(d, _)| *d < TARGET_GATE)
                 .min_by(|a, b| a.0.total_cmp(&b.0))
@@ -930,7 +945,7 @@ impl<'a> RobotPlant<'a> {
             let Some(p) = self.percepts.last() else {
                 continue;
             };
-            for s in p.segments.iter().filter(|s| s.seen) {
+            for s in p.segments.iter().filter(|s| s.seen && self.may_be_target(s)) {
                 let c = Vec3::from(s.centroid);
                 let d = (c - last).xy().norm();
                 let on_table = c.z > table_z && c.z < table_z + 0.4;
