@@ -14,7 +14,10 @@ pub struct Body {
     links: Vec<Link>,
 }
 
+/// A link's pose: computed from its chain at the measured joints, or fixed. Few links (the ones
+/// asked for) are held, so the size of the moving variant does not matter.
 #[derive(Debug)]
+#[allow(clippy::large_enum_variant)]
 enum Pose {
     Moving {
         chain: Chain,

@@ -252,7 +252,8 @@ fn fill_convex(hull: &[(f64, f64)], w: usize, h: usize, mask: &mut [bool]) {
     }
     let v0 = vmin.ceil().max(0.0);
     let v1 = vmax.floor().min(h as f64 - 1.0);
-    if !(v0 <= v1) {
+    // NaN (a degenerate hull) or an empty row range: nothing to fill.
+    if v0.is_nan() || v1.is_nan() || v0 > v1 {
         return;
     }
     for v in v0 as usize..=v1 as usize {
@@ -274,7 +275,7 @@ fn fill_convex(hull: &[(f64, f64)], w: usize, h: usize, mask: &mut [bool]) {
         }
         let u0 = lo.ceil().max(0.0);
         let u1 = hi.floor().min(w as f64 - 1.0);
-        if !(u0 <= u1) {
+        if u0.is_nan() || u1.is_nan() || u0 > u1 {
             continue;
         }
         for u in u0 as usize..=u1 as usize {
