@@ -1,5 +1,6 @@
-//! `pbd experiment sorting | execute`: the seed's procedural-learning experiments (§5.1–5.3) and the
-//! execution of a learned model on random new scenes. The library writes the CSV and Markdown files;
+//! `pbd experiment sorting | execute | faults | perception`: the seed's procedural-learning
+//! experiments (§5.1–5.3), the execution of a learned model on random new scenes, injected faults, and
+//! the robot's perception of those scenes against the truth. The library writes the CSV and Markdown files;
 //! this module draws the figures.
 
 use std::io::Write;
@@ -26,6 +27,9 @@ pub enum ExperimentCommand {
     /// Injected faults (drop, bump, blocked arm, occlusion, sensor noise): N seeded scenes per kind,
     /// recovered fraction with 95 % intervals and what the executive did.
     Faults(FaultsArgs),
+    /// The robot's eyes on N random scenes (those of `execute` with the same seed) against the
+    /// truth: objects missed, duplicate and phantom segments, centroid, height and footprint errors.
+    Perception(PerceptionArgs),
 }
 
 /// Which experiment.
@@ -139,6 +143,29 @@ pub struct ExecuteExperimentArgs {
     json: bool,
 }
 
+/// `pbd experiment perception` arguments.
+#[derive(Debug, Args)]
+pub struct PerceptionArgs {
+    /// Base scene: its table, bins and catalog (built-in name or TOML file).
+    #[arg(long, default_value = "sorting-demo")]
+    scene: String,
+    /// Number of random scenes.
+    #[arg(long, default_value_t = 50)]
+    scenes: usize,
+    /// Objects per scene.
+    #[arg(long, default_value_t = 3)]
+    objects: usize,
+    /// Random seed (the same scenes as `pbd experiment execute --seed`).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output directory (objects.csv, summary.md, errors.svg).
+    #[arg(short, long, visible_alias = "out", default_value = "experiment-perception")]
+    output: PathBuf,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
 /// `pbd experiment faults` arguments.
 #[derive(Debug, Args)]
 pub struct FaultsArgs {
@@ -177,7 +204,31 @@ pub fn main(cmd: ExperimentCommand, out: &mut dyn Write) -> anyhow::Result<()> {
         ExperimentCommand::Sorting(a) => sorting(a, out),
         ExperimentCommand::Execute(a) => execute(a, out),
         ExperimentCommand::Faults(a) => faults(a, out),
+        ExperimentCommand::Perception(a) => perception(a, out),
     }
+}
+
+fn perception(a: PerceptionArgs, out: &mut dyn Write) -> anyhow::Result<()> {
+    let options = pbd::experiment::perception::PerceptionOptions {
+        scene: a.scene,
+        scenes: a.scenes,
+        objects: a.objects,
+        seed: a.seed,
+        output: a.output,
+    };
+    let run = pbd::experiment::perception::run(&options, &Bars::new(a.json, true)?)?;
+    pbd::figure::draw(&run.output.join("errors.svg"), &run.figure)?;
+    if a.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&run)?)?;
+    } else {
+        write!(out, "{}", run.markdown)?;
+        writeln!(
+            out,
+            "files: objects.csv, summary.md, errors.svg in {}",
+            run.output.display()
+        )?;
+    }
+    Ok(())
 }
 
 fn faults(a: FaultsArgs, out: &mut dyn Write) -> anyhow::Result<()> {

@@ -145,3 +145,60 @@ fn bad_input_is_reported_not_panicked() {
         &["right arm", "bin-left", "--arm auto"],
     );
 }
+
+/// `pbd experiment perception`: the robot's look over three execute-experiment scenes against the
+/// truth — every object seen once, at most one phantom, centroids within a centimetre (median) —
+/// with its three files; an unknown scene is a clear error.
+#[test]
+fn perception_experiment_compares_the_robots_view_with_the_truth() {
+    if cfg!(debug_assertions) {
+        eprintln!("skipped in debug builds (run with --release)");
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("pbd-sim-cli-perception-{}", std::process::id()));
+    let out = dir.join("perception");
+    let out_s = out.to_str().expect("utf-8 path");
+    let v = ok_json(&[
+        "experiment",
+        "perception",
+        "--scenes",
+        "3",
+        "--seed",
+        "1",
+        "-o",
+        out_s,
+        "--json",
+    ]);
+    let s = &v["summary"];
+    assert_eq!(s["objects"], 9, "{v}");
+    assert_eq!(s["missed"], 0, "{v}");
+    assert_eq!(s["duplicates"], 0, "{v}");
+    assert!(s["phantoms"].as_u64().expect("phantoms") <= 1, "{v}");
+    assert!(s["centroid_xy"]["median"].as_f64().expect("median") < 0.01, "{v}");
+    let csv = std::fs::read_to_string(out.join("objects.csv")).expect("objects.csv");
+    assert_eq!(csv.lines().count(), 10, "{csv}");
+    assert!(
+        std::fs::read_to_string(out.join("summary.md"))
+            .expect("summary.md")
+            .contains("| objects presented | 9 |")
+    );
+    assert!(
+        std::fs::read_to_string(out.join("errors.svg"))
+            .expect("errors.svg")
+            .contains("<svg")
+    );
+    fails_with(
+        &[
+            "experiment",
+            "perception",
+            "--scene",
+            "no-such-scene",
+            "--scenes",
+            "1",
+            "-o",
+            out_s,
+        ],
+        &["no-such-scene"],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -135,3 +135,95 @@ pub fn scan_scene(scene: &Scene, seed: u64) -> Result<ScanReport, SimError> {
         phantoms: used.iter().filter(|u| !**u).count(),
     })
 }
+
+/// Scene `i` of the perception experiment with seed `seed`: the same random scene and run seed as
+/// scene `i` of the execute experiment ([`crate::experiment::run_scene`]), looked over.
+pub fn scan_trial(base: &Scene, objects: usize, seed: u64, i: usize) -> Result<ScanReport, SimError> {
+    use rand::Rng as _;
+    let scene = crate::experiment::random_scene(base, objects, &mut bayes::rng::stream(seed, i as u64))?;
+    let run_seed = bayes::rng::stream(seed ^ 0x5EED_0F5C_E4E5, i as u64).next_u64();
+    scan_scene(&scene, run_seed)
+}
+
+/// Median and maximum of a list of errors (m); `None` when it is empty.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MedianMax {
+    /// Median (m).
+    pub median: f64,
+    /// Maximum (m).
+    pub max: f64,
+}
+
+impl MedianMax {
+    /// Of `values` (NaN last); `None` if empty.
+    pub fn of(mut values: Vec<f64>) -> Option<MedianMax> {
+        if values.is_empty() {
+            return None;
+        }
+        values.sort_by(f64::total_cmp);
+        let n = values.len();
+        let median = if n % 2 == 1 {
+            values[n / 2]
+        } else {
+            0.5 * (values[n / 2 - 1] + values[n / 2])
+        };
+        Some(MedianMax {
+            median,
+            max: values[n - 1],
+        })
+    }
+}
+
+/// The perception experiment's figures over many scenes.
+#[derive(Debug, Clone, Serialize)]
+pub struct PerceptionSummary {
+    /// Objects presented.
+    pub objects: usize,
+    /// Objects with no segment within [`MATCH_GATE`].
+    pub missed: usize,
+    /// Second and further segments of one object.
+    pub duplicates: usize,
+    /// Segments on the table matching no object.
+    pub phantoms: usize,
+    /// Centroid error in the table plane.
+    pub centroid_xy: Option<MedianMax>,
+    /// Centroid height error (absolute).
+    pub centroid_z: Option<MedianMax>,
+    /// Object height error (absolute).
+    pub height: Option<MedianMax>,
+    /// Footprint half-extent error.
+    pub footprint: Option<MedianMax>,
+}
+
+/// Sums the scenes' reports.
+pub fn summarize(reports: &[ScanReport]) -> PerceptionSummary {
+    let all = || reports.iter().flat_map(|r| &r.objects);
+    PerceptionSummary {
+        objects: all().count(),
+        missed: all().filter(|o| o.segments == 0).count(),
+        duplicates: all().map(|o| o.segments.saturating_sub(1)).sum(),
+        phantoms: reports.iter().map(|r| r.phantoms).sum(),
+        centroid_xy: MedianMax::of(all().filter_map(|o| o.centroid_error_xy).collect()),
+        centroid_z: MedianMax::of(all().filter_map(|o| o.centroid_error_z.map(f64::abs)).collect()),
+        height: MedianMax::of(all().filter_map(|o| o.height_error.map(f64::abs)).collect()),
+        footprint: MedianMax::of(all().filter_map(|o| o.footprint_error).collect()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_and_max() {
+        assert_eq!(MedianMax::of(vec![]), None);
+        assert_eq!(
+            MedianMax::of(vec![0.3, 0.1, 0.2]),
+            Some(MedianMax { median: 0.2, max: 0.3 })
+        );
+        assert_eq!(
+            MedianMax::of(vec![0.4, 0.1, 0.2, 0.3]),
+            Some(MedianMax { median: 0.25, max: 0.4 })
+        );
+    }
+}

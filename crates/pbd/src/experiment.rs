@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 pub mod execute;
 pub mod faults;
 pub mod features;
+pub mod perception;
 pub mod sorting;
 
 /// Which experiment.
