@@ -455,20 +455,7 @@ pub fn execute_scene_with_fault(
     let mut reports = Vec::new();
     {
         let mut plant = RobotPlant::new(&mut hw, &ws, calibration, library, &mut sink).map_err(from_robot)?;
-        // Look over the table: the tracker gathers what is there.
-        for at in ws.scan_points() {
-            plant.look(&at, 0.6).map_err(from_robot)?;
-        }
-        let seen: Vec<schema::SegmentPercept> = plant
-            .last_percept()
-            .map(|p| {
-                p.segments
-                    .iter()
-                    .filter(|s| !ws.places.iter().any(|pl| pl.contains([s.centroid[0], s.centroid[1]])))
-                    .cloned()
-                    .collect()
-            })
-            .unwrap_or_default();
+        let seen = look_over_table(&mut plant, &ws)?;
         // The evaluator: which object each segment is (nearest at the start, within 8 cm).
         let match_object = |c: &[f64; 3]| -> Option<usize> {
             truth0
@@ -690,6 +677,28 @@ pub fn execute_scene_with_fault(
         mcap: None,
         fault: fault_record,
     })
+}
+
+/// The robot looks over the table ([`dexter::exec::Workspace::scan_points`], 0.6 s each; the
+/// tracker gathers what is there) and returns its tracked segments outside the places: what it
+/// decides on before a task.
+pub fn look_over_table(
+    plant: &mut RobotPlant<'_>,
+    ws: &dexter::exec::Workspace,
+) -> Result<Vec<schema::SegmentPercept>, SimError> {
+    for at in ws.scan_points() {
+        plant.look(&at, 0.6).map_err(from_robot)?;
+    }
+    Ok(plant
+        .last_percept()
+        .map(|p| {
+            p.segments
+                .iter()
+                .filter(|s| !ws.places.iter().any(|pl| pl.contains([s.centroid[0], s.centroid[1]])))
+                .cloned()
+                .collect()
+        })
+        .unwrap_or_default())
 }
 
 /// An object slower than this (m/s) is at rest (the evaluator's judgement).

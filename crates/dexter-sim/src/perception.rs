@@ -81,19 +81,7 @@ pub fn scan_scene(scene: &Scene, seed: u64) -> Result<ScanReport, SimError> {
     let mut hw = SimRobot::new(&mut sim, scene, seed)?;
     let segments = {
         let mut plant = RobotPlant::new(&mut hw, &ws, calibration, &library, &mut sink).map_err(from_robot)?;
-        for at in ws.scan_points() {
-            plant.look(&at, 0.6).map_err(from_robot)?;
-        }
-        plant
-            .last_percept()
-            .map(|p| {
-                p.segments
-                    .iter()
-                    .filter(|s| !ws.places.iter().any(|pl| pl.contains([s.centroid[0], s.centroid[1]])))
-                    .cloned()
-                    .collect::<Vec<_>>()
-            })
-            .unwrap_or_default()
+        crate::execute::look_over_table(&mut plant, &ws)?
     };
     let mut used = vec![false; segments.len()];
     let mut objects = Vec::with_capacity(truth.len());
