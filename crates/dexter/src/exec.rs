@@ -334,6 +334,11 @@ pub struct RobotPlant<'a> {
     destination: Option<[f64; 2]>,
     /// The last grasp closed on nothing (the object may have moved).
     missed: bool,
+    /// The track whose doubted position ([`Watcher::doubted`]) the robot already looked at again
+    /// with the hand out of the way: it is not doubted twice.
+    doubt_checked: Option<u32>,
+    /// The next reach follows a back-off for a doubted track: it takes what it then sees of it.
+    relook: bool,
     /// The object (as the binding names it) and how many reaches in a row did not see it.
     unseen: (Option<String>, usize),
     /// The library's action names (the entries of x).
@@ -396,6 +401,8 @@ impl<'a> RobotPlant<'a> {
             unreached: Vec::new(),
             destination: None,
             missed: false,
+            doubt_checked: None,
+            relook: false,
             unseen: (None, 0),
             action_names: library.actions.iter().map(|a| a.name.clone()).collect(),
             reach_arm: None,
@@ -1041,6 +1048,14 @@ impl SchemaPlant for RobotPlant<'_> {
                 }
                 // Look at it and let the tracker refresh what is seen there.
                 self.look(&target, 0.5)?;
+                if std::mem::take(&mut self.relook)
+                    && let Some(id) = id
+                    && self.watcher.accept_view(id)
+                {
+                    // Looked again at a doubted track with the hand away: what is seen now is
+                    // where it is, even if the robot's body still hides a little of it.
+                    self.percept_now()?;
+                }
                 let (id, seen) = match self.resolve_target(&Binding {
                     object: id.map(|i| i.to_string()),
                     ..binding.clone()
@@ -1126,6 +1141,21 @@ impl SchemaPlant for RobotPlant<'_> {
                 } else if let Some(why) = self.object_moved() {
                     self.back_off(arm)?;
                     ActionOutcome::Failed(why)
+                } else if let Some(id) = self.target.as_ref().and_then(|t| t.0)
+                    && self.doubt_checked != Some(id)
+                    && self.watcher.doubted(id)
+                {
+                    // What the hand leaves visible of it lies outside where it was seen: it may
+                    // have been pushed. Closing on where it was would knock it away; back off, and
+                    // the next reach looks with the hand out of the way (once per object).
+                    self.doubt_checked = Some(id);
+                    self.relook = true;
+                    self.back_off(arm)?;
+                    ActionOutcome::Failed(
+                        "the object may have moved under the hand (its visible part lies outside where it was \
+                         seen): looking again"
+                            .into(),
+                    )
                 } else {
                     let r = self.with_observer(|hw, reach, hand, obs| close_grasp(hw, &mut reach[k], &hand[k], obs))?;
                     match r {

@@ -39,6 +39,13 @@ struct Tracker {
     /// Per track: whether it was ever seen whole — in both cameras, cut by neither the image border
     /// nor the robot's body ([`crate::vision::Segment::cut_off`]).
     whole: Vec<bool>,
+    /// Per track: consecutive frames in which a partial view of it (near an arm, or cut) lay at its
+    /// height but outside its footprint ([`DOUBT_FOOTPRINT`]): it may have moved under the hand.
+    doubt: Vec<u32>,
+    /// Per track: where the segment associated with it in the latest frame puts it (x, y, z), as
+    /// measured even when the track kept what it saw whole — from its one uncut view at the
+    /// track's height if the other view was cut, else its stereo centroid.
+    latest: Vec<Option<[f64; 3]>>,
     /// Per hand: the carried track's id and the palm position at the last update.
     carried: [Option<(u32, [f64; 3])>; 2],
     /// Per hand: frames in a row the carrying hand did not hold.
@@ -81,6 +88,15 @@ const CARRIED_RADIUS: f64 = 0.12;
 /// The association gate for a track near a palm (m): a partly hidden segment's centroid moves by up
 /// to the size of the hidden part.
 const OCCLUDED_GATE: f64 = 0.12;
+/// A partial view (near an arm, or cut) whose image centroids lie beyond where any visible part
+/// of the track's projected box can have them, by this much (px) in both cameras, casts doubt on
+/// where the track is ([`image_doubt`]). Not proof — the box comes from a measured extent, and a
+/// view's share of the whole is known only roughly — so the robot looks again with its hand out of
+/// the way before it closes ([`Watcher::doubted`]). (The stereo centroid of a partial view is no
+/// help: a cup two-thirds hidden by the fingers triangulated 4.5 cm high after a 0.2 px change.)
+const DOUBT_PX: f64 = 1.5;
+/// … in this many frames in a row.
+pub const DOUBT_FRAMES: u32 = 3;
 /// The association gate for a segment cut by the image border or the robot's body in either camera
 /// (m): its centroid lies off by up to the size of the hidden part, and a stereo pair of one whole
 /// and one cut view triangulates the difference as depth (a lying can cut by the arm in one camera
@@ -156,6 +172,7 @@ impl Tracker {
         for tr in &mut self.tracks {
             tr.seen = false;
         }
+        self.latest.iter_mut().for_each(|l| *l = None);
         let carried_ids: Vec<u32> = self.carried.iter().flatten().map(|c| c.0).collect();
         // Uncarried tracks an arm may be hiding part of: a hand or forearm near a line of sight.
         let near_palm: Vec<bool> = self
@@ -221,6 +238,42 @@ impl Tracker {
             let moved = near_palm[j]
                 && (moved_clear(&self.tracks[j], &seen[i], share)
                     || moved_in_images(&self.tracks[j], &seen[i], views[i], cams, share));
+            // A cut view that still shows most of the object, alike in both cameras (the bottom
+            // of a cup beside the robot's body, hidden by a few rows), measures it nearly as well
+            // as a whole one.
+            let [l, r] = seen[i].pixels.map(f64::from);
+            let mostly = px >= OCCLUDED_SHARE * self.whole_pixels[j] && (0.8..=1.25).contains(&(l / r.max(1.0)));
+            let partial = near_palm[j] || (cut[i] && !mostly);
+            let suspect = partial && image_doubt(&self.tracks[j], &seen[i], views[i], cams, self.whole_pixels[j]);
+            self.doubt[j] = if suspect { self.doubt[j] + 1 } else { 0 };
+            // A cut view at the track's height, which has cast doubt on it frame after frame with
+            // no arm near: the object is where this view shows it, not where it was seen whole.
+            let level = (seen[i].centroid[2] - self.tracks[j].centroid[2]).abs() < MOVED_DZ;
+            self.latest[j] = Some({
+                // One view cut (its box withheld), the other whole: the ray through the whole
+                // view's centroid at the track's height.
+                let whole_view = match boxes[i].map(|b| b[0] <= b[2]) {
+                    [true, false] => Some(0),
+                    [false, true] => Some(1),
+                    _ => None,
+                };
+                whole_view
+                    .and_then(|k| {
+                        let (o, d) = cams[k].ray(views[i][k][0], views[i][k][1]);
+                        let tz = (self.tracks[j].centroid[2] - o.z) / d.z;
+                        (tz.is_finite() && tz > 0.0).then(|| {
+                            let p = o + d * tz;
+                            [p.x, p.y, p.z]
+                        })
+                    })
+                    .unwrap_or(seen[i].centroid)
+            });
+            if debug_blobs() {
+                eprintln!(
+                    "ASSOC t={t:.2} seg {i} -> track {} near_palm {} cut {} moved {} px {px:.0}/{:.0} whole {} doubt {}",
+                    self.tracks[j].id, near_palm[j], cut[i], moved, self.whole_pixels[j], self.whole[j], self.doubt[j]
+                );
+            }
             if carried_ids.contains(&id) {
                 // A carried object is seen merged with the hand that holds it (its centroid and
                 // height pulled towards the hand): it stays where its palm moved it, with what it
@@ -229,7 +282,11 @@ impl Tracker {
             } else if near_palm[j] && px < OCCLUDED_SHARE * self.whole_pixels[j] && !moved {
                 // Partly hidden by the hand: keep what was seen whole.
                 self.tracks[j].seen = true;
-            } else if cut[i] && (self.whole[j] || dist(&seen[i].centroid, &self.tracks[j].centroid) >= CUT_GATE) {
+            } else if cut[i]
+                && (!mostly || near_palm[j])
+                && !(self.doubt[j] >= DOUBT_FRAMES && !near_palm[j] && level)
+                && (self.whole[j] || dist(&seen[i].centroid, &self.tracks[j].centroid) >= CUT_GATE)
+            {
                 // Cut by the border or the robot's body: keep what was seen whole, or where it was
                 // when only its image explains the segment.
                 self.tracks[j].seen = true;
@@ -293,6 +350,8 @@ impl Tracker {
                 }
                 self.whole_pixels.push(pixels(&s));
                 self.whole.push(!cut[i]);
+                self.doubt.push(0);
+                self.latest.push(None);
                 self.tracks.push(SegmentPercept { id: self.next_id, ..s });
                 self.last_seen.push(t);
                 self.next_id += 1;
@@ -325,6 +384,8 @@ impl Tracker {
                         self.last_seen[old] = self.last_seen[new];
                         self.whole_pixels[old] = self.whole_pixels[new];
                         self.whole[old] = self.whole[new];
+                        self.doubt[old] = self.doubt[new];
+                        self.latest[old] = self.latest[new].take();
                     }
                     if debug_blobs() {
                         eprintln!(
@@ -372,6 +433,8 @@ impl Tracker {
         self.last_t = Some(t);
         retain_mask(&mut self.whole_pixels, &keep);
         retain_mask(&mut self.whole, &keep);
+        retain_mask(&mut self.doubt, &keep);
+        retain_mask(&mut self.latest, &keep);
     }
 }
 
@@ -507,6 +570,57 @@ fn moved_in_images(
     outside(cams[0], views[0]) && outside(cams[1], views[1])
 }
 
+/// Whether a partial view casts doubt on where its track is ([`DOUBT_PX`]): its image centroid in
+/// each camera lies beyond where a visible part of the track's projected box can have it, given
+/// that camera's share of half the track's whole pixel count `whole` (both cameras) — the test of
+/// [`moved_in_images`] without its demand for a large, balanced view.
+fn image_doubt(
+    track: &SegmentPercept,
+    blob: &SegmentPercept,
+    views: [[f64; 2]; 2],
+    cams: [&crate::vision::Camera; 2],
+    whole: f64,
+) -> bool {
+    let Some((lo, hi)) = projected_boxes(track, cams) else {
+        return false;
+    };
+    (0..2).all(|k| {
+        let share = (f64::from(blob.pixels[k]) / (0.5 * whole).max(1.0)).min(1.0);
+        let reach = 1.0 - 0.5 * share;
+        (0..2).any(|a| {
+            let (mid, half) = (0.5 * (lo[k][a] + hi[k][a]), 0.5 * (hi[k][a] - lo[k][a]));
+            (views[k][a] - mid).abs() > half * reach + DOUBT_PX
+        })
+    })
+}
+
+/// The image boxes (min, max corners per camera, px) of a track's extent projected into both
+/// cameras, or `None` without an extent or with a corner behind a camera.
+#[allow(clippy::type_complexity)]
+fn projected_boxes(
+    track: &SegmentPercept,
+    cams: [&crate::vision::Camera; 2],
+) -> Option<([[f64; 2]; 2], [[f64; 2]; 2])> {
+    let e = track.extent.as_ref()?;
+    let [ax, ay] = e.major_axis;
+    let z0 = track.centroid[2] - 0.5 * e.height;
+    let mut lo = [[f64::INFINITY; 2]; 2];
+    let mut hi = [[f64::NEG_INFINITY; 2]; 2];
+    for (k, cam) in cams.iter().enumerate() {
+        for (su, sv, sz) in box_corners() {
+            let p = Vec3::new(
+                e.center[0] + su * e.half_major * ax - sv * e.half_minor * ay,
+                e.center[1] + su * e.half_major * ay + sv * e.half_minor * ax,
+                z0 + sz * e.height,
+            );
+            let (u, v) = project(cam, &p)?;
+            lo[k] = [lo[k][0].min(u), lo[k][1].min(v)];
+            hi[k] = [hi[k][0].max(u), hi[k][1].max(v)];
+        }
+    }
+    Some((lo, hi))
+}
+
 /// The eight corners of a box as signs (major, minor) ∈ {−1, 1} and height share ∈ {0, 1}.
 fn box_corners() -> impl Iterator<Item = (f64, f64, f64)> {
     (0..8).map(|i| {
@@ -611,6 +725,46 @@ impl Watcher {
     /// The table height the robot was told.
     pub fn table_z(&self) -> f64 {
         self.table_z
+    }
+
+    /// Moves track `id` to where its latest view puts it (keeping what it looked like whole), even
+    /// a view cut by the robot's body that the tracker kept apart from what it saw whole — from
+    /// the view's one uncut camera at the track's height, or its stereo centroid if that lies at
+    /// the track's height ([`MOVED_DZ`]). For the robot's own decision after it looked again, hand
+    /// out of the way, at a [doubted](Self::doubted) track. Whether it moved the track.
+    pub fn accept_view(&mut self, id: u32) -> bool {
+        let t = &mut self.tracker;
+        let Some(j) = t.tracks.iter().position(|tr| tr.id == id) else {
+            return false;
+        };
+        let track = &mut t.tracks[j];
+        match t.latest[j].take() {
+            Some(c) if (c[2] - track.centroid[2]).abs() < MOVED_DZ => {
+                let (dx, dy) = (c[0] - track.centroid[0], c[1] - track.centroid[1]);
+                if debug_blobs() {
+                    eprintln!("ACCEPT track {id}: moved by ({dx:.3}, {dy:.3})");
+                }
+                track.centroid[0] += dx;
+                track.centroid[1] += dy;
+                if let Some(e) = track.extent.as_mut() {
+                    e.center = [e.center[0] + dx, e.center[1] + dy];
+                }
+                t.doubt[j] = 0;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Whether the last [`DOUBT_FRAMES`] views of track `id` were partial views at its height
+    /// but outside its footprint: it may have moved while an arm hid part of it (a push as the
+    /// hand arrived). Only a look with the arm out of the way tells.
+    pub fn doubted(&self, id: u32) -> bool {
+        let t = &self.tracker;
+        t.tracks
+            .iter()
+            .zip(&t.doubt)
+            .any(|(tr, &d)| tr.id == id && d >= DOUBT_FRAMES)
     }
 
     /// The places the robot was told.
@@ -937,6 +1091,78 @@ mod tests {
             &[],
         );
         assert_eq!(tracker.tracks.len(), 2);
+    }
+
+    #[test]
+    fn a_partial_view_outside_the_tracks_box_in_both_images_casts_doubt_and_its_uncut_camera_relocates_it() {
+        let (l, r) = (camera([0.05, 0.03, 1.45]), camera([0.05, -0.03, 1.45]));
+        let cams = [&l, &r];
+        let no_mask: [&[bool]; 2] = [&[], &[]];
+        let mut tracker = Tracker::default();
+        let whole = track();
+        let at = Vec3::from(whole.centroid);
+        let update =
+            |tracker: &mut Tracker, seg: &SegmentPercept, cut: bool, p: Vec3, t: f64, palm: &[([f64; 3], f64)]| {
+                let mut b = boxes_around(cams, p);
+                if cut {
+                    b[1] = [1, 0, 0, 0];
+                }
+                tracker.update(
+                    vec![seg.clone()],
+                    &[cut],
+                    &[views(cams, p)],
+                    &[b],
+                    &[],
+                    cams,
+                    no_mask,
+                    t,
+                    palm,
+                );
+            };
+        update(&mut tracker, &whole, false, at, 0.0, &[]);
+        // A hand over it (a palm 10 cm above) hides half of it: a partial view inside its box is
+        // no doubt, however many frames.
+        let palm = [([0.6, 0.0, 0.87], OCCLUSION_RADIUS)];
+        let half = SegmentPercept {
+            pixels: [40, 40],
+            ..whole.clone()
+        };
+        for k in 1..=5 {
+            update(
+                &mut tracker,
+                &half,
+                false,
+                at + Vec3::new(0.0, 0.01, 0.0),
+                0.1 * f64::from(k),
+                &palm,
+            );
+        }
+        assert_eq!(tracker.doubt[0], 0, "a part of it where it stands");
+        // Pushed 4 cm sideways under the hand: what is seen lies outside its box in both images.
+        let moved = at + Vec3::new(0.0, 0.045, 0.0);
+        let pushed = SegmentPercept {
+            centroid: [moved.x, moved.y, moved.z + 0.04],
+            pixels: [40, 40],
+            ..whole.clone()
+        };
+        for k in 6..=7 {
+            update(&mut tracker, &pushed, false, moved, 0.1 * f64::from(k), &palm);
+        }
+        assert!(tracker.doubt[0] < DOUBT_FRAMES, "two frames are not yet a doubt");
+        update(&mut tracker, &pushed, false, moved, 0.8, &palm);
+        assert!(tracker.doubt[0] >= DOUBT_FRAMES);
+        assert_eq!(
+            tracker.tracks[0].centroid, whole.centroid,
+            "the track keeps what it saw whole"
+        );
+        // The hand gone, the right view cut by the robot's body: its stereo centroid is 4 cm high,
+        // the uncut left view at the track's height is where it is.
+        update(&mut tracker, &pushed, true, moved, 0.9, &[]);
+        let c = tracker.latest[0].expect("a view this frame");
+        assert!(
+            (c[1] - moved.y).abs() < 0.005 && (c[2] - whole.centroid[2]).abs() < 1e-9,
+            "{c:?}"
+        );
     }
 
     #[test]
