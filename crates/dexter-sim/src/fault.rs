@@ -101,8 +101,10 @@ pub struct FaultSpec {
     /// Drop: the object must be this high (m) above where it rested, and the hand have moved this
     /// far (m) sideways since it was lifted.
     pub drop_after: (f64, f64),
-    /// Bump: the push, uniform in this range, as the distance (m) it would slide the object on the
-    /// table (the impulse is `m √(2 μ g d)`); where it ends is the physics'.
+    /// Bump: the push, uniform in this range, as the distance (m) it would move the object on the
+    /// table — sliding (the impulse is `m √(2 μ g d)`) or, for a ball or a lying can pushed across
+    /// its axis, rolling (`m √(2 c g d / (1 + k))`, c the rolling resistance); where it ends is
+    /// the physics'.
     pub bump: (f64, f64),
     /// Drop: how long the fingers are held open; occlusion and sensor noise: how long (s).
     pub duration_secs: f64,
@@ -163,6 +165,12 @@ pub struct Fault {
     /// Its mass (kg) and its friction on the table (the mean of both coefficients, Rapier's rule).
     mass: f64,
     friction: f64,
+    /// Whether a horizontal push rolls it — a ball, or a cylinder or capsule lying on its side
+    /// (pushed across its axis, the horizontal unit vector given) — and its inertia about the
+    /// rolling axis as a share `k` of m r² (2/5 for a solid ball, 1/2 for a solid cylinder).
+    rolls: Option<(f64, Option<[f64; 2]>)>,
+    /// The physics' rolling resistance coefficient.
+    rolling_resistance: f64,
     /// The two palms' links, and the six fingertips' (left F1–F3, right F1–F3).
     palms: [usize; 2],
     tips: [usize; 6],
@@ -223,6 +231,22 @@ impl Fault {
         };
         let friction = 0.5 * (collider.map_or(0.5, |c| c.friction()) + scene.spec.table.friction);
         let mass = object.mass;
+        let axis = rest.rotation * Vec3::z();
+        let rolls = scene
+            .catalog
+            .objects
+            .get(object.catalog_index)
+            .and_then(|o| match o.shape {
+                crate::geometry::Shape::Sphere { .. } => Some((0.4, None)),
+                crate::geometry::Shape::Cylinder { .. } | crate::geometry::Shape::Capsule { .. }
+                    if axis.z.abs() < 0.5 =>
+                {
+                    let h = axis.xy().normalize();
+                    Some((0.5, Some([h.x, h.y])))
+                }
+                _ => None,
+            });
+        let rolling_resistance = sim.settings().rolling_resistance;
         let palm = |arm: Arm| sim.model().link(&dexter::control::tool_link(arm));
         let palms = [palm(Arm::Left)?, palm(Arm::Right)?];
         let mut tips = [0; 6];
@@ -250,6 +274,8 @@ impl Fault {
             radius,
             mass,
             friction,
+            rolls,
+            rolling_resistance,
             palms,
             tips,
             flex,
@@ -477,18 +503,30 @@ impl Fault {
             return;
         };
         let g = sim.settings().gravity;
-        let speed = (2.0 * self.friction * g * d).sqrt();
         let dir = Vec3::new(a.cos(), a.sin(), 0.0);
-        // A third of the way up its side, facing the push: a hand's shove, not a lift.
-        let point = Vec3::new(at.x, at.y, self.table_z + self.height / 3.0) - self.radius * dir;
+        // A sliding object stops after v² / (2 μ g). A rolling one — a ball, or a lying can pushed
+        // across its axis — only by rolling resistance c, which decelerates it by c g / (1 + k):
+        // the shove that slides a box 6 cm rolls a ball 4 m, off the table. Each gets the push
+        // that would move it `d`; a roller at its centre's height (no spin).
+        let rolling = self
+            .rolls
+            .filter(|(_, axis)| axis.is_none_or(|[ax, ay]| (dir.x * ax + dir.y * ay).abs() < 0.7))
+            .filter(|_| self.rolling_resistance > 0.0);
+        let (speed, lift) = match rolling {
+            Some((k, _)) => ((2.0 * self.rolling_resistance * g / (1.0 + k) * d).sqrt(), 0.5),
+            None => ((2.0 * self.friction * g * d).sqrt(), 1.0 / 3.0),
+        };
+        // Low on its side, facing the push: a hand's shove, not a lift.
+        let point = Vec3::new(at.x, at.y, self.table_z + self.height * lift) - self.radius * dir;
         sim.push_object(self.spec.object, &(self.mass * speed * dir), &point);
         self.settling = true;
         self.fire(
             sim.time(),
             format!(
-                "pushed at {speed:.2} m/s towards ({:.3}, {:.3}) (would slide {:.1} cm) as the {} hand arrived above it",
+                "pushed at {speed:.2} m/s towards ({:.3}, {:.3}) (would {} {:.1} cm) as the {} hand arrived above it",
                 dir.x,
                 dir.y,
+                if rolling.is_some() { "roll" } else { "slide" },
                 100.0 * d,
                 Arm::BOTH[k]
             ),
