@@ -1049,8 +1049,8 @@ impl DexterSim {
     }
 
     /// Rolling resistance, which Rapier lacks (MuJoCo's rolling friction): an object rolling on a
-    /// support beneath it — contacts whose normal is within 45° of vertical, below its centre of
-    /// mass — feels the torque `c N r` against its rolling, `c` =
+    /// support beneath it — the table, a bin or another object, contacts whose normal is within 45°
+    /// of vertical, below its centre of mass — and untouched by the robot feels the torque `c N r` against its rolling, `c` =
     /// [`SimSettings::rolling_resistance`], `N` the supports' normal force in the last step, `r` the
     /// height of its centre of mass above the contacts. It turns about the contact points (inertia
     /// `I + m r²`), so its horizontal spin and speed shrink together, never past zero. A sliding box
@@ -1062,14 +1062,24 @@ impl DexterSim {
         }
         let dt = self.settings.dt;
         for o in &self.objects {
-            let Some(b) = self.world.bodies.get(o.body) else { continue };
+            let Some(b) = self.world.bodies.get(o.body) else {
+                continue;
+            };
             if b.is_sleeping() {
                 continue;
             }
             let com = b.center_of_mass();
             let (mut n, mut lever) = (0.0, 0.0);
+            let mut handled = false;
             for pair in self.world.narrow_phase.contact_pairs_with(o.collider) {
                 let object_is_1 = pair.collider1 == o.collider;
+                // An object the robot touches moves as the hand makes it (and the grasp grid's
+                // contacts stay as the NOTES measured them): only a free object rolls to rest.
+                let other = if object_is_1 { pair.collider2 } else { pair.collider1 };
+                if self.collider_part.contains_key(&other) {
+                    handled |= pair.has_any_active_contact();
+                    continue;
+                }
                 for m in pair.solver_manifolds() {
                     // The normal points from collider 1 to collider 2: up, into the object, from a support.
                     let up = if object_is_1 { -m.data.normal } else { m.data.normal };
@@ -1077,7 +1087,9 @@ impl DexterSim {
                         continue;
                     }
                     for sc in m.data.solver_contacts.iter() {
-                        let Some(pt) = m.points.get(sc.contact_indices()[0] as usize) else { continue };
+                        let Some(pt) = m.points.get(sc.contact_indices()[0] as usize) else {
+                            continue;
+                        };
                         let (w1, w2) = m.data.solver_contact_world_points(sc, &self.world.bodies);
                         let h = com.z - 0.5 * (w1.z + w2.z);
                         if h > 0.0 && pt.data.impulse > 0.0 {
@@ -1087,7 +1099,7 @@ impl DexterSim {
                     }
                 }
             }
-            if n <= 0.0 {
+            if n <= 0.0 || handled {
                 continue;
             }
             let r = lever / n;
@@ -1099,15 +1111,26 @@ impl DexterSim {
             }
             // The inertia about the (horizontal) spin axis: in the principal frame, Σ Iₖ aₖ².
             let mp = &b.mass_properties().local_mprops;
-            let axis = (*b.rotation() * mp.principal_inertia_local_frame).inverse() * DVec3::new(w.x / spin, w.y / spin, 0.0);
+            let axis =
+                (*b.rotation() * mp.principal_inertia_local_frame).inverse() * DVec3::new(w.x / spin, w.y / spin, 0.0);
             let pi = mp.principal_inertia();
             let i_h = pi.x * axis.x * axis.x + pi.y * axis.y * axis.y + pi.z * axis.z * axis.z;
-            let dw = c * n * r * dt / (i_h + mass * r * r);
-            let keep = (1.0 - dw / spin).max(0.0);
+            // The spin lost this step, and the speed its contact point's turning takes with it
+            // (r Δω; no more than there is: a sliding, barely turning body is not stopped).
+            let dw = (c * n * r * dt / (i_h + mass * r * r)).min(spin);
+            let keep = 1.0 - dw / spin;
             let v = b.linvel();
-            let Some(b) = self.world.bodies.get_mut(o.body) else { continue };
+            let speed = (v.x * v.x + v.y * v.y).sqrt();
+            let slow = if speed > 0.0 {
+                1.0 - (r * dw).min(speed) / speed
+            } else {
+                1.0
+            };
+            let Some(b) = self.world.bodies.get_mut(o.body) else {
+                continue;
+            };
             b.set_angvel(DVec3::new(w.x * keep, w.y * keep, w.z), false);
-            b.set_linvel(DVec3::new(v.x * keep, v.y * keep, v.z), false);
+            b.set_linvel(DVec3::new(v.x * slow, v.y * slow, v.z), false);
         }
     }
 

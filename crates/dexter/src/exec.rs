@@ -186,7 +186,9 @@ pub fn free_spot(center: [f64; 2], size: [f64; 2], radius: f64, others: &[([f64;
         (half[1] / 0.01 + 1e-9).floor() as i32,
     ];
     let cm = |x: f64| (x * 100.0).round();
-    let mut best: Option<((f64, f64, f64, f64), [f64; 2])> = None;
+    // (object clearance capped, wall room capped, object clearance, −distance from the centre).
+    type Key = (f64, f64, f64, f64);
+    let mut best: Option<(Key, [f64; 2])> = None;
     for i in -n[0]..=n[0] {
         for j in -n[1]..=n[1] {
             let (dx, dy) = (0.01 * f64::from(i), 0.01 * f64::from(j));
@@ -1587,6 +1589,10 @@ mod tests {
         for i in 0..2 {
             assert!((coffee[i] - center[i]).abs() <= size[i] / 2.0 - 0.045 - MIN_WALL_ROOM + 1e-9);
         }
-        assert_eq!(free_spot(center, size, 0.1, &[(can, 0.03)]), center, "no room to choose");
+        assert_eq!(
+            free_spot(center, size, 0.1, &[(can, 0.03)]),
+            center,
+            "no room to choose"
+        );
     }
 }

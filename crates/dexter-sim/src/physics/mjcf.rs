@@ -20,7 +20,8 @@
 //! with its default `solref`/`solimp` against Rapier's 60 Hz contact springs and 2 mm skin), the
 //! solver (MuJoCo Newton, default 100 iterations and tolerance; Rapier 4 substeps of soft PGS), the
 //! friction combination (MuJoCo: the larger of the two; Rapier: the average) and the objects'
-//! angular damping (Rapier only: 1 /s, a stand-in for rolling resistance).
+//! angular damping (Rapier only: 1 /s) and rolling resistance (Rapier only, `SimSettings::rolling_resistance`; MuJoCo's
+//! own rolling friction is not set).
 use std::fmt::Write as _;
 
 use super::*;
