@@ -141,9 +141,6 @@ const WALL_ROOM: f64 = 0.03;
 /// The least room (m) a placed object keeps from a place's walls when a fuller bin leaves no spot
 /// clear of its objects otherwise ([`free_spot`]).
 const MIN_WALL_ROOM: f64 = 0.005;
-/// The clearance (m) between a placed object's footprint and those already in the place that
-/// counts as clear ([`free_spot`]).
-const OBJECT_ROOM: f64 = 0.01;
 
 /// Smallest horizontal distance (m) from the handoff spot to where a reach did not converge: the
 /// arm that failed there may have to take the object at the handoff spot.
@@ -167,12 +164,13 @@ fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
 
 /// Where in a place region (`center`, `size`) to put an object of horizontal radius `radius`
 /// among `others` (centre, radius) already there, on a 1 cm grid. In order of preference: a spot
-/// whose footprint clears theirs by [`OBJECT_ROOM`] (landing on an object tips both); then one
-/// clear of the walls by [`WALL_ROOM`] (room for the opening fingers) — down to [`MIN_WALL_ROOM`]
-/// when a full bin leaves no other spot clear of its objects; then the widest gap to the objects;
-/// then the nearest the centre (gaps count to the centimetre). (A coffee can 9 cm across beside a
-/// jar in a 20 × 25 cm bin fits only in a corner, 0.5 cm from two walls; kept 3 cm from them, it was
-/// let go half on the jar and fell.) The centre when the region leaves no room to choose.
+/// whose footprint does not overlap theirs (to the centimetre: landing on an object tips both);
+/// then one clear of the walls by [`WALL_ROOM`] (room for the opening fingers; a can let go 2 cm
+/// from a wall was set down on it and fell out) — down to [`MIN_WALL_ROOM`] when a full bin leaves
+/// no other spot clear of its objects; then the widest gap to the objects; then the nearest the
+/// centre. (A coffee can 9 cm across beside a jar in a 20 × 25 cm bin fits only in a corner, 0.5 cm
+/// from two walls; kept 3 cm from them, it was let go half on the jar and fell.) The centre when
+/// the region leaves no room to choose.
 pub fn free_spot(center: [f64; 2], size: [f64; 2], radius: f64, others: &[([f64; 2], f64)]) -> [f64; 2] {
     let half = [
         size[0] / 2.0 - radius - MIN_WALL_ROOM,
@@ -186,7 +184,7 @@ pub fn free_spot(center: [f64; 2], size: [f64; 2], radius: f64, others: &[([f64;
         (half[1] / 0.01 + 1e-9).floor() as i32,
     ];
     let cm = |x: f64| (x * 100.0).round();
-    // (object clearance capped, wall room capped, object clearance, −distance from the centre).
+    // (overlap with the objects, wall room capped, gap to the objects, −distance from the centre).
     type Key = (f64, f64, f64, f64);
     let mut best: Option<(Key, [f64; 2])> = None;
     for i in -n[0]..=n[0] {
@@ -198,12 +196,7 @@ pub fn free_spot(center: [f64; 2], size: [f64; 2], radius: f64, others: &[([f64;
                 .map(|(o, r)| (o[0] - c[0]).hypot(o[1] - c[1]) - r - radius)
                 .fold(f64::INFINITY, f64::min);
             let wall = (size[0] / 2.0 - radius - dx.abs()).min(size[1] / 2.0 - radius - dy.abs());
-            let key = (
-                cm(gap.min(OBJECT_ROOM)),
-                cm(wall.min(WALL_ROOM)),
-                cm(gap),
-                -dx.hypot(dy),
-            );
+            let key = (cm(gap.min(0.0)), cm(wall.min(WALL_ROOM)), cm(gap), -dx.hypot(dy));
             if best.as_ref().is_none_or(|(b, _)| key > *b) {
                 best = Some((key, c));
             }

@@ -105,6 +105,69 @@ fn execute_trial(py: Python<'_>, config: &Bound<'_, PyAny>, trial: usize) -> PyR
     to_python(py, &result)
 }
 
+/// The config of a perception trial (as `pbd experiment perception`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PerceptionConfig {
+    /// The base scene (a built-in name or a TOML file) whose catalog and places the scenes use.
+    #[serde(default = "default_perception_scene")]
+    scene: String,
+    /// Objects per random scene.
+    #[serde(default = "default_perception_objects")]
+    objects: usize,
+    /// The experiment's seed (the same scenes as the execute experiment's with this seed).
+    #[serde(default = "default_perception_seed")]
+    seed: u64,
+}
+
+fn default_perception_scene() -> String {
+    "sorting-demo".into()
+}
+
+fn default_perception_objects() -> usize {
+    3
+}
+
+fn default_perception_seed() -> u64 {
+    1
+}
+
+/// One perception trial's result.
+#[derive(Debug, Serialize)]
+struct PerceptionTrial {
+    trial: usize,
+    seed: u64,
+    /// Per object: segments matched, centroid, height and footprint errors.
+    objects: Vec<pbd::dexter_sim::perception::ObjectPerception>,
+    /// Segments on the table that match no object.
+    phantoms: usize,
+}
+
+/// One trial of the perception experiment: random scene `trial` of the config (the execute
+/// experiment's scene with the same seed) looked over by the robot and compared with the truth — a
+/// pure function of `(config, trial)`. Returns a dict: `trial`, `seed`, `objects` (per object:
+/// `object`, `segments`, `centroid_error_xy`, `centroid_error_z`, `height_error`,
+/// `footprint_error`, m) and `phantoms`.
+#[pyfunction]
+#[pyo3(signature = (config, trial))]
+fn perception_trial(py: Python<'_>, config: &Bound<'_, PyAny>, trial: usize) -> PyResult<Py<PyAny>> {
+    let c: PerceptionConfig = from_python(config, "perception experiment config")?;
+    if c.objects == 0 {
+        return Err(value_error("objects must be at least 1"));
+    }
+    let base = Scene::open(&c.scene).py_err()?;
+    let (result, _) = runner::run(py, None, |_| {
+        let report = pbd::dexter_sim::perception::scan_trial(&base, c.objects, c.seed, trial)?;
+        Ok(PerceptionTrial {
+            trial,
+            seed: c.seed,
+            objects: report.objects,
+            phantoms: report.phantoms,
+        })
+    })?;
+    to_python(py, &result)
+}
+
 /// The grasp experiment's config: `pbd grasp eval`'s options (`present`, `seed`, `candidates`,
 /// `objects` or `test`) with a required `model` (prototypes JSON).
 fn grasp_options(config: &Bound<'_, PyAny>) -> PyResult<(EvalOptions, GraspModel)> {
@@ -296,5 +359,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grasp_trial, m)?)?;
     m.add_function(wrap_pyfunction!(grasp_objects, m)?)?;
     m.add_function(wrap_pyfunction!(sorting_trial, m)?)?;
+    m.add_function(wrap_pyfunction!(perception_trial, m)?)?;
     Ok(())
 }

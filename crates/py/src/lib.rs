@@ -38,6 +38,7 @@ fn _pbd(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pipelines::grasp_generate, m)?)?;
     m.add_function(wrap_pyfunction!(pipelines::grasp_eval, m)?)?;
     m.add_function(wrap_pyfunction!(pipelines::experiment_sorting, m)?)?;
+    m.add_function(wrap_pyfunction!(pipelines::experiment_perception, m)?)?;
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;
     let b = PyModule::new(m.py(), "bayes")?;
     bayes::register(&b)?;

@@ -138,6 +138,23 @@ pub fn experiment_sorting(
     })
 }
 
+/// `pbd experiment perception`: the robot's look over the execute experiment's scenes against the
+/// truth (missed, duplicate and phantom segments; centroid, height and footprint errors); writes
+/// `objects.csv`, `summary.md` and `errors.svg` into `output`.
+#[pyfunction]
+#[pyo3(signature = (options, progress=None))]
+pub fn experiment_perception(
+    py: Python<'_>,
+    options: &Bound<'_, PyAny>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Outcome> {
+    pipeline(py, options, progress, "perception experiment options", |o, p| {
+        let run = pbd::experiment::perception::run(o, p)?;
+        pbd::figure::draw(&run.output.join("errors.svg"), &run.figure)?;
+        Ok(run)
+    })
+}
+
 /// A recorded demonstration (an MCAP file of `pbd record`): percepts, ground truth, metadata, topics.
 #[pyclass(module = "pbd", frozen)]
 #[derive(Debug)]

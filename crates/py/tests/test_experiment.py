@@ -92,3 +92,25 @@ def test_grasp_generate_draws_its_pre_grasps_into_an_mcap(tmp_path):
     data = out.read_bytes()
     assert data[:8] == b"\x89MCAP0\r\n"
     assert b"/grasp/candidates" in data
+
+
+def test_perception_trials_are_the_scenes_of_pbd_experiment_perception(tmp_path):
+    config = {"scene": "sorting-demo", "objects": 2, "seed": 5}
+    trials = pbd.experiment.run(config, 2, kind="perception", progress=False)
+    assert [t["trial"] for t in trials] == [0, 1]
+    assert trials[1] == pbd.experiment.perception_trial(config, 1)
+    for t in trials:
+        assert len(t["objects"]) == 2
+        for o in t["objects"]:
+            assert o["segments"] >= 0
+            if o["segments"] > 0:
+                assert 0.0 <= o["centroid_error_xy"] < 0.08
+    report = pbd.experiment.perception(tmp_path / "perception", scenes=2, objects=2, seed=5, progress=None)
+    summary = report["summary"]
+    assert summary["objects"] == 4
+    assert summary["missed"] == sum(o["segments"] == 0 for t in trials for o in t["objects"])
+    assert summary["phantoms"] == sum(t["phantoms"] for t in trials)
+    for name in ("objects.csv", "summary.md", "errors.svg"):
+        assert (tmp_path / "perception" / name).is_file()
+    with pytest.raises(pbd.PbdValueError):
+        pbd.experiment.perception_trial(dict(config, objects=0), 0)

@@ -62,6 +62,13 @@ pub struct PerceptionRun {
     pub output: PathBuf,
 }
 
+impl std::fmt::Display for PerceptionRun {
+    /// `summary.md`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.markdown)
+    }
+}
+
 /// Runs the experiment: the scenes in parallel on the thread pool, then `objects.csv` and
 /// `summary.md` in the output directory (the caller draws [`PerceptionRun::figure`]). The same seed
 /// gives the same files, whatever the number of threads.

@@ -21,6 +21,8 @@ Kinds of trial (``kind=``):
 - ``"sorting"`` (:func:`sorting_trial`): trial ``trial`` of the sorting or relevance experiment of
   §5.1–5.3 (``pbd experiment sorting``): a procedural model learned from ``examples`` examples per
   class, the held-out objects sorted (or scored by ln B₁₀ (5.19) for relevance).
+- ``"perception"`` (:func:`perception_trial`): random scene ``trial`` of the execute experiment
+  looked over by the robot and compared with the truth (``pbd experiment perception``, one scene).
 """
 
 from __future__ import annotations
@@ -33,7 +35,8 @@ from typing import Any, Callable, Dict, Iterable, List, Optional, Union
 from . import _pbd
 from ._util import Report, _options, _progress, _report
 
-__all__ = ["execute_trial", "grasp_trial", "sorting_trial", "sorting", "grasp_objects", "run", "trial", "strip_timing", "KINDS"]
+__all__ = ["execute_trial", "grasp_trial", "sorting_trial", "sorting", "perception_trial", "perception",
+           "grasp_objects", "run", "trial", "strip_timing", "KINDS"]
 
 
 def _materialize(config: Dict[str, Any], tmp: str) -> Dict[str, Any]:
@@ -123,6 +126,33 @@ def sorting(output: "os.PathLike[str] | str" = "experiment-sorting", *, progress
     return _report(_pbd.experiment_sorting(_options(output=output, **options), _progress(progress)))
 
 
+def perception_trial(config: Dict[str, Any], trial: int) -> Dict[str, Any]:
+    """One trial of the perception experiment, a pure function of ``(config, trial)``: random scene
+    ``trial`` — the execute experiment's scene with the same seed — looked over by the robot (its
+    honest eyes: calibration backgrounds and its own self-model) and compared with the truth.
+
+    ``config``: ``scene`` (base scene, default ``sorting-demo``), ``objects`` per scene (3), ``seed``
+    (1). Returns ``trial``, ``seed``, ``objects`` (per object: ``object``, ``segments`` — 0 missed, 2
+    or more duplicates — ``centroid_error_xy``, ``centroid_error_z``, ``height_error``,
+    ``footprint_error``, in metres, ``None`` when missed) and ``phantoms`` (segments on the table that
+    match no object).
+    """
+    config = dict(config)
+    if config.get("scene") is not None:
+        config["scene"] = os.fspath(config["scene"])
+    return _pbd.experiment.perception_trial(config, int(trial))
+
+
+def perception(output: "os.PathLike[str] | str" = "experiment-perception", *, progress: Any = None,
+               **options: Any) -> Report:
+    """The whole perception experiment (``pbd experiment perception``): ``scene``, ``scenes`` (50),
+    ``objects`` (3), ``seed`` (1). Writes ``objects.csv``, ``summary.md`` and ``errors.svg`` into
+    ``output``; returns the summary (``objects``, ``missed``, ``duplicates``, ``phantoms``, and the
+    median / max of the centroid, height and footprint errors). One scene of it:
+    :func:`perception_trial`."""
+    return _report(_pbd.experiment_perception(_options(output=output, **options), _progress(progress)))
+
+
 def _inline_model(config: Dict[str, Any]) -> Dict[str, Any]:
     config = dict(config)
     model = config.get("model")
@@ -136,6 +166,7 @@ KINDS: Dict[str, Callable[[Dict[str, Any], int], Dict[str, Any]]] = {
     "execute": execute_trial,
     "grasp": grasp_trial,
     "sorting": sorting_trial,
+    "perception": perception_trial,
 }
 
 
