@@ -49,6 +49,10 @@ pub const OBJECT_ANGULAR_DAMPING: f64 = 1.0;
 /// pushed at 0.3 m/s within 33 cm).
 pub const ROLLING_RESISTANCE: f64 = 0.02;
 
+/// Below this horizontal spin (rad/s) an object is not rolling: rolling resistance leaves it alone
+/// (and costs nothing).
+const ROLLING_MIN_SPIN: f64 = 1e-3;
+
 /// Collision groups.
 mod groups {
     use rapier3d_f64::prelude::Group;
@@ -1068,6 +1072,13 @@ impl DexterSim {
             if b.is_sleeping() {
                 continue;
             }
+            // Resting (or not turning about a horizontal axis): nothing to resist, and the contacts
+            // are not walked.
+            let w = b.angvel();
+            let spin = (w.x * w.x + w.y * w.y).sqrt();
+            if spin < ROLLING_MIN_SPIN {
+                continue;
+            }
             let com = b.center_of_mass();
             let (mut n, mut lever) = (0.0, 0.0);
             let mut handled = false;
@@ -1104,9 +1115,7 @@ impl DexterSim {
             }
             let r = lever / n;
             let mass = b.mass();
-            let w = b.angvel();
-            let spin = (w.x * w.x + w.y * w.y).sqrt();
-            if spin <= 0.0 || mass <= 0.0 {
+            if mass <= 0.0 {
                 continue;
             }
             // The inertia about the (horizontal) spin axis: in the principal frame, Σ Iₖ aₖ².
