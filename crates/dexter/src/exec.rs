@@ -854,8 +854,9 @@ impl<'a> RobotPlant<'a> {
 
     /// Whether the target moved since the grasp was planned, judged from the head cameras before
     /// the hand closes (closing on where it was would knock it over or away): its track is seen
-    /// more than [`MOVED_GATE`] from the planned grasp; or it is not seen and a new segment, one
-    /// that appeared after the plan, is seen within [`REACQUIRE_GATE`] of the plan. The reason, if so.
+    /// more than [`MOVED_GATE`] from the planned grasp; or it is not seen and the nearest new
+    /// segment, one that appeared after the plan, is seen between [`MOVED_GATE`] and
+    /// [`REACQUIRE_GATE`] from the plan. The reason, if so.
     fn object_moved(&self) -> Option<String> {
         let plan = self.plan.as_ref()?;
         let (id, _) = self.target.as_ref()?;
@@ -873,6 +874,8 @@ impl<'a> RobotPlant<'a> {
                     )
                 })
             }
+            // Its track lost, the nearest new segment tells: where the grasp was planned (within
+            // [`MOVED_GATE`]), it is the object still there — a new track of it; farther, moved.
             _ => p
                 .segments
                 .iter()
@@ -880,6 +883,7 @@ impl<'a> RobotPlant<'a> {
                 .map(off)
                 .filter(|d| *d < REACQUIRE_GATE)
                 .min_by(f64::total_cmp)
+                .filter(|d| *d > MOVED_GATE)
                 .map(|d| {
                     format!(
                         "the object is not seen under the hand and a new segment is {:.1} cm away",
