@@ -27,7 +27,7 @@ use crate::eyes::Eyes;
 use crate::skills::{
     GraspPlan, Held, MIN_LOAD, Observer, SeenObject, TouchState, approach_grasp, close_grasp, finger_arc,
     hand_fingertips, idle, lift_and_weigh, lower_until_supported, park_pose, plan_top_grasp, reachable,
-    release_and_retreat, run_until, transport_over,
+    release_and_retreat, run_until, stow_pose, transport_over,
 };
 use crate::watch::Watcher;
 
@@ -963,6 +963,45 @@ impl<'a> RobotPlant<'a> {
     }
 
     fn search_within(&mut self, last: &Vec3, gate: f64) -> Result<Option<(Option<u32>, SeenObject)>, RobotError> {
+        let found = self.scan_for(last, gate)?;
+        if found.is_some() {
+            return Ok(found);
+        }
+        // Not seen anywhere: the robot's own arms may hide it (a parked arm's upper arm crosses the
+        // head cameras' view of its side of the table). Stow the free arms out to the sides and
+        // scan again.
+        if self.stow_free_arms()? {
+            self.scan_for(last, gate)
+        } else {
+            Ok(None)
+        }
+    }
+
+    /// Moves each arm that holds nothing to its stowed pose ([`stow_pose`]), out of the head's view
+    /// of the table. Whether any arm moved.
+    fn stow_free_arms(&mut self) -> Result<bool, RobotError> {
+        let table_z = self.workspace.table_z;
+        let mut moved = false;
+        for arm in Arm::BOTH {
+            if self.touch(arm).holding() {
+                continue;
+            }
+            let k = arm.index();
+            let stow = stow_pose(arm, table_z);
+            if (self.reach[k].tool_pose(self.hw).translation.vector - stow.translation.vector).norm() < 0.03 {
+                continue;
+            }
+            self.with_observer(|hw, reach, _, obs| {
+                reach[k].set_goal(hw, stow);
+                run_until(hw, &mut reach[k], obs, 3.0, |h, r| r.at_goal(h, 0.02, 0.1));
+            })?;
+            moved = true;
+        }
+        Ok(moved)
+    }
+
+    /// [`RobotPlant::search_within`]'s scan of the table from where the arms are.
+    fn scan_for(&mut self, last: &Vec3, gate: f64) -> Result<Option<(Option<u32>, SeenObject)>, RobotError> {
         let table_z = self.workspace.table_z;
         let mut best: Option<(f64, u32, SeenObject)> = None;
         for at in self.workspace.scan_points() {

@@ -404,6 +404,15 @@ pub fn reachable(model: &control_basis::RobotModel, arm: Arm, pose: &Iso3, seed:
 /// symmetric under S, serves both.
 pub const HOME_ARM_GUESS: [f64; 7] = [0.0, 0.9, 0.0, 1.6, 0.0, 0.0, 0.0];
 
+/// The stowed pose of an arm's palm: out to its side, beside the near edge of the table and low,
+/// where neither the arm nor its elbow crosses the head cameras' view of the table (the parked arm's
+/// upper arm hides the table's near corner on its side from the head).
+pub fn stow_pose(arm: Arm, table_z: f64) -> Iso3 {
+    let s = if arm == Arm::Left { 1.0 } else { -1.0 };
+    let rot = top_down_orientation(&Vec3::x(), &control_basis::math::Rot3::identity());
+    Iso3::from_parts(Translation3::new(0.30, s * 0.55, table_z + 0.25), rot)
+}
+
 /// The parked pose of an arm's palm: above the near corner of the table on its own side.
 pub fn park_pose(arm: Arm, table_z: f64) -> Iso3 {
     let s = if arm == Arm::Left { 1.0 } else { -1.0 };
