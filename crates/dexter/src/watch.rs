@@ -533,41 +533,24 @@ fn moved_in_images(
     cams: [&crate::vision::Camera; 2],
     share: f64,
 ) -> bool {
-    let Some(e) = track.extent.as_ref() else {
-        return false;
-    };
     let [l, r] = blob.pixels.map(f64::from);
     let lr = l / r.max(1.0);
     if share < MOVED_SHARE || !(0.75..=1.0 / 0.75).contains(&lr) {
         return false;
     }
-    let [ax, ay] = e.major_axis;
-    let z0 = track.centroid[2] - 0.5 * e.height;
-    let outside = |cam: &crate::vision::Camera, view: [f64; 2]| {
-        let mut lo = [f64::INFINITY; 2];
-        let mut hi = [f64::NEG_INFINITY; 2];
-        for (su, sv, sz) in box_corners() {
-            let p = Vec3::new(
-                e.center[0] + su * e.half_major * ax - sv * e.half_minor * ay,
-                e.center[1] + su * e.half_major * ay + sv * e.half_minor * ax,
-                z0 + sz * e.height,
-            );
-            let Some((u, v)) = project(cam, &p) else {
-                return false;
-            };
-            lo = [lo[0].min(u), lo[1].min(v)];
-            hi = [hi[0].max(u), hi[1].max(v)];
-        }
-        // A part holding the share s of a convex silhouette has its centroid at most
-        // (1 − s/2) of the half-width from the middle (the bound of a triangle's cap; a
-        // rectangle's is 1 − s), along either image axis.
-        let reach = 1.0 - 0.5 * share.min(1.0);
-        (0..2).any(|a| {
-            let (mid, half) = (0.5 * (lo[a] + hi[a]), 0.5 * (hi[a] - lo[a]));
-            (view[a] - mid).abs() > half * reach + MOVED_PX
-        })
+    let Some((lo, hi)) = projected_boxes(track, cams) else {
+        return false;
     };
-    outside(cams[0], views[0]) && outside(cams[1], views[1])
+    // A part holding the share s of a convex silhouette has its centroid at most (1 − s/2) of the
+    // half-width from the middle (the bound of a triangle's cap; a rectangle's is 1 − s), along
+    // either image axis.
+    let reach = 1.0 - 0.5 * share.min(1.0);
+    (0..2).all(|k| {
+        (0..2).any(|a| {
+            let (mid, half) = (0.5 * (lo[k][a] + hi[k][a]), 0.5 * (hi[k][a] - lo[k][a]));
+            (views[k][a] - mid).abs() > half * reach + MOVED_PX
+        })
+    })
 }
 
 /// Whether a partial view casts doubt on where its track is ([`DOUBT_PX`]): its image centroid in
