@@ -327,12 +327,18 @@ impl DexterSim {
             ("dt", settings.dt),
             ("contact_hz", settings.contact_hz),
             ("gravity", settings.gravity),
+            ("rolling_resistance", settings.rolling_resistance),
         ] {
-            if !v.is_finite() || v < 0.0 || (field != "gravity" && v == 0.0) {
+            let zero_ok = field == "gravity" || field == "rolling_resistance";
+            if !v.is_finite() || v < 0.0 || (!zero_ok && v == 0.0) {
                 return Err(SimError::Invalid {
                     path: "<settings>".into(),
                     field: field.into(),
-                    message: format!("must be a finite positive number (got {v})"),
+                    message: if zero_ok {
+                        format!("must be a finite number ≥ 0 (got {v})")
+                    } else {
+                        format!("must be a finite positive number (got {v})")
+                    },
                 });
             }
         }

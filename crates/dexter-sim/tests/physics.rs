@@ -122,3 +122,20 @@ fn a_shoved_ball_rolls_to_rest_against_rolling_resistance() {
     println!("without: {free:.3} m");
     assert!(free > 2.0 * d, "without rolling resistance {free:.3} m, with {d:.3} m");
 }
+
+#[test]
+fn a_nan_or_negative_rolling_resistance_is_refused_by_name() {
+    let scene = empty_scene();
+    for c in [f64::NAN, -0.1, f64::INFINITY] {
+        let Err(e) = DexterSim::new(
+            &scene,
+            SimSettings {
+                rolling_resistance: c,
+                ..SimSettings::default()
+            },
+        ) else {
+            panic!("rolling_resistance {c} accepted");
+        };
+        assert!(e.to_string().contains("rolling_resistance"), "{e}");
+    }
+}
