@@ -44,7 +44,7 @@ pub const DEXTER_URDF: &str = include_str!("../../../assets/dexter.urdf");
 /// Angular damping of objects (1/s): air and the little losses Rapier does not model.
 pub const OBJECT_ANGULAR_DAMPING: f64 = 1.0;
 
-/// A coefficient of rolling resistance to set ([`SimSettings::rolling_resistance`], off by default): a hard
+/// The coefficient of rolling resistance ([`SimSettings::rolling_resistance`]'s default): a hard
 /// ball or can on a wooden table or a plastic bin (0.001–0.01 on hard floors; 0.02 stops a ball
 /// pushed at 0.3 m/s within 33 cm).
 pub const ROLLING_RESISTANCE: f64 = 0.02;
@@ -105,9 +105,7 @@ pub struct SimSettings {
     pub mass_matrix_reuse: Option<[f64; 2]>,
     /// Coefficient of rolling resistance of the objects on what supports them (dimensionless: the
     /// resisting torque is this times the normal force times the rolling radius); 0 turns it off.
-    /// Off by default: on (at [`ROLLING_RESISTANCE`]) it changes the physics of every recorded
-    /// demonstration, and the sorting demonstration of `crates/cli/tests/schema_cli.rs` was then
-    /// cut into one instance too many (re-baselining the demonstrations comes first).
+    /// Default [`ROLLING_RESISTANCE`].
     pub rolling_resistance: f64,
 }
 
@@ -126,7 +124,7 @@ impl Default for SimSettings {
             allow_sleep: true,
             mass_matrix_once_per_step: true,
             mass_matrix_reuse: Some(MASS_MATRIX_REUSE),
-            rolling_resistance: 0.0,
+            rolling_resistance: ROLLING_RESISTANCE,
         }
     }
 }

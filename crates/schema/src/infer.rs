@@ -611,21 +611,29 @@ impl Engine {
             return Ok(Vec::new());
         };
         // Runs of one schema that reach one of its goals.
-        let mut runs: Vec<(usize, usize, usize)> = Vec::new(); // (schema, start, end inclusive)
+        let mut runs: Vec<(usize, usize, usize, bool)> = Vec::new(); // (schema, start, end inclusive, goal shown)
         let mut t = 0;
         while t < path.len() {
             if let Slot::State { schema, .. } = path[t] {
                 let start = t;
                 let mut reached = false;
+                let mut shown = false;
                 while t < path.len() {
                     match path[t] {
                         Slot::State { schema: s, state } if s == schema => {
-                            reached |= self.library.schemas[s].is_goal(state);
-                            // A new instance of the same schema begins at its start state after a goal.
+                            let sc = &self.library.schemas[s];
+                            if sc.is_goal(state) {
+                                reached = true;
+                                shown |= self.goal_shown(s, state, &obs[t], shown);
+                            }
+                            // A new instance of the same schema begins at its start state after a
+                            // goal the demonstration showed: a goal the path only passed through
+                            // (the grip flickered while the object was lowered into its place, the
+                            // hand never let go) does not end the act.
                             if t > start
-                                && state == self.library.schemas[s].start
+                                && state == sc.start
                                 && !matches!(path[t - 1], Slot::State { state: p, .. } if p == state)
-                                && reached
+                                && shown
                             {
                                 break;
                             }
@@ -635,12 +643,29 @@ impl Engine {
                     }
                 }
                 if reached {
-                    runs.push((schema, start, t - 1));
+                    runs.push((schema, start, t - 1, shown));
                 }
             } else {
                 t += 1;
             }
         }
+        // A run whose goal the demonstration never showed, followed by a run of the same schema on
+        // the same object, is one act the path cut in two (a grip that flickered while the object
+        // was lowered into its place: the path left the schema for a step, the hand never let go).
+        let mut merged: Vec<(usize, usize, usize, bool)> = Vec::with_capacity(runs.len());
+        for run in runs {
+            if let Some(prev) = merged.last_mut() {
+                let object = |a: usize, b: usize| object_of(&facts(&self.library, &obs[a..=b]));
+                if prev.0 == run.0 && !prev.3 && object(prev.1, prev.2).is_some_and(|o| object(run.1, run.2) == Some(o))
+                {
+                    prev.2 = run.2;
+                    prev.3 = run.3;
+                    continue;
+                }
+            }
+            merged.push(run);
+        }
+        let runs: Vec<(usize, usize, usize)> = merged.into_iter().map(|(s, a, b, _)| (s, a, b)).collect();
         let mut instances = Vec::new();
         for (i, &(schema, a, b)) in runs.iter().enumerate() {
             // Score the instance on its window, extended into the neighbouring gaps halfway.
@@ -654,7 +679,7 @@ impl Engine {
             let facts = facts(&self.library, &obs[a..=b]);
             let pick = |action: &str| facts.iter().filter(|f| f.action == action).max_by_key(|f| f.steps);
             let grasp = pick("grasp");
-            let object = grasp.or(pick("touch")).or(pick("reach_object")).and_then(|f| f.segment);
+            let object = object_of(&facts);
             let arm = grasp
                 .or(pick("touch"))
                 .or(pick("reach_object"))
@@ -688,6 +713,22 @@ impl Engine {
         Ok(instances)
     }
 
+    /// Whether goal `state` of schema `s` is shown by observation `o`: every action the state
+    /// expects converged has converged. A goal that expects none (`done`, after `released`) is
+    /// shown only after a goal that was (`before`).
+    fn goal_shown(&self, s: usize, state: usize, o: &Observation, before: bool) -> bool {
+        let mut expects_any = false;
+        for (a, &x) in o.x.iter().enumerate() {
+            if self.library.schemas[s].expects(state, a) == Expect::Converged {
+                expects_any = true;
+                if !x {
+                    return false;
+                }
+            }
+        }
+        expects_any || before
+    }
+
     /// The configuration.
     pub fn config(&self) -> &InferenceConfig {
         &self.config
@@ -695,6 +736,15 @@ impl Engine {
 }
 
 /// Groups the converged monitors of `obs` by binding.
+/// The object an instance acted on: the segment of its longest grasp, else touch, else reach.
+fn object_of(facts: &[Fact]) -> Option<u32> {
+    let pick = |action: &str| facts.iter().filter(|f| f.action == action).max_by_key(|f| f.steps);
+    pick("grasp")
+        .or(pick("touch"))
+        .or(pick("reach_object"))
+        .and_then(|f| f.segment)
+}
+
 fn facts(library: &Library, obs: &[Observation]) -> Vec<Fact> {
     let mut out: Vec<Fact> = Vec::new();
     for o in obs {
@@ -997,6 +1047,7 @@ pub fn check_segment(seg: &SegmentPercept, path: &str, field: &str) -> Result<()
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::monitor::Hit;
 
     /// A noisy demonstration: Pick-And-Place-like runs of converged actions with false alarms and
     /// misses, long idle gaps (the gap-before state decays far below 1e-280 and is tracked).
@@ -1066,5 +1117,74 @@ mod tests {
             let got = post.hypotheses.last().unwrap().log_evidence.unwrap();
             assert!((got - none).abs() <= 1e-9 * none.abs().max(1.0));
         }
+    }
+    /// A Pick-And-Place whose grip is lost while the object is lowered into its place (the path
+    /// passes through `released` unshown and leaves the schema for a step), then closes again, then
+    /// lets go: one instance, not two of the same object.
+    #[test]
+    fn a_grip_that_flickers_at_the_place_does_not_cut_the_act_in_two() {
+        let lib = Library::builtin();
+        let engine = Engine::new(&lib, InferenceConfig::default()).unwrap();
+        let a = |name: &str| lib.actions.iter().position(|x| x.name == name).unwrap();
+        let hit = |name: &str| Hit {
+            action: a(name),
+            arm: Some("right".into()),
+            segment: ["reach_object", "grasp", "touch"].contains(&name).then_some(7),
+            place: ["reach_place", "place"]
+                .contains(&name)
+                .then(|| "bin-right".to_string()),
+        };
+        // (seconds, converged actions) at the 10 Hz inference rate.
+        // The converged actions of a recorded sorting demonstration (red_block into bin-right,
+        // seed 3), by phase: the grip is lost for 3 s as the block meets the bin floor (the touch
+        // stays), then closes again, then the hand lets go.
+        let phases: [(f64, &[&str]); 22] = [
+            (3.0, &[]),
+            (0.3, &["reach_object"]),
+            (0.1, &["reach_object", "touch"]),
+            (5.4, &["grasp"]),
+            (9.9, &["grasp", "hold"]),
+            (1.2, &["grasp"]),
+            (0.1, &["grasp", "place"]),
+            (0.7, &["grasp"]),
+            (1.0, &["grasp", "hold", "reach_place"]),
+            (1.0, &["grasp"]),
+            (0.1, &["grasp", "place"]),
+            (4.4, &["grasp", "reach_place", "place"]),
+            (0.1, &["reach_place", "touch"]),
+            (3.0, &["reach_object", "reach_place", "touch"]),
+            (4.5, &["grasp", "reach_place"]),
+            (0.1, &["reach_place", "release", "touch"]),
+            (2.5, &["reach_object", "reach_place", "release", "touch"]),
+            (0.2, &["release", "touch"]),
+            (1.0, &["release"]),
+            (1.0, &["reach_place", "release"]),
+            (0.7, &["release"]),
+            (3.0, &[]),
+        ];
+        let mut obs = Vec::new();
+        for (secs, on) in phases {
+            for _ in 0..(secs * 10.0).round() as usize {
+                let mut x = vec![false; lib.actions.len()];
+                for n in on {
+                    x[a(n)] = true;
+                }
+                obs.push(Observation {
+                    t: obs.len() as f64 * 0.1,
+                    x,
+                    hits: on.iter().map(|n| hit(n)).collect(),
+                });
+            }
+        }
+        let got = engine.segment(&obs, &[]).unwrap();
+        let summary: Vec<(String, Option<u32>, f64, f64)> = got
+            .iter()
+            .map(|i| (i.schema.clone(), i.object, i.t_start, i.t_end))
+            .collect();
+        assert_eq!(got.len(), 1, "{summary:?}");
+        assert_eq!(got[0].schema, "pick_and_place");
+        assert_eq!(got[0].object, Some(7));
+        assert_eq!(got[0].place.as_deref(), Some("bin-right"));
+        assert!(got[0].t_end > 36.0, "{summary:?}");
     }
 }
