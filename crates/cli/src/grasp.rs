@@ -197,6 +197,14 @@ pub struct EvalArgs {
     /// Seed of every random choice (split, demonstrations, sampler, candidates, sim noise).
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Split by object: no presentation of a test presentation's object is trained on (and none of
+    /// a given model's or corpus's objects is tested).
+    #[arg(long)]
+    object_split: bool,
+    /// Filter the naive baseline's candidates against the object as the model's are (default:
+    /// against the table only, as the seed's baseline).
+    #[arg(long)]
+    naive_filtered: bool,
     /// Directory for the report (trials.csv, objects.csv, sharing.csv, fig6_7.svg, summary.md,
     /// summary.json; corpus.json and prototypes.json when learned here).
     #[arg(short, long, default_value = "grasp-eval")]
@@ -265,6 +273,8 @@ pub fn main(cmd: GraspCommand, out: &mut dyn Write) -> anyhow::Result<()> {
                 burn_in: a.burn_in,
                 chains: a.chains,
                 seed: a.seed,
+                object_split: a.object_split,
+                naive_filtered: a.naive_filtered,
                 output: a.output,
             };
             let summary = pbd::grasp::eval::run(&options, &Bars::new(a.json, true)?)?;

@@ -545,6 +545,7 @@ pub fn generate(args: &GenerateOptions) -> Result<GenerateReport> {
         &percept,
         common::Method::Model,
         args.n,
+        false,
         |k, rng| model.generate(&b, k, rng).map_err(anyhow::Error::from),
         &mut rng,
     )?;

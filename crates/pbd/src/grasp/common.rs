@@ -50,6 +50,12 @@ impl Presenter {
             .collect()
     }
 
+    /// The catalog object presentation `name` shows (`jif` for `jif-2`); `None` if unknown.
+    pub fn object_of(&self, name: &str) -> Option<String> {
+        let (i, _) = self.base.catalog.presentation(name).ok()?;
+        self.base.catalog.objects.get(i).map(|o| o.name.clone())
+    }
+
     /// Fails with the catalog's suggestions if `name` is not a presentation.
     pub fn check(&self, name: &str) -> Result<()> {
         self.base
@@ -135,7 +141,8 @@ pub struct Selection {
 }
 
 /// Draws candidates (`draw(k, rng)`) in rounds of 4n, drops those whose hand (pre-shaped as the
-/// executor will do it) would hit the object (model candidates only, see below) or the table, ranks the rest by distance from the
+/// executor will do it) would hit the object (model candidates, and naive ones when
+/// `naive_filtered`; see below) or the table, ranks the rest by distance from the
 /// grasping arm's shoulder, and keeps the first that the arm can reach (pre-grasp, approach and
 /// hover poses), until `n` are chosen or 10 rounds have been drawn. The object's pose for the filter
 /// is what the robot knows: the catalog model in its presentation orientation at the seen centroid.
@@ -147,6 +154,7 @@ pub fn select_candidates(
     percept: &Percept,
     method: Method,
     n: usize,
+    naive_filtered: bool,
     mut draw: impl FnMut(usize, &mut bayes::rng::Generator) -> Result<Vec<PreGrasp>>,
     rng: &mut bayes::rng::Generator,
 ) -> Result<Selection> {
@@ -194,7 +202,7 @@ pub fn select_candidates(
                 // The naive baseline puts the palm on a hemisphere of radius half the longest
                 // dimension (§6.5.1), where the open fingers always reach into the object: it is not
                 // filtered against the object (the seed's was not), only against the table.
-                Rejection::HitsObject if method == Method::Naive => {
+                Rejection::HitsObject if method == Method::Naive && !naive_filtered => {
                     let world_from_palm = nalgebra::Isometry3::from_parts(
                         nalgebra::Translation3::from(c.position() + gs.centroid),
                         c.orientation(),

@@ -53,6 +53,14 @@ pub struct EvalOptions {
     pub chains: usize,
     /// Seed of every random choice (split, demonstrations, sampler, candidates, sim noise).
     pub seed: u64,
+    /// Split by object, not by presentation: no presentation of a test presentation's object is
+    /// trained on (`jif-2` is not learned from when `jif-1` is tested), and with a given model or
+    /// corpus no presentation of its objects is tested.
+    pub object_split: bool,
+    /// Filter the naive baseline's candidates against the object as the model's are (by default,
+    /// as in the seed, they are filtered only against the table: its hemisphere puts the open
+    /// fingers into the object).
+    pub naive_filtered: bool,
     /// Directory for the report (trials.csv, objects.csv, sharing.csv, summary.md, summary.json;
     /// corpus.json and prototypes.json when learned here; the figure fig6_7.svg is the caller's).
     pub output: PathBuf,
@@ -75,6 +83,8 @@ impl Default for EvalOptions {
             burn_in: 200,
             chains: 4,
             seed: 0,
+            object_split: false,
+            naive_filtered: false,
             output: PathBuf::from("grasp-eval"),
         }
     }
@@ -131,7 +141,7 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
         (_, Some(c)) => c.objects.iter().map(|o| o.name.clone()).collect(),
         _ => Vec::new(),
     };
-    let test = test_split(&all, &known, args);
+    let test = test_split(&presenter, &all, &known, args);
     if test.is_empty() {
         bail!("no test presentations (every catalog presentation is a training object of the model)");
     }
@@ -145,7 +155,7 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
         let corpus = match given_corpus {
             Some(c) => c,
             None => {
-                let pool: Vec<String> = all.iter().filter(|o| !test.contains(o)).cloned().collect();
+                let pool = training_pool(&presenter, &all, &test, args.object_split);
                 let n = if args.train == 0 {
                     pool.len()
                 } else {
@@ -185,7 +195,7 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
     progress.phase("perceive", Some(test.len() as u64));
     let indexed: Vec<(usize, &String)> = test.iter().enumerate().collect();
     let prepared = crate::parallel::map(&indexed, progress, |&(i, name)| {
-        prepare(&presenter, &model, args.seed, n, i, name)
+        prepare(&presenter, &model, args, n, i, name)
     })?;
     progress.finish();
     // Execute every candidate.
@@ -283,6 +293,8 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
     let summary_model = model_summary(&model, &model_path);
     let mut summary = EvalSummary {
         seed: args.seed,
+        object_split: args.object_split,
+        naive_filtered: args.naive_filtered,
         train: model.objects.clone(),
         test: test.clone(),
         candidates: n,
@@ -311,7 +323,15 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
 }
 
 /// Perceives test presentation `i` (`name`) and chooses its candidates for both methods.
-fn prepare(presenter: &Presenter, model: &GraspModel, seed: u64, n: usize, i: usize, name: &str) -> Result<Prepared> {
+fn prepare(
+    presenter: &Presenter,
+    model: &GraspModel,
+    args: &EvalOptions,
+    n: usize,
+    i: usize,
+    name: &str,
+) -> Result<Prepared> {
+    let seed = args.seed;
     let (scene, settings) = presenter.scene(name, crate::rng::split(seed, 1000 + i as u64))?;
     let percept = match grasp_trial::perceive(&scene, &settings)? {
         Ok(p) => p,
@@ -346,6 +366,7 @@ fn prepare(presenter: &Presenter, model: &GraspModel, seed: u64, n: usize, i: us
             &percept,
             m,
             n,
+            args.naive_filtered,
             |k, rng| match m {
                 Method::Model => model.generate(&b, k, rng).map_err(anyhow::Error::from),
                 Method::Naive => naive_baseline(&dims, k, rng).map_err(anyhow::Error::from),
@@ -445,14 +466,32 @@ fn shuffled_presentations(presenter: &Presenter, seed: u64) -> Vec<String> {
 /// of [`object_trial`] by index.
 pub fn test_presentations(args: &EvalOptions, known: &[String]) -> Result<Vec<String>> {
     let presenter = Presenter::new(&args.present)?;
-    Ok(test_split(&shuffled_presentations(&presenter, args.seed), known, args))
+    Ok(test_split(
+        &presenter,
+        &shuffled_presentations(&presenter, args.seed),
+        known,
+        args,
+    ))
+}
+
+/// The presentations of `all` that may be trained on: not tested, and with `object_split` no
+/// presentation of a tested object.
+fn training_pool(presenter: &Presenter, all: &[String], test: &[String], object_split: bool) -> Vec<String> {
+    let tested: Vec<String> = test.iter().filter_map(|t| presenter.object_of(t)).collect();
+    all.iter()
+        .filter(|o| !test.contains(o))
+        .filter(|o| !object_split || presenter.object_of(o).is_none_or(|ob| !tested.contains(&ob)))
+        .cloned()
+        .collect()
 }
 
 /// [`test_presentations`] from the shuffled list.
-fn test_split(all: &[String], known: &[String], args: &EvalOptions) -> Vec<String> {
+fn test_split(presenter: &Presenter, all: &[String], known: &[String], args: &EvalOptions) -> Vec<String> {
+    let known_objects: Vec<String> = known.iter().filter_map(|k| presenter.object_of(k)).collect();
     if args.objects.is_empty() {
         all.iter()
             .filter(|o| !known.contains(o))
+            .filter(|o| !args.object_split || presenter.object_of(o).is_none_or(|ob| !known_objects.contains(&ob)))
             .take(args.test)
             .cloned()
             .collect()
@@ -481,7 +520,7 @@ pub fn object_trial(args: &EvalOptions, model: &GraspModel, index: usize, object
     if args.candidates == 0 {
         bail!("candidates must be at least 1");
     }
-    let prepared = prepare(&presenter, model, args.seed, args.candidates, index, object)?;
+    let prepared = prepare(&presenter, model, args, args.candidates, index, object)?;
     let mut trials = Vec::new();
     for (m, k, c) in &prepared.jobs {
         let o = execute_job(&presenter, args.seed, object, index, &prepared, *m, c.as_ref())?;
@@ -491,4 +530,43 @@ pub fn object_trial(args: &EvalOptions, model: &GraspModel, index: usize, object
         object: object_result(object, &prepared, &trials),
         trials,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An object split keeps every presentation of a tested object out of training, and every
+    /// presentation of a known object out of the test set; a presentation split only the
+    /// presentation itself.
+    #[test]
+    fn an_object_split_keeps_every_presentation_of_a_tested_object_out_of_training() {
+        let presenter = Presenter::new(&PresentOptions::default()).unwrap();
+        let all = shuffled_presentations(&presenter, 0);
+        let of = |p: &str| presenter.object_of(p).unwrap();
+        // An object with several presentations.
+        let multi = all
+            .iter()
+            .find(|p| all.iter().filter(|q| of(q) == of(p)).count() >= 2)
+            .expect("a catalog object with two presentations")
+            .clone();
+        let siblings: Vec<&String> = all.iter().filter(|q| of(q) == of(&multi) && **q != multi).collect();
+        let test = vec![multi.clone()];
+        let by_presentation = training_pool(&presenter, &all, &test, false);
+        assert!(!by_presentation.contains(&multi));
+        assert!(siblings.iter().all(|s| by_presentation.contains(s)));
+        let by_object = training_pool(&presenter, &all, &test, true);
+        assert!(by_object.iter().all(|p| of(p) != of(&multi)), "{by_object:?}");
+        assert_eq!(by_object.len(), all.len() - 1 - siblings.len());
+        // A model that knows `multi`: an object split tests none of its siblings.
+        let mut args = EvalOptions {
+            test: all.len(),
+            ..EvalOptions::default()
+        };
+        let tested = test_split(&presenter, &all, &test, &args);
+        assert!(siblings.iter().all(|s| tested.contains(s)));
+        args.object_split = true;
+        let tested = test_split(&presenter, &all, &test, &args);
+        assert!(tested.iter().all(|p| of(p) != of(&multi)), "{tested:?}");
+    }
 }

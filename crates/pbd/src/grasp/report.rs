@@ -74,6 +74,12 @@ pub struct Significance {
 pub struct EvalSummary {
     /// Seed.
     pub seed: u64,
+    /// Split by object (no presentation of a test object trained on), not by presentation.
+    #[serde(default)]
+    pub object_split: bool,
+    /// The naive baseline's candidates were filtered against the object as the model's are.
+    #[serde(default)]
+    pub naive_filtered: bool,
     /// Training presentations (with at least one kept grasp).
     pub train: Vec<String>,
     /// Test presentations.
@@ -233,6 +239,20 @@ fn markdown(s: &EvalSummary, model: &GraspModel) -> String {
         s.train.len(),
         s.test.len(),
         s.candidates
+    );
+    let _ = writeln!(
+        m,
+        "Split by {}; naive candidates filtered against {}.\n",
+        if s.object_split {
+            "object (no presentation of a test object trained on)"
+        } else {
+            "presentation"
+        },
+        if s.naive_filtered {
+            "the object and the table, as the model's"
+        } else {
+            "the table only (the seed's baseline)"
+        }
     );
     if let Some((k, a)) = s.demos_kept {
         let _ = writeln!(m, "Demonstrations kept (grasp held): {k} of {a}.\n");
