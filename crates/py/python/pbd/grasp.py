@@ -43,6 +43,8 @@ def generate(model: "os.PathLike[str] | str", object: str, *, progress: Any = No
 
 def eval(output: "os.PathLike[str] | str" = "grasp-eval", *, progress: Any = None, **options: Any) -> Report:  # noqa: A001
     """The §6.5 experiment (``pbd grasp eval``): ``model`` or ``corpus`` (else record and learn here),
-    ``test`` / ``objects``, ``candidates``, ``seed``; writes the report files into ``output``, with the
+    ``test`` / ``objects``, ``candidates``, ``seed``, ``object_split`` (no presentation of a tested object
+    trained on), ``naive_filtered`` (the naive baseline through the model's collision filter); writes the
+    report files into ``output``, with the
     Fig. 6.7 plot ``fig6_7.svg`` (successes per test object, model against naive)."""
     return _report(_pbd.grasp_eval(_options(output=output, **options), _progress(progress)))
