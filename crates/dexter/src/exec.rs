@@ -852,6 +852,13 @@ impl<'a> RobotPlant<'a> {
         })
     }
 
+    /// The object was lost from the hand on the way: forget the hold, open, back off and park
+    /// ([`RobotPlant::back_off`]), so that the monitors see the hand empty.
+    fn let_go(&mut self, arm: Arm) -> Result<(), RobotError> {
+        self.held = None;
+        self.back_off(arm)
+    }
+
     /// Whether the target moved since the grasp was planned, judged from the head cameras before
     /// the hand closes (closing on where it was would knock it over or away): its track is seen
     /// more than [`MOVED_GATE`] from the planned grasp; or it is not seen and the nearest new
@@ -1265,7 +1272,13 @@ impl SchemaPlant for RobotPlant<'_> {
                 let palm_now = self.reach[k].tool_pose(self.hw).translation.vector;
                 let mut around = self.seen_objects(Some(&palm_now));
                 let Some(held) = self.held_or_felt(arm) else {
-                    return Ok(ActionOutcome::Failed("nothing held to place (no hold yet)".into()));
+                    // Nothing in the hand, though a finger may still touch the object (it was lost
+                    // on the way): open the hand and back off, so that the monitors see the hand
+                    // empty and the schema's contingency (a re-grasp after a drop) takes over.
+                    self.let_go(arm)?;
+                    return Ok(ActionOutcome::Failed(
+                        "nothing held to place: the hand opened and backed off (a re-grasp follows)".into(),
+                    ));
                 };
                 let (target, wall) = if binding.transfer {
                     if !self.unreached.is_empty() {
@@ -1322,9 +1335,10 @@ impl SchemaPlant for RobotPlant<'_> {
                     Ok(()) => ActionOutcome::Converged,
                     Err(why) => {
                         // Forget the hold only if the fingertips lost it (the carry may have stopped
-                        // on an obstacle with the object still in the hand).
+                        // on an obstacle with the object still in the hand); then let go of what a
+                        // finger may still touch.
                         if !self.touch(arm).holding() {
-                            self.held = None;
+                            self.let_go(arm)?;
                         }
                         ActionOutcome::Failed(why)
                     }
