@@ -138,9 +138,6 @@ const CLEAR_RADIUS: f64 = 0.25;
 /// Room (m) between a placed object and a place's walls: for the opening fingers, and so that a
 /// rolling object is not let go on the wall.
 const WALL_ROOM: f64 = 0.03;
-/// The least room (m) a placed object keeps from a place's walls when a fuller bin leaves no spot
-/// clear of its objects otherwise ([`free_spot`]).
-const MIN_WALL_ROOM: f64 = 0.005;
 
 /// Smallest horizontal distance (m) from the handoff spot to where a reach did not converge: the
 /// arm that failed there may have to take the object at the handoff spot.
@@ -163,19 +160,14 @@ fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
 }
 
 /// Where in a place region (`center`, `size`) to put an object of horizontal radius `radius`
-/// among `others` (centre, radius) already there, on a 1 cm grid. In order of preference: a spot
-/// whose footprint does not overlap theirs (to the centimetre: landing on an object tips both);
-/// then one clear of the walls by [`WALL_ROOM`] (room for the opening fingers; a can let go 2 cm
-/// from a wall was set down on it and fell out) — down to [`MIN_WALL_ROOM`] when a full bin leaves
-/// no other spot clear of its objects; then the widest gap to the objects; then the nearest the
-/// centre. (A coffee can 9 cm across beside a jar in a 20 × 25 cm bin fits only in a corner, 0.5 cm
-/// from two walls; kept 3 cm from them, it was let go half on the jar and fell.) The centre when
-/// the region leaves no room to choose.
+/// among `others` (centre, radius) already there: the point of a 1 cm grid inside the region (the
+/// object clear of the walls by [`WALL_ROOM`]) with the widest gap between the object's footprint
+/// and theirs, nearest the centre among equals (gaps count to the centimetre) — so objects already
+/// in a bin are not landed on. The centre when the region leaves no room to choose. (Preferring
+/// a spot clear of the objects over the walls' room, down to 0.5 cm, placed 4 fewer of 198 objects
+/// on development seeds 1–3: the fingers met the walls and let go high.)
 pub fn free_spot(center: [f64; 2], size: [f64; 2], radius: f64, others: &[([f64; 2], f64)]) -> [f64; 2] {
-    let half = [
-        size[0] / 2.0 - radius - MIN_WALL_ROOM,
-        size[1] / 2.0 - radius - MIN_WALL_ROOM,
-    ];
+    let half = [size[0] / 2.0 - radius - WALL_ROOM, size[1] / 2.0 - radius - WALL_ROOM];
     if others.is_empty() || half[0] <= 0.0 || half[1] <= 0.0 {
         return center;
     }
@@ -183,26 +175,22 @@ pub fn free_spot(center: [f64; 2], size: [f64; 2], radius: f64, others: &[([f64;
         (half[0] / 0.01 + 1e-9).floor() as i32,
         (half[1] / 0.01 + 1e-9).floor() as i32,
     ];
-    let cm = |x: f64| (x * 100.0).round();
-    // (overlap with the objects, wall room capped, gap to the objects, −distance from the centre).
-    type Key = (f64, f64, f64, f64);
-    let mut best: Option<(Key, [f64; 2])> = None;
+    let mut best = (f64::NEG_INFINITY, f64::INFINITY, center);
     for i in -n[0]..=n[0] {
         for j in -n[1]..=n[1] {
-            let (dx, dy) = (0.01 * f64::from(i), 0.01 * f64::from(j));
-            let c = [center[0] + dx, center[1] + dy];
+            let c = [center[0] + 0.01 * f64::from(i), center[1] + 0.01 * f64::from(j)];
             let gap = others
                 .iter()
-                .map(|(o, r)| (o[0] - c[0]).hypot(o[1] - c[1]) - r - radius)
+                .map(|(o, r)| (o[0] - c[0]).hypot(o[1] - c[1]) - r)
                 .fold(f64::INFINITY, f64::min);
-            let wall = (size[0] / 2.0 - radius - dx.abs()).min(size[1] / 2.0 - radius - dy.abs());
-            let key = (cm(gap.min(0.0)), cm(wall.min(WALL_ROOM)), cm(gap), -dx.hypot(dy));
-            if best.as_ref().is_none_or(|(b, _)| key > *b) {
-                best = Some((key, c));
+            let off = (c[0] - center[0]).hypot(c[1] - center[1]);
+            let gap = (gap * 100.0).round();
+            if (gap, -off) > (best.0, -best.1) {
+                best = (gap, off, c);
             }
         }
     }
-    best.map_or(center, |(_, c)| c)
+    best.2
 }
 
 /// How long (s) after an action converged the plant waits at most for its monitor set to see it.
@@ -1631,18 +1619,6 @@ mod tests {
         let can = [center[0], center[1] + 0.07];
         let spot = free_spot(center, size, 0.03, &[(can, 0.03)]);
         assert!(spot[1] < center[1] - 0.02, "{spot:?}");
-        // A large can beside it: no spot both clear of the can and 3 cm from the walls; the corner
-        // away from the can is (0.5 cm from two walls).
-        let coffee = free_spot(center, size, 0.045, &[([0.555, -0.444], 0.043)]);
-        let gap = (coffee[0] - 0.555).hypot(coffee[1] + 0.444) - 0.043 - 0.045;
-        assert!(gap >= 0.0, "spot {coffee:?} overlaps the jar by {:.3}", -gap);
-        for i in 0..2 {
-            assert!((coffee[i] - center[i]).abs() <= size[i] / 2.0 - 0.045 - MIN_WALL_ROOM + 1e-9);
-        }
-        assert_eq!(
-            free_spot(center, size, 0.1, &[(can, 0.03)]),
-            center,
-            "no room to choose"
-        );
+        assert_eq!(free_spot(center, size, 0.08, &[(can, 0.03)]), center);
     }
 }
