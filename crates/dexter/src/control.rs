@@ -53,6 +53,10 @@ pub struct ReachControl {
     /// Current speed of the reference (m/s).
     speed: f64,
     active: bool,
+    /// Things the palm must go around, not over (tall things seen on the table): the approach to
+    /// a grasp and the carry to a place take a way around them ([`crate::route`]). Set by whoever
+    /// binds the reach (the executive, from what it sees).
+    pub avoid: Vec<crate::route::Obstacle>,
 }
 
 impl ReachControl {
@@ -90,6 +94,7 @@ impl ReachControl {
             max_acceleration: 0.6,
             speed: 0.0,
             active: false,
+            avoid: Vec::new(),
         };
         let pose = rc.tool_pose(hw);
         rc.goal = pose;

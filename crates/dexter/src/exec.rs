@@ -131,6 +131,18 @@ pub const HANDOFF_MIN_CLEARANCE: f64 = 0.12;
 /// experiments present objects in) are seen by both. The tilt limit is 1.2 rad.
 const HEAD_LIMIT_MARGIN: f64 = 0.25;
 
+/// A tall thing whose footprint centre lies this close (m, horizontally) to a palm is what the
+/// hand holds, not an obstacle (a palm stopped against a post's face is 8 cm or more from its
+/// centre).
+const HELD_UNDER_PALM: f64 = 0.06;
+
+/// The length (m, horizontal) of an arm's forearm and wrist behind its palm, for the handoff
+/// planner's check that neither arm's forearm lies on a tall thing beside the spot.
+const FOREARM_LENGTH: f64 = 0.35;
+
+/// How far (m) a forearm's line must keep from a tall thing's footprint: its radius and a margin.
+const FOREARM_CLEARANCE: f64 = 0.08;
+
 /// The other arm's palm within this horizontal distance (m) of an object to reach is moved away
 /// first.
 const CLEAR_RADIUS: f64 = 0.25;
@@ -457,6 +469,52 @@ impl<'a> RobotPlant<'a> {
             .collect()
     }
 
+    /// The tall things seen on the table, which a palm goes around rather than over
+    /// ([`ReachControl::avoid`]): segments measured standing from their edges, and segments whose
+    /// coarse centroid lies higher than [`TALL_THING`] above the table (not within
+    /// [`CARRIED_CLEARANCE`] of a palm: a hand seen merged with what it holds) — but none whose
+    /// footprint centre lies within [`HELD_UNDER_PALM`] of a palm.
+    fn tall_things(&mut self) -> Vec<crate::route::Obstacle> {
+        let table_z = self.workspace.table_z;
+        let Some(p) = self.percepts.last() else {
+            return Vec::new();
+        };
+        let palms: Vec<Vec3> = self
+            .reach
+            .iter_mut()
+            .map(|r| r.tool_pose(self.hw).translation.vector)
+            .collect();
+        p.segments
+            .iter()
+            .filter(|s| self.above_table(s))
+            .filter_map(|s| {
+                let e = s.extent.as_ref()?;
+                // Right under a palm: what the hand holds.
+                if palms
+                    .iter()
+                    .any(|h| (e.center[0] - h.x).hypot(e.center[1] - h.y) < HELD_UNDER_PALM)
+                {
+                    return None;
+                }
+                let tall = match e.model.as_str() {
+                    "standing" => true,
+                    "coarse" => {
+                        s.centroid[2] - table_z > TALL_THING
+                            && palms
+                                .iter()
+                                .all(|h| (Vec3::from(s.centroid) - h).norm() > CARRIED_CLEARANCE)
+                    }
+                    _ => e.height > TALL_THING,
+                };
+                tall.then_some(crate::route::Obstacle {
+                    center: e.center,
+                    major_axis: e.major_axis,
+                    half: [e.half_major, e.half_minor],
+                })
+            })
+            .collect()
+    }
+
     /// What the hand of `arm` holds: the hold the last `hold` measured; or, when that was given up
     /// (a carry that stopped) while the fingertips still hold the grasped object, the same object
     /// weighed again now. `None` if the hand holds nothing.
@@ -551,6 +609,19 @@ impl<'a> RobotPlant<'a> {
         object_at: &Vec3,
         also_seen: &[SeenThing],
     ) -> Result<Option<[f64; 2]>, RobotError> {
+        // Whether an arm's forearm, from its palm over spot `c` back towards its shoulder, would
+        // lie on a tall thing there (a post beside the spot: the descending forearm rests on it).
+        let tall = self.tall_things();
+        let mut body = crate::body::Body::new();
+        let mut shoulders = Vec::with_capacity(2);
+        for a in Arm::BOTH {
+            // On the base yaw axis: where it is does not depend on the joint angles.
+            let p = body.pose(self.hw, &format!("{}/shoulder_pitch_link", a.prefix()))?;
+            shoulders.push([p.translation.x, p.translation.y]);
+        }
+        if debug_exec() {
+            eprintln!("  shoulders {shoulders:?}, tall things {tall:?}");
+        }
         let ws = self.workspace;
         let table_z = ws.table_z;
         // Other segments, as seen.
@@ -581,6 +652,15 @@ impl<'a> RobotPlant<'a> {
                         }))
             })
         };
+        let forearm_blocked = |c: [f64; 2]| {
+            shoulders.iter().any(|s| {
+                let (dx, dy) = (s[0] - c[0], s[1] - c[1]);
+                let l = dx.hypot(dy).max(1e-9);
+                let reach = FOREARM_LENGTH.min(l);
+                let end = [c[0] + dx / l * reach, c[1] + dy / l * reach];
+                !crate::route::clear_of(c, end, &tall, FOREARM_CLEARANCE)
+            })
+        };
         let margin = 0.12;
         let (x0, x1) = (
             ws.table_center[0] - ws.table_size[0] / 2.0 + margin,
@@ -605,7 +685,7 @@ impl<'a> RobotPlant<'a> {
         };
         let mut candidates = Vec::new();
         for i in 0..=((x1 - x0) / 0.05).floor() as i32 {
-            for j in -4..=4 {
+            for j in -6..=6 {
                 let c = [x0 + 0.05 * f64::from(i), ws.table_center[1] + 0.05 * f64::from(j)];
                 let room = others
                     .iter()
@@ -617,7 +697,11 @@ impl<'a> RobotPlant<'a> {
                             || (c[1] - p.center[1]).abs() > p.size[1] / 2.0 + p.wall_thickness + 0.08
                     });
                 if free {
-                    candidates.push((c, clearance(c), (carry_blocked(c), room < HANDOFF_CLEARANCE)));
+                    candidates.push((
+                        c,
+                        clearance(c),
+                        (forearm_blocked(c), carry_blocked(c), room < HANDOFF_CLEARANCE),
+                    ));
                 }
             }
         }
@@ -625,14 +709,16 @@ impl<'a> RobotPlant<'a> {
         // ways are clear, the farthest from the failed reaches first; then the rest, the clearest
         // ways first (the failed reach lay where the arms meet). Within each, spots with the full
         // room around them ([`HANDOFF_CLEARANCE`]) before those with less. Spots the object can be
-        // carried to without passing a seen thing come before all others.
+        // carried to without passing a seen thing come before all others, and before those, spots
+        // where neither arm's forearm would lie on a tall thing.
         let cost = |c: &[f64; 2]| (c[1] - ws.table_center[1]).abs() + 0.5 * (c[0] - 0.55).abs();
         let rank = |&(ways, spot): &(f64, f64)| u8::from(ways < 0.0) + u8::from(spot < 0.0 || ways < 0.0);
         candidates.sort_by(|a, b| {
             a.2.0
                 .cmp(&b.2.0)
-                .then(rank(&a.1).cmp(&rank(&b.1)))
                 .then(a.2.1.cmp(&b.2.1))
+                .then(rank(&a.1).cmp(&rank(&b.1)))
+                .then(a.2.2.cmp(&b.2.2))
                 .then_with(|| match rank(&a.1) {
                     0 => cost(&a.0).total_cmp(&cost(&b.0)),
                     1 => b.1.1.total_cmp(&a.1.1),
@@ -640,7 +726,9 @@ impl<'a> RobotPlant<'a> {
                 })
         });
         if debug_exec() {
-            let blocked = candidates.iter().filter(|c| c.2.0).count();
+            let blocked = candidates.iter().filter(|c| c.2.1).count();
+            let forearms = candidates.iter().filter(|c| c.2.0).count();
+            eprintln!("  {forearms} handoff candidates with a forearm on a tall thing");
             eprintln!(
                 "  handoff candidates {} ({blocked} with a seen thing on the way), things seen {:?}",
                 candidates.len(),
@@ -1081,6 +1169,7 @@ impl SchemaPlant for RobotPlant<'_> {
                 };
                 let target = seen.centroid;
                 let k = arm.index();
+                self.reach[k].avoid = self.tall_things();
                 // An arm that hovers near the object — the other (it just let go of it at the
                 // handoff), or this one (its reach is asked for again: the monitors did not see it
                 // arrive) — is in the way and in the head's view: back to its parked pose first,
@@ -1298,6 +1387,10 @@ impl SchemaPlant for RobotPlant<'_> {
                 }
                 self.watcher
                     .look_at(self.hw, &Vec3::new(target[0], target[1], table_z + 0.05))?;
+                self.reach[k].avoid = self.tall_things();
+                if debug_exec() && !self.reach[k].avoid.is_empty() {
+                    eprintln!("  carrying round {:?}", self.reach[k].avoid);
+                }
                 let transfer = binding.transfer;
                 let r = self.with_observer(|hw, reach, hand, obs| {
                     transport_over(hw, &mut reach[k], &held, target, table_z, clear, obs)?;

@@ -4,7 +4,7 @@
 //! ([`vision`], [`eyes`]: background subtraction, segments, colour terms, moments, triangulation,
 //! support-plane height and footprint; tracking in [`watch`]), the control-basis skills
 //! ([`control`], [`skills`]: Search-Track, Reach ◁ Manipulability, Grasp, Lift, Transport, Place,
-//! Release, hand-to-hand transfer), and the plant adapter that lets the executive run a schema with
+//! Release, hand-to-hand transfer; ways around tall things in [`route`]), and the plant adapter that lets the executive run a schema with
 //! the procedural policy ψ ([`exec`]).
 //!
 //! The robot reaches the world only through [`control_basis::Hardware`]: joint encoders and motor
@@ -35,6 +35,7 @@ pub mod control;
 pub mod error;
 pub mod exec;
 pub mod eyes;
+pub mod route;
 pub mod skills;
 pub mod vision;
 pub mod watch;

@@ -132,6 +132,7 @@ pub fn extent_of(blob: &StereoBlob, cams: &StereoCameras, table_z: f64) -> Optio
                 _ => (2.0 * radius, "round"),
             }
         }
+        CentroidSource::Standing { height, .. } => (height, "standing"),
         CentroidSource::Triangulated => ((2.0 * (c.z - table_z)).clamp(0.02, 0.4), "coarse"),
     };
     let f = match footprint {
@@ -663,6 +664,8 @@ pub fn approach_grasp(
         .z
         .max(reach.tool_pose(hw).translation.z)
         .max(pre.translation.z + 0.08);
+    // Round the tall things on the way ([`ReachControl::avoid`]), at hover height.
+    go_around(hw, reach, obs, &hover, ROUTE_CLEARANCE, &mut |_, _| false);
     // First a straight line (Cartesian Reach ◁ Manipulability) at hover height; if it stalls (a
     // local minimum or a joint limit), the configuration servo to an IK solution takes over.
     reach.set_goal(hw, hover);
@@ -716,6 +719,47 @@ pub fn approach_grasp(
         return Ok(done);
     }
     Ok(plan)
+}
+
+/// How far (m) the palm's way keeps from a tall thing's footprint ([`crate::route`]): the
+/// spread fingers' reach about the palm (about 10 cm) and a margin for the thing's measured place.
+pub const ROUTE_CLEARANCE: f64 = 0.15;
+
+/// Moves the palm, at the height and orientation of `goal`, through the via points of the shortest
+/// way to `goal` that keeps `clearance` from every obstacle in [`ReachControl::avoid`] (not to
+/// `goal` itself: the caller's own move ends there). `stop` ends the move early (a carried object
+/// lost). Does nothing when the straight way is clear or no way exists. Each via point gets a few
+/// seconds; one not reached (out of the arm's reach) is passed on from where the palm is.
+fn go_around(
+    hw: &mut dyn Hardware,
+    reach: &mut ReachControl,
+    obs: &mut Observer<'_>,
+    goal: &Iso3,
+    clearance: f64,
+    stop: &mut dyn FnMut(&mut dyn Hardware, &mut ReachControl) -> bool,
+) {
+    if reach.avoid.is_empty() {
+        return;
+    }
+    let palm = reach.tool_pose(hw).translation.vector;
+    let g = goal.translation.vector;
+    let Some(way) = crate::route::route([palm.x, palm.y], [g.x, g.y], &reach.avoid, clearance) else {
+        return;
+    };
+    for via in &way[..way.len() - 1] {
+        let mut pose = *goal;
+        pose.translation.vector.x = via[0];
+        pose.translation.vector.y = via[1];
+        reach.set_goal(hw, pose);
+        let mut stopped = false;
+        run_until(hw, reach, obs, 4.0, |h, r| {
+            stopped = stop(h, r);
+            stopped || r.at_goal(h, 0.03, 0.1)
+        });
+        if stopped {
+            return;
+        }
+    }
 }
 
 /// Grasp (§3.1.3.3): close the hand until the Grasp predicate converges on the fingertip sensors —
@@ -870,10 +914,13 @@ pub fn transport_over(
         dropped.get() || r.at_goal(h, 0.01, 0.05)
     };
     run_until(hw, reach, obs, 3.0, &mut carry);
-    // Over the target: object centre above it.
+    // Over the target: object centre above it, round the tall things on the way.
     let mut over = up;
     over.translation.vector.x = target[0] - held.offset_xy[0];
     over.translation.vector.y = target[1] - held.offset_xy[1];
+    if !dropped.get() {
+        go_around(hw, reach, obs, &over, ROUTE_CLEARANCE + held.radius, &mut carry);
+    }
     if !dropped.get() {
         reach.set_goal(hw, over);
         let straight = run_until(hw, reach, obs, 6.0, &mut carry);

@@ -53,6 +53,12 @@ struct Tracker {
     next_id: u32,
 }
 
+/// Whether a segment's extent was measured from its vertical edges: a tall thing standing on the
+/// table ([`crate::vision::edges`]).
+fn standing(s: &SegmentPercept) -> bool {
+    s.extent.as_ref().is_some_and(|e| e.model == "standing")
+}
+
 /// A segment moves at most this far between two frames to keep its id (m).
 const TRACK_GATE: f64 = 0.08;
 /// Tracks closer than this are merged (m).
@@ -278,6 +284,11 @@ impl Tracker {
                 // A carried object is seen merged with the hand that holds it (its centroid and
                 // height pulled towards the hand): it stays where its palm moved it, with what it
                 // looked like on the table, so that it is put down where it is.
+                self.tracks[j].seen = true;
+            } else if standing(&self.tracks[j]) && !standing(&seen[i]) {
+                // A thing too tall to grasp, located from its edges (it stands where it stood: no
+                // hand moves it), keeps that location when a view shows only one of its edges
+                // (an arm beside it) and the cut silhouettes' centroid measures it 10 cm off.
                 self.tracks[j].seen = true;
             } else if near_palm[j] && px < OCCLUDED_SHARE * self.whole_pixels[j] && !moved {
                 // Partly hidden by the hand: keep what was seen whole.

@@ -10,13 +10,15 @@
 //! 3. [`StereoMatcher`] pairs left and right segments by colour and epipolar geometry and triangulates
 //!    the centroid rays ([`StereoBlob`]); objects seen by one camera only are reported as such.
 //! 4. With a known table plane ([`StereoConfig::support`]), objects resting on it get a more precise
-//!    centroid, a measured height and a footprint ([`support`]).
+//!    centroid, a measured height and a footprint ([`support`]); things too tall to grasp (a post, a
+//!    wall) are located from their vertical silhouette edges instead ([`edges`]).
 //!
 //! [`StereoPipeline`] runs all of it for a stereo pair with every buffer reused. Images come from
 //! [`control_basis::Hardware::capture`]; nothing here renders.
 
 pub mod background;
 pub mod color;
+pub mod edges;
 pub mod segment;
 pub mod self_model;
 pub mod stereo;

@@ -186,6 +186,11 @@ impl Segmenter {
         &self.component
     }
 
+    /// The robot's self-mask of the last frame (empty: none).
+    pub fn self_mask(&self) -> &[bool] {
+        &self.masked
+    }
+
     /// Segments `image` against the background. `self_mask` is the robot's self-mask for the
     /// robot self-filter (empty = no self-filter). Errors if there is no background or sizes differ.
     pub fn segment(&mut self, image: &Image, self_mask: &[bool]) -> Result<&[Segment], RobotError> {

@@ -3,6 +3,7 @@
 
 use crate::error::RobotError;
 use crate::vision::color::ColorHistogram;
+use crate::vision::edges::{EdgeScratch, EdgeView, standing_edges};
 use crate::vision::segment::{Segment, SegmentConfig, Segmenter};
 use crate::vision::support::{CentroidSource, Footprint, SupportEstimator, SupportPlane, View};
 use control_basis::hardware::{Camera, Image, Intrinsics};
@@ -389,6 +390,7 @@ pub struct StereoPipeline {
     config: StereoConfig,
     background_cams: Option<StereoCameras>,
     support: SupportEstimator,
+    edges: EdgeScratch,
 }
 
 fn side_index(side: Side) -> usize {
@@ -416,6 +418,7 @@ impl StereoPipeline {
             config: stereo,
             background_cams: None,
             support: SupportEstimator::new(),
+            edges: EdgeScratch::default(),
         }
     }
 
@@ -516,6 +519,13 @@ impl StereoPipeline {
         if let Some(plane) = self.config.support {
             for blob in out.iter_mut() {
                 self.refine_on_support(cams, [frames[0].image, frames[1].image], blob, &plane);
+                if blob.source == CentroidSource::Triangulated
+                    && blob
+                        .raw_centroid
+                        .is_some_and(|c| c.z - plane.height >= crate::vision::edges::MIN_CENTROID_HEIGHT)
+                {
+                    self.refine_standing(cams, blob, &plane);
+                }
             }
         }
         Ok(())
@@ -591,6 +601,55 @@ impl StereoPipeline {
             return false;
         };
         self.segmenters[a].split_by_colour(images[a], i, &keep, &other, MERGED_MIN_PART)
+    }
+
+    /// The component ids (segment index + 1) of a blob's left and right segments.
+    fn component_ids(&self, blob: &StereoBlob) -> Option<(u32, u32)> {
+        let id = |k: usize, seg: &Segment| {
+            self.segmenters[k]
+                .segments()
+                .iter()
+                .position(|s| s == seg)
+                .map(|i| i as u32 + 1)
+        };
+        Some((id(0, blob.left.as_ref()?)?, id(1, blob.right.as_ref()?)?))
+    }
+
+    /// A matched blob the support-plane estimate did not take that is a tall thing standing on the
+    /// plane ([`crate::vision::edges`]): its centroid and footprint from its vertical edges.
+    fn refine_standing(&mut self, cams: &StereoCameras, blob: &mut StereoBlob, plane: &SupportPlane) {
+        let (Some(l), Some(r)) = (blob.left.as_ref(), blob.right.as_ref()) else {
+            return;
+        };
+        let Some((il, ir)) = self.component_ids(blob) else {
+            return;
+        };
+        let views = [
+            EdgeView {
+                camera: &cams.left,
+                components: self.segmenters[0].component_map(),
+                self_mask: self.segmenters[0].self_mask(),
+                segment: l,
+                id: il,
+            },
+            EdgeView {
+                camera: &cams.right,
+                components: self.segmenters[1].component_map(),
+                self_mask: self.segmenters[1].self_mask(),
+                segment: r,
+                id: ir,
+            },
+        ];
+        let Some(found) = standing_edges(views, plane.height, &mut self.edges) else {
+            return;
+        };
+        let fp = found.footprint();
+        blob.centroid = Some(Vec3::new(fp.center[0], fp.center[1], plane.height + 0.5 * found.top));
+        blob.source = CentroidSource::Standing {
+            height: found.top,
+            top_seen: found.top_seen,
+        };
+        blob.footprint = Some(fp);
     }
 
     /// Replaces a matched blob's centroid by the support-plane estimate when it applies.

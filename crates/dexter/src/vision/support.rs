@@ -151,6 +151,14 @@ pub enum CentroidSource {
         /// Measured radius (m).
         radius: f64,
     },
+    /// A thing too tall to grasp standing on the support plane, located from its vertical
+    /// silhouette edges ([`crate::vision::edges`]).
+    Standing {
+        /// Height of the highest point of its edges both cameras see (m above the plane).
+        height: f64,
+        /// Whether that is its top (not cut by the image border).
+        top_seen: bool,
+    },
 }
 
 /// An object's footprint on the support plane, from the table cells under it that both cameras
@@ -310,7 +318,7 @@ impl SupportEstimator {
                 }
             }
             CentroidSource::Round { radius } => footprint = Some(Footprint::disc([p.x, p.y], radius)),
-            CentroidSource::Triangulated => {}
+            CentroidSource::Triangulated | CentroidSource::Standing { .. } => {}
         }
         let tolerance = match source {
             CentroidSource::Prism { height } => plane.max_disagreement + plane.disagreement_per_height * height,

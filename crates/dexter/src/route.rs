@@ -1,0 +1,236 @@
+//! Ways for a palm around things it cannot pass over: the shortest path in the horizontal plane
+//! from one point to another that keeps a clearance from every obstacle's footprint.
+//!
+//! Each obstacle is a rectangle (a measured footprint: centre, major axis, half extents); grown by
+//! the clearance it becomes a larger rectangle (which holds the exact rounded one). The shortest
+//! way among such rectangles runs straight or through their corners: the visibility graph over the
+//! two end points and the corners, searched with Dijkstra's algorithm (a few obstacles: a few
+//! dozen nodes). A segment may run along a grown rectangle's side or touch its corner, not cross
+//! its inside. An end point inside a grown rectangle (a palm that stopped against a post) may
+//! leave it (or enter it) by its own segment, which must not cross the obstacle itself.
+
+/// A thing the palm keeps clear of: its footprint on the table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Obstacle {
+    /// Centre (x, y; m).
+    pub center: [f64; 2],
+    /// Unit direction (x, y) of its major axis.
+    pub major_axis: [f64; 2],
+    /// Half extents along the major and the minor axis (m).
+    pub half: [f64; 2],
+}
+
+impl Obstacle {
+    /// `p` in the obstacle's frame (along the major axis, across it).
+    fn local(&self, p: [f64; 2]) -> [f64; 2] {
+        let (dx, dy) = (p[0] - self.center[0], p[1] - self.center[1]);
+        let [ax, ay] = self.major_axis;
+        [dx * ax + dy * ay, -dx * ay + dy * ax]
+    }
+
+    /// The corners of the rectangle grown by `grow` (counter-clockwise).
+    fn corners(&self, grow: f64) -> [[f64; 2]; 4] {
+        let [ax, ay] = self.major_axis;
+        let (a, b) = (self.half[0] + grow, self.half[1] + grow);
+        [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)].map(|(s, t)| {
+            [
+                self.center[0] + s * a * ax - t * b * ay,
+                self.center[1] + s * a * ay + t * b * ax,
+            ]
+        })
+    }
+
+    /// Whether `p` lies strictly inside the rectangle grown by `grow`.
+    fn contains(&self, p: [f64; 2], grow: f64) -> bool {
+        let l = self.local(p);
+        l[0].abs() < self.half[0] + grow - EPS && l[1].abs() < self.half[1] + grow - EPS
+    }
+
+    /// Whether the segment `p`–`q` crosses the inside of the rectangle grown by `grow` (slab
+    /// clipping in the obstacle's frame; touching a side or a corner is not crossing).
+    fn crossed_by(&self, p: [f64; 2], q: [f64; 2], grow: f64) -> bool {
+        let (a, b) = (self.local(p), self.local(q));
+        let half = [self.half[0] + grow - EPS, self.half[1] + grow - EPS];
+        let (mut t0, mut t1) = (0.0f64, 1.0f64);
+        for i in 0..2 {
+            let d = b[i] - a[i];
+            if d.abs() < 1e-12 {
+                if a[i].abs() >= half[i] {
+                    return false;
+                }
+                continue;
+            }
+            let (mut lo, mut hi) = ((-half[i] - a[i]) / d, (half[i] - a[i]) / d);
+            if lo > hi {
+                std::mem::swap(&mut lo, &mut hi);
+            }
+            t0 = t0.max(lo);
+            t1 = t1.min(hi);
+            if t0 >= t1 {
+                return false;
+            }
+        }
+        true
+    }
+}
+
+/// Whether the segment `p`–`q` keeps `clearance` from every obstacle.
+pub fn clear_of(p: [f64; 2], q: [f64; 2], obstacles: &[Obstacle], clearance: f64) -> bool {
+    obstacles.iter().all(|o| !o.crossed_by(p, q, clearance))
+}
+
+/// Slack (m) so that segments along a grown rectangle's sides and through its corners count as
+/// clear.
+const EPS: f64 = 1e-6;
+
+/// The corners are placed this much (m) outside the grown rectangles, so that a way through one
+/// does not graze the next.
+const CORNER_SLACK: f64 = 1e-3;
+
+/// The shortest way from `from` to `to` that keeps `clearance` from every obstacle, as the points
+/// to pass through after `from` (ending with `to`); `None` if there is none. A straight way gives
+/// `[to]`.
+pub fn route(from: [f64; 2], to: [f64; 2], obstacles: &[Obstacle], clearance: f64) -> Option<Vec<[f64; 2]>> {
+    if !(from.iter().chain(&to).all(|x| x.is_finite()) && clearance.is_finite()) {
+        return None;
+    }
+    // Nodes: from, to, then the grown corners that lie outside every grown rectangle.
+    let mut nodes = vec![from, to];
+    for o in obstacles {
+        for c in o.corners(clearance + CORNER_SLACK) {
+            if !obstacles.iter().any(|p| p.contains(c, clearance)) {
+                nodes.push(c);
+            }
+        }
+    }
+    // An end point inside a grown rectangle may leave it by its own segment.
+    let exempt = |p: [f64; 2]| -> Vec<bool> { obstacles.iter().map(|o| o.contains(p, clearance)).collect() };
+    let (ex_from, ex_to) = (exempt(from), exempt(to));
+    let clear = |i: usize, j: usize| {
+        obstacles.iter().enumerate().all(|(k, o)| {
+            let skip = ((i == 0 || j == 0) && ex_from[k]) || ((i == 1 || j == 1) && ex_to[k]);
+            !o.crossed_by(nodes[i], nodes[j], if skip { 0.0 } else { clearance })
+        })
+    };
+    let n = nodes.len();
+    let dist = |i: usize, j: usize| (nodes[i][0] - nodes[j][0]).hypot(nodes[i][1] - nodes[j][1]);
+    let mut best = vec![f64::INFINITY; n];
+    let mut prev = vec![usize::MAX; n];
+    let mut done = vec![false; n];
+    best[0] = 0.0;
+    loop {
+        let u = (0..n)
+            .filter(|&i| !done[i] && best[i].is_finite())
+            .min_by(|&a, &b| best[a].total_cmp(&best[b]))?;
+        if u == 1 {
+            break;
+        }
+        done[u] = true;
+        for v in 0..n {
+            if done[v] || v == u {
+                continue;
+            }
+            let d = best[u] + dist(u, v);
+            if d < best[v] && clear(u, v) {
+                best[v] = d;
+                prev[v] = u;
+            }
+        }
+    }
+    let mut way = vec![nodes[1]];
+    let mut at = prev[1];
+    while at != 0 {
+        way.push(nodes[at]);
+        at = prev[at];
+    }
+    way.reverse();
+    Some(way)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn post() -> Obstacle {
+        // A 22 × 6 cm post, its long side along y, at (0.55, −0.1).
+        Obstacle {
+            center: [0.55, -0.1],
+            major_axis: [0.0, 1.0],
+            half: [0.11, 0.03],
+        }
+    }
+
+    fn length(from: [f64; 2], way: &[[f64; 2]]) -> f64 {
+        let mut at = from;
+        let mut l = 0.0;
+        for p in way {
+            l += (p[0] - at[0]).hypot(p[1] - at[1]);
+            at = *p;
+        }
+        l
+    }
+
+    #[test]
+    fn a_clear_way_is_straight() {
+        assert_eq!(route([0.4, 0.3], [0.8, 0.3], &[post()], 0.1), Some(vec![[0.8, 0.3]]));
+        assert_eq!(route([0.4, 0.3], [0.8, 0.3], &[], 0.1), Some(vec![[0.8, 0.3]]));
+    }
+
+    /// Across the post: the way goes round its nearer end, keeps the clearance all along, and is
+    /// no longer than going round the far end.
+    #[test]
+    fn a_way_across_a_post_goes_round_its_nearer_end_with_the_clearance() {
+        let (from, to, c) = ([0.35, -0.05], [0.75, -0.12], 0.1);
+        let way = route(from, to, &[post()], c).unwrap();
+        assert!(way.len() >= 2, "{way:?}");
+        assert_eq!(*way.last().unwrap(), to);
+        // Every segment keeps the clearance: sample it.
+        let mut at = from;
+        for p in &way {
+            for i in 0..=100 {
+                let s = f64::from(i) / 100.0;
+                let q = [at[0] + s * (p[0] - at[0]), at[1] + s * (p[1] - at[1])];
+                assert!(!post().contains(q, c - 1e-3), "{q:?} on {way:?}");
+            }
+            at = *p;
+        }
+        // The post spans y −0.21…0.01 (grown: −0.31…0.11); from y −0.05 the ends are 0.16 and
+        // 0.26 away: the way passes y > 0.
+        assert!(way[0][1] > 0.0, "{way:?}");
+        assert!(length(from, &way) < 0.75, "{way:?}");
+    }
+
+    #[test]
+    fn a_palm_stopped_against_the_post_may_leave_it() {
+        let way = route([0.47, -0.1], [0.8, -0.1], &[post()], 0.1).unwrap();
+        assert!(way.len() >= 2, "{way:?}");
+    }
+
+    #[test]
+    fn a_walled_in_goal_has_no_way() {
+        let walls = [
+            Obstacle {
+                center: [1.0, 0.0],
+                major_axis: [0.0, 1.0],
+                half: [0.5, 0.01],
+            },
+            Obstacle {
+                center: [1.4, 0.0],
+                major_axis: [0.0, 1.0],
+                half: [0.5, 0.01],
+            },
+            Obstacle {
+                center: [1.2, 0.4],
+                major_axis: [1.0, 0.0],
+                half: [0.3, 0.01],
+            },
+            Obstacle {
+                center: [1.2, -0.4],
+                major_axis: [1.0, 0.0],
+                half: [0.3, 0.01],
+            },
+        ];
+        assert_eq!(route([0.0, 0.0], [1.2, 0.0], &walls, 0.05), None);
+        assert_eq!(route([0.0, 0.0], [f64::NAN, 0.0], &walls, 0.05), None);
+    }
+}
