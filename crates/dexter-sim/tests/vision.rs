@@ -1091,6 +1091,7 @@ fn catalog_objects_on_the_table() {
                 CentroidSource::Triangulated => "T".to_string(),
                 CentroidSource::Prism { height } => format!("P{:.1}", 100.0 * height),
                 CentroidSource::Round { radius } => format!("R{:.1}", 100.0 * radius),
+                CentroidSource::Standing { height, .. } => format!("S{:.1}", 100.0 * height),
             };
             line += &format!(" {:5.1} mm {tag:<6}", 1e3 * e);
             all.push((e, name.clone()));
