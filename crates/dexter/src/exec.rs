@@ -136,11 +136,15 @@ const HEAD_LIMIT_MARGIN: f64 = 0.25;
 /// centre).
 const HELD_UNDER_PALM: f64 = 0.06;
 
-/// The length (m, horizontal) of an arm's forearm and wrist behind its palm, for the handoff
-/// planner's check that neither arm's forearm lies on a tall thing beside the spot.
-const FOREARM_LENGTH: f64 = 0.35;
+/// How much (m, horizontal) of the line from a handoff spot back to an arm's shoulder the
+/// handoff planner checks against the tall things seen: all of it (an arm reaching down to the spot
+/// lies over that line, shoulder to palm). Only the forearm's 0.35 m was checked at first: spots
+/// it let through lay behind the post from the other shoulder (blocked arm, dev seed 3: 8/26
+/// recovered; the whole line: 12/26, and 12/26 on seed 2).
+const FOREARM_LENGTH: f64 = 1.0;
 
-/// How far (m) a forearm's line must keep from a tall thing's footprint: its radius and a margin.
+/// How far (m) an arm's line must keep from a tall thing's footprint: the forearm's radius and a
+/// margin.
 const FOREARM_CLEARANCE: f64 = 0.08;
 
 /// The other arm's palm within this horizontal distance (m) of an object to reach is moved away
@@ -652,14 +656,18 @@ impl<'a> RobotPlant<'a> {
                         }))
             })
         };
-        let forearm_blocked = |c: [f64; 2]| {
-            shoulders.iter().any(|s| {
-                let (dx, dy) = (s[0] - c[0], s[1] - c[1]);
-                let l = dx.hypot(dy).max(1e-9);
-                let reach = FOREARM_LENGTH.min(l);
-                let end = [c[0] + dx / l * reach, c[1] + dy / l * reach];
-                !crate::route::clear_of(c, end, &tall, FOREARM_CLEARANCE)
-            })
+        // How far the nearer forearm keeps from a tall thing, up to [`FOREARM_CLEARANCE`].
+        let forearm_room = |c: [f64; 2]| {
+            shoulders
+                .iter()
+                .map(|s| {
+                    let (dx, dy) = (s[0] - c[0], s[1] - c[1]);
+                    let l = dx.hypot(dy).max(1e-9);
+                    let reach = FOREARM_LENGTH.min(l);
+                    let end = [c[0] + dx / l * reach, c[1] + dy / l * reach];
+                    crate::route::clearance_of(c, end, &tall, FOREARM_CLEARANCE)
+                })
+                .fold(FOREARM_CLEARANCE, f64::min)
         };
         let margin = 0.12;
         let (x0, x1) = (
@@ -700,7 +708,7 @@ impl<'a> RobotPlant<'a> {
                     candidates.push((
                         c,
                         clearance(c),
-                        (forearm_blocked(c), carry_blocked(c), room < HANDOFF_CLEARANCE),
+                        (forearm_room(c), carry_blocked(c), room < HANDOFF_CLEARANCE),
                     ));
                 }
             }
@@ -710,12 +718,13 @@ impl<'a> RobotPlant<'a> {
         // ways first (the failed reach lay where the arms meet). Within each, spots with the full
         // room around them ([`HANDOFF_CLEARANCE`]) before those with less. Spots the object can be
         // carried to without passing a seen thing come before all others, and before those, spots
-        // where neither arm's forearm would lie on a tall thing.
+        // where neither arm's forearm would lie on a tall thing (when there are none, the spots
+        // whose forearms keep farthest from one).
         let cost = |c: &[f64; 2]| (c[1] - ws.table_center[1]).abs() + 0.5 * (c[0] - 0.55).abs();
         let rank = |&(ways, spot): &(f64, f64)| u8::from(ways < 0.0) + u8::from(spot < 0.0 || ways < 0.0);
         candidates.sort_by(|a, b| {
-            a.2.0
-                .cmp(&b.2.0)
+            b.2.0
+                .total_cmp(&a.2.0)
                 .then(a.2.1.cmp(&b.2.1))
                 .then(rank(&a.1).cmp(&rank(&b.1)))
                 .then(a.2.2.cmp(&b.2.2))
@@ -727,7 +736,7 @@ impl<'a> RobotPlant<'a> {
         });
         if debug_exec() {
             let blocked = candidates.iter().filter(|c| c.2.1).count();
-            let forearms = candidates.iter().filter(|c| c.2.0).count();
+            let forearms = candidates.iter().filter(|c| c.2.0 < FOREARM_CLEARANCE).count();
             eprintln!("  {forearms} handoff candidates with a forearm on a tall thing");
             eprintln!(
                 "  handoff candidates {} ({blocked} with a seen thing on the way), things seen {:?}",
