@@ -743,7 +743,16 @@ fn go_around(
     }
     let palm = reach.tool_pose(hw).translation.vector;
     let g = goal.translation.vector;
-    let Some(way) = crate::route::route([palm.x, palm.y], [g.x, g.y], &reach.avoid, clearance) else {
+    let way = crate::route::route([palm.x, palm.y], [g.x, g.y], &reach.avoid, clearance);
+    if std::env::var_os("PBD_DEBUG_EXEC").is_some() {
+        eprintln!(
+            "  way from {:?} to {:?} round {:?}: {way:?}",
+            [palm.x, palm.y],
+            [g.x, g.y],
+            reach.avoid
+        );
+    }
+    let Some(way) = way else {
         return;
     };
     for via in &way[..way.len() - 1] {
