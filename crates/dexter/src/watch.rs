@@ -59,6 +59,14 @@ fn standing(s: &SegmentPercept) -> bool {
     s.extent.as_ref().is_some_and(|e| e.model == "standing")
 }
 
+/// Whether a segment is taller than any object the hand grasps: measured standing from its edges,
+/// or its coarse height (twice its centroid's height above the table) at the 0.4 m clamp.
+fn tall(s: &SegmentPercept) -> bool {
+    s.extent
+        .as_ref()
+        .is_some_and(|e| e.model == "standing" || (e.model == "coarse" && e.height >= 0.4 - 1e-9))
+}
+
 /// A segment moves at most this far between two frames to keep its id (m).
 const TRACK_GATE: f64 = 0.08;
 /// Tracks closer than this are merged (m).
@@ -212,6 +220,12 @@ impl Tracker {
         let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
         for (i, s) in seen.iter().enumerate() {
             for (j, tr) in self.tracks.iter().enumerate() {
+                // An object seen whole on the table is never taken for a tall thing beside it (a
+                // post that an arm reaching past the object leaves in view, while it hides the
+                // object: the track jumped to the post, and the robot reached for the post).
+                if self.whole[j] && !carried_ids.contains(&tr.id) && tall(s) && !tall(tr) {
+                    continue;
+                }
                 let d = dist(&s.centroid, &tr.centroid);
                 if cut[i] && d >= CUT_GATE && !near_palm[j] && inside(i, tr) {
                     pairs.push((d, i, j));
