@@ -663,14 +663,7 @@ impl StereoPipeline {
         let (Some(l), Some(r), Some(tri)) = (blob.left.as_ref(), blob.right.as_ref(), blob.raw_centroid) else {
             return;
         };
-        let id = |k: usize, seg: &Segment| {
-            self.segmenters[k]
-                .segments()
-                .iter()
-                .position(|s| s == seg)
-                .map(|i| i as u32 + 1)
-        };
-        let (Some(il), Some(ir)) = (id(0, l), id(1, r)) else {
+        let Some((il, ir)) = self.component_ids(blob) else {
             return;
         };
         let views = [
