@@ -4,7 +4,7 @@
 //! `PBD_DEBUG_EXEC=1` to see the monitors after every action, `PBD_DEBUG_BLOBS=1` for every stereo
 //! blob.
 
-use dexter_sim::execute::{Decider, RunLog, execute_scene};
+use dexter_sim::execute::{Decider, MAX_ACTIONS, PICK_AND_PLACE, RunLog, Task, execute_scene};
 use dexter_sim::experiment::random_scene;
 use dexter_sim::physics::DexterSim;
 use dexter_sim::scene::Scene;
@@ -64,16 +64,15 @@ fn main() {
         last: Vec::new(),
         names: Vec::new(),
     };
-    let path = std::path::PathBuf::from(model);
-    match execute_scene(
-        &scene,
-        &format!("sorting-demo#{i}"),
-        &library,
-        &Decider::Model(&path),
-        run_seed,
-        None,
-        &mut log,
-    ) {
+    let model = schema::procedural::ProceduralModel::load(&model).expect("model");
+    let task = Task {
+        library: &library,
+        schema: PICK_AND_PLACE,
+        decider: Decider::Model(&model),
+        only_near: None,
+        max_actions: MAX_ACTIONS,
+    };
+    match execute_scene(&scene, &format!("sorting-demo#{i}"), &task, run_seed, &mut log) {
         Ok(r) => println!("{r}"),
         Err(e) => eprintln!("error: {e}"),
     }

@@ -82,6 +82,7 @@ pub enum SimError {
 pub fn from_robot(e: dexter::RobotError) -> SimError {
     match e {
         dexter::RobotError::Model(m) => SimError::Model(m),
+        dexter::RobotError::Schema(s) => SimError::Schema(s),
         other => SimError::Robot(Box::new(other)),
     }
 }

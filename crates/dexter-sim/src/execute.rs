@@ -1,21 +1,21 @@
-//! The robot executing a task in a scene, evaluated: the robot side ([`dexter`]) looks over the
-//! table, decides per seen segment (a learned procedural model's relevance and place, or a
-//! demonstration's place) and runs Pick-And-Place with ψ on [`SimRobot`]; this module matches
-//! segments to objects by the truth at the start and judges each outcome by the truth at the end —
-//! the only truth it reads. `pbd execute` and `pbd experiment execute` are built on
-//! [`execute_scene`].
+//! The robot executing a task in a scene, evaluated. The task loop is the robot's own
+//! ([`dexter::task::run_task`]: it looks over the table, decides per seen segment — a learned
+//! procedural model's relevance and place, or a demonstration's place — and runs the schema with ψ);
+//! here it runs on [`SimRobot`], and this module, the evaluator, matches segments to objects by the
+//! truth at the start and judges each outcome by the truth at the end — the only truth it reads.
+//! `pbd execute` and `pbd experiment execute` are built on [`execute_scene`].
 
 use std::cell::RefCell;
 use std::collections::BTreeMap;
-use std::path::Path;
 use std::rc::Rc;
 
 use control_basis::Hardware;
 use control_basis::math::Vec3;
-use dexter::exec::{ExecSink, PickPlacePolicy, RobotPlant};
+use dexter::exec::{ExecSink, RobotPlant};
 use dexter::eyes::Eyes;
-use schema::procedural::{Features, ProceduralModel};
-use schema::{ExecReport, Library, Percept};
+pub use dexter::task::{Decider, Decision, DecisionEvent, Task};
+use dexter::task::{SegmentRun, Taken, TaskSink};
+use schema::{ExecReport, Percept};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SimError, from_robot};
@@ -45,25 +45,6 @@ pub trait RunLog {
     fn should_stop(&mut self) -> bool {
         false
     }
-}
-
-/// What the robot decided for one seen segment, from its own percepts ([`RunLog::decision`]).
-#[derive(Debug, Clone, Copy)]
-pub struct DecisionEvent<'a> {
-    /// The robot's segment (track id).
-    pub segment: u32,
-    /// `execute`, `ignore` (not part of the task) or `skip` (out of reach).
-    pub decision: &'a str,
-    /// The place chosen, if any.
-    pub place: Option<&'a str>,
-    /// Posterior over places (from a model; empty otherwise).
-    pub posterior: &'a BTreeMap<String, f64>,
-    /// ln B10 of task relevance (from a model).
-    pub log_bayes_factor: Option<f64>,
-    /// The arm that picks and the arm that places (the same unless it is a hand-to-hand transfer).
-    pub arms: Option<[&'a str; 2]>,
-    /// Why.
-    pub reason: &'a str,
 }
 
 /// A [`RunLog`] that ignores everything.
@@ -300,127 +281,203 @@ fn debug_frames(t: f64, eyes: &Eyes) {
     }
 }
 
-/// What to do with one seen segment: a place or a reason to leave it.
-#[derive(Debug, Clone)]
-pub struct Decision {
-    /// The robot's segment (track id).
-    pub segment: u32,
-    /// Where it was seen (m, world).
-    pub at: [f64; 3],
-    /// `Ok(place)` to execute, `Err(reason)` to ignore.
-    pub place: std::result::Result<String, String>,
-    /// Posterior over places.
-    pub posterior: BTreeMap<String, f64>,
-    /// log B10.
-    pub log_bayes_factor: Option<f64>,
-    /// Why.
-    pub reason: String,
+/// The schema the experiments run (the fault and execute experiments are Pick-And-Place tasks).
+pub const PICK_AND_PLACE: &str = "pick_and_place";
+/// How many actions the executive may take per segment in the experiments and `pbd execute`.
+pub const MAX_ACTIONS: usize = 20;
+
+/// Where a user pointing at scene object `label` points (its presentation's x, y on the table):
+/// [`Task::only_near`] for `pbd execute --object`.
+pub fn pointed_at(scene: &Scene, label: &str) -> Result<[f64; 2], SimError> {
+    let i = scene.object_index(label)?;
+    Ok(scene.spec.objects[i].xy)
 }
 
-impl Decision {
-    /// The logged event of this decision as taken: `decision` (`execute`, `ignore`, `skip`), the
-    /// place and arms if any, and why.
-    fn event<'a>(
-        &'a self,
-        decision: &'a str,
-        place: Option<&'a str>,
-        arms: Option<[&'a str; 2]>,
-        reason: &'a str,
-    ) -> DecisionEvent<'a> {
-        DecisionEvent {
-            segment: self.segment,
-            decision,
-            place,
-            posterior: &self.posterior,
-            log_bayes_factor: self.log_bayes_factor,
-            arms,
-            reason,
+/// The evaluator, listening to the robot's task loop: it matches each segment the robot takes up
+/// to an object by the truth at the start, and judges each outcome by the truth once the robot is
+/// done with it (waiting, the robot holding still, for the object to come to rest).
+struct Judge<'s, 'l> {
+    scene: &'s Scene,
+    logger: Rc<RefCell<Shared<'l>>>,
+    truth0: Vec<ObjectState>,
+    labels: Vec<String>,
+    table_z: f64,
+    matched: Vec<bool>,
+    /// The object the current segment is (by the truth at the start), and whether another segment
+    /// was already matched to it.
+    current: (Option<usize>, bool),
+    reports: Vec<ObjectReport>,
+}
+
+impl Judge<'_, '_> {
+    /// Which object a segment seen at `c` is: the nearest at the start, within 8 cm.
+    fn match_object(&self, c: &[f64; 3]) -> Option<usize> {
+        self.truth0
+            .iter()
+            .enumerate()
+            .map(|(i, o)| ((o.pose.translation.vector - Vec3::from(*c)).xy().norm(), i))
+            .filter(|(d, _)| *d < 0.08)
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, i)| i)
+    }
+
+    fn label(&self) -> String {
+        self.current
+            .0
+            .map(|i| self.labels[i].clone())
+            .unwrap_or_else(|| "-".into())
+    }
+
+    /// Where the current object is now (where the segment was seen, for a segment of no object).
+    fn final_position(&self, at: [f64; 3]) -> [f64; 3] {
+        self.current
+            .0
+            .map(|i| {
+                let v = self.logger.borrow().objects[i].pose.translation.vector;
+                [v.x, v.y, v.z]
+            })
+            .unwrap_or(at)
+    }
+}
+
+impl TaskSink for Judge<'_, '_> {
+    fn begin(&mut self, _hw: &dyn Hardware, d: &Decision) {
+        let obj = self.match_object(&d.at);
+        // A second segment of an object already decided on (a duplicate track): whatever the
+        // robot does with it, it is not a success of its own.
+        let duplicate = obj.is_some_and(|i| self.matched[i]);
+        if let Some(i) = obj {
+            self.matched[i] = true;
         }
+        self.current = (obj, duplicate);
     }
-}
 
-/// How the robot decides per segment.
-#[derive(Debug, Clone)]
-pub enum Decider<'a> {
-    /// Every segment goes to this place (a demonstration's place).
-    Place(String),
-    /// A learned procedural model.
-    Model(&'a std::path::Path),
-}
+    fn decided(&mut self, hw: &dyn Hardware, event: &DecisionEvent<'_>) {
+        self.logger.borrow_mut().log.decision(hw.time_secs(), event);
+    }
 
-/// `pbd execute --model`: relevance and place for every segment the robot sees (the procedural
-/// model's decision on the robot's own percepts).
-pub fn decide(
-    path: &Path,
-    places: &[String],
-    segments: &[schema::SegmentPercept],
-) -> Result<(String, Vec<Decision>), SimError> {
-    let model = ProceduralModel::load(path)?;
-    let mut out = Vec::new();
-    for seg in segments {
-        let f = Features::from(seg);
-        let p = model.predict(&f)?;
-        let posterior: BTreeMap<String, f64> = p.places.iter().cloned().collect();
-        let lb = p.relevance.bayes_factor.log_b10;
-        let place = if p.relevance.relevant {
-            if !places.contains(&p.map_place) {
-                Err(format!("its place `{}` is not in this scene", p.map_place))
-            } else {
-                Ok(p.map_place.clone())
-            }
-        } else {
-            Err(format!(
-                "not part of the task (ln B10 = {lb:.1} ≤ {:.1})",
-                p.relevance.log_threshold
-            ))
-        };
-        out.push(Decision {
-            segment: seg.id,
-            at: seg.centroid,
-            reason: format!(
-                "MAP place {} (p = {:.3}), ln B10 = {lb:.1}",
-                p.map_place, p.map_probability
+    fn acting(&mut self, hw: &dyn Hardware, d: &Decision, place: &str) {
+        let label = self.label();
+        self.logger
+            .borrow_mut()
+            .log
+            .activity(hw.time_secs(), &format!("{label} (segment {}) → {place}", d.segment));
+    }
+
+    fn done(&mut self, plant: &mut RobotPlant<'_>, run: &SegmentRun) -> Result<(), dexter::RobotError> {
+        let d = &run.decision;
+        let label = self.label();
+        let (obj, duplicate) = self.current;
+        let report = match &run.taken {
+            Taken::Ignored { why } => ObjectReport::not_executed(
+                label,
+                Some(d.segment),
+                "ignore",
+                why.clone(),
+                None,
+                d.posterior.clone(),
+                d.log_bayes_factor,
+                self.final_position(d.at),
+                None,
             ),
-            place,
-            posterior,
-            log_bayes_factor: Some(lb),
-        });
+            Taken::Skipped { place, why } => ObjectReport::not_executed(
+                label,
+                Some(d.segment),
+                "skip",
+                why.clone(),
+                Some(place.clone()),
+                d.posterior.clone(),
+                d.log_bayes_factor,
+                self.final_position(d.at),
+                Some("reach: out of both arms' workspace".into()),
+            ),
+            Taken::Executed {
+                place,
+                arms,
+                transfer,
+                contingencies,
+                execution,
+            } => {
+                // Let the object come to rest (an object set down on its side may roll for a
+                // while inside the place, until a wall stops it), then judge by the truth.
+                if let Some(i) = obj {
+                    let mut waited = 0.0;
+                    while waited < JUDGE_REST_SECS && self.logger.borrow().objects[i].linvel.norm() >= AT_REST_SPEED {
+                        plant.settle(0.25)?;
+                        waited += 0.25;
+                    }
+                }
+                let (success, final_position) = match obj {
+                    Some(i) => {
+                        let o = self.logger.borrow().objects[i];
+                        let p = o.pose.translation.vector;
+                        let inside = self
+                            .scene
+                            .place(place)
+                            .is_ok_and(|spec| spec.contains([p.x, p.y]) && p.z < self.table_z + spec.wall_height + 0.2);
+                        (inside && o.linvel.norm() < AT_REST_SPEED, [p.x, p.y, p.z])
+                    }
+                    None => (false, d.at),
+                };
+                let success = success && !duplicate;
+                let failure = if duplicate {
+                    Some("perception: a second segment of an object already decided on (a duplicate track)".into())
+                } else {
+                    (!success).then(|| failure_cause(execution, obj.is_some()))
+                };
+                self.logger
+                    .borrow_mut()
+                    .log
+                    .outcome(plant.hw.time_secs(), &label, success);
+                ObjectReport {
+                    object: label,
+                    segment: Some(d.segment),
+                    decision: "execute".into(),
+                    reason: d.reason.clone(),
+                    place: Some(place.clone()),
+                    posterior: d.posterior.clone(),
+                    log_bayes_factor: d.log_bayes_factor,
+                    arms: arms.clone(),
+                    transfer: *transfer,
+                    contingencies: contingencies.clone(),
+                    execution: Some(execution.clone()),
+                    final_position,
+                    success,
+                    failure,
+                }
+            }
+        };
+        self.reports.push(report);
+        Ok(())
     }
-    Ok(("pick_and_place".into(), out))
 }
 
-/// Executes the task in `scene` as the robot: look over the table, decide per seen segment, run
-/// the schema with ψ on each relevant one; the evaluator matches segments to objects by the truth at
-/// the start and judges each outcome by the truth at the end. `only`: restrict to the segment
-/// nearest this scene object (a user pointing at it).
-#[allow(clippy::too_many_arguments)]
+/// Executes `task` in `scene`: the world (the robot parked, the workcell calibrated before the
+/// objects were placed) is built here, the robot's own task loop ([`dexter::task::run_task`])
+/// runs on it, and the evaluator judges each segment the robot took up by the truth — which object
+/// it was at the start, where that object ended — and lists the objects the robot never saw.
 pub fn execute_scene(
     scene: &Scene,
     scene_name: &str,
-    library: &Library,
-    decider: &Decider<'_>,
+    task: &Task<'_>,
     seed: u64,
-    only: Option<&str>,
     log: &mut dyn RunLog,
 ) -> Result<ExecuteReport, SimError> {
-    execute_scene_with_fault(scene, scene_name, library, decider, seed, only, None, log)
+    execute_scene_with_fault(scene, scene_name, task, seed, None, log)
 }
 
 /// [`execute_scene`] with `fault` armed in the world ([`crate::fault`]); the report carries what
 /// the fault did.
-#[allow(clippy::too_many_arguments)]
 pub fn execute_scene_with_fault(
     scene: &Scene,
     scene_name: &str,
-    library: &Library,
-    decider: &Decider<'_>,
+    task: &Task<'_>,
     seed: u64,
-    only: Option<&str>,
     fault: Option<&FaultSpec>,
     log: &mut dyn RunLog,
 ) -> Result<ExecuteReport, SimError> {
-    let schema_name = "pick_and_place".to_string();
-    let schema = library.schema(&schema_name)?.clone();
+    // An unknown schema is the caller's error, before any world is built.
+    task.library.schema(task.schema)?;
     let mut sim = parked_sim(
         scene,
         SimSettings {
@@ -428,10 +485,8 @@ pub fn execute_scene_with_fault(
             ..SimSettings::default()
         },
     )?;
-    let table_z = scene.spec.table.height;
     let truth0: Vec<ObjectState> = (0..sim.objects().len()).map(|i| sim.object_state(i)).collect();
     let names = sim.header().object_names.clone();
-    let labels: Vec<String> = scene.resolved.iter().map(|r| r.label.clone()).collect();
     let logger = Rc::new(RefCell::new(Shared {
         log,
         names,
@@ -452,211 +507,41 @@ pub fn execute_scene_with_fault(
         hw = hw.with_fault(armed);
     }
     let mut sink = RobotSink(logger.clone());
-    let mut reports = Vec::new();
+    let mut judge = Judge {
+        scene,
+        logger: logger.clone(),
+        matched: vec![false; truth0.len()],
+        truth0,
+        labels: scene.resolved.iter().map(|r| r.label.clone()).collect(),
+        table_z: scene.spec.table.height,
+        current: (None, false),
+        reports: Vec::new(),
+    };
     {
-        let mut plant = RobotPlant::new(&mut hw, &ws, calibration, library, &mut sink).map_err(from_robot)?;
-        let seen = look_over_table(&mut plant, &ws)?;
-        // The evaluator: which object each segment is (nearest at the start, within 8 cm).
-        let match_object = |c: &[f64; 3]| -> Option<usize> {
-            truth0
-                .iter()
-                .enumerate()
-                .map(|(i, o)| ((o.pose.translation.vector - Vec3::from(*c)).xy().norm(), i))
-                .filter(|(d, _)| *d < 0.08)
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-                .map(|(_, i)| i)
-        };
-        let mut seen = seen;
-        if let Some(label) = only {
-            let i = scene.object_index(label)?;
-            seen.retain(|s| match_object(&s.centroid) == Some(i));
-            seen.truncate(1);
-        }
-        let place_names: Vec<String> = ws.places.iter().map(|p| p.name.clone()).collect();
-        let decisions = match decider {
-            Decider::Place(p) => seen
-                .iter()
-                .map(|s| Decision {
-                    segment: s.id,
-                    at: s.centroid,
-                    place: Ok(p.clone()),
-                    posterior: BTreeMap::new(),
-                    log_bayes_factor: None,
-                    reason: format!("the demonstration placed its object in {p}"),
-                })
-                .collect(),
-            Decider::Model(path) => decide(path, &place_names, &seen)?.1,
-        };
-        let mut matched = vec![false; truth0.len()];
-        for d in decisions {
-            let obj = match_object(&d.at);
-            // A second segment of an object already decided on (a duplicate track): whatever
-            // the robot does with it, it is not a success of its own.
-            let duplicate = obj.is_some_and(|i| matched[i]);
-            if let Some(i) = obj {
-                matched[i] = true;
-            }
-            let label = obj.map(|i| labels[i].clone()).unwrap_or_else(|| "-".into());
-            let final_of = |l: &Rc<RefCell<Shared<'_>>>| {
-                obj.map(|i| {
-                    let v = l.borrow().objects[i].pose.translation.vector;
-                    [v.x, v.y, v.z]
-                })
-                .unwrap_or(d.at)
-            };
-            let place = match d.place.clone() {
-                Err(why) => {
-                    let t = plant.hw.time_secs();
-                    logger
-                        .borrow_mut()
-                        .log
-                        .decision(t, &d.event("ignore", None, None, &why));
-                    reports.push(ObjectReport::not_executed(
-                        label,
-                        Some(d.segment),
-                        "ignore",
-                        why,
-                        None,
-                        d.posterior,
-                        d.log_bayes_factor,
-                        final_of(&logger),
-                        None,
-                    ));
-                    continue;
-                }
-                Ok(p) => p,
-            };
-            {
-                let mut l = logger.borrow_mut();
-                let t = plant.hw.time_secs();
-                l.log.activity(t, &format!("{label} (segment {}) → {place}", d.segment));
-            }
-            // Look where it was decided on, then find it: its track, or (the tracker may have lost or
-            // re-identified it while the robot worked elsewhere) the seen segment nearest where it was
-            // decided on, looking there and, failing that, over the table.
-            plant.look(&Vec3::from(d.at), 0.6).map_err(from_robot)?;
-            let by_id = plant.last_percept().and_then(|p| {
-                p.segments
-                    .iter()
-                    .find(|s| s.id == d.segment)
-                    .map(|s| (s.id, Vec3::from(s.centroid)))
-            });
-            let now = match by_id {
-                Some(found) => Some(found),
-                None => plant.find(&Vec3::from(d.at)).map_err(from_robot)?,
-            };
-            let (segment_now, at) = now.unwrap_or((d.segment, Vec3::from(d.at)));
-            plant.set_destination(Some(&place));
-            plant.plan_handoff(&at).map_err(from_robot)?;
-            let handoff = plant.handoff();
-            let policy = PickPlacePolicy::decide(&*plant.hw, &ws, &segment_now.to_string(), &at, &place, handoff)?;
-            let Some(mut policy) = policy else {
-                let why = format!("no arm reaches segment {}, or none reaches `{place}`", d.segment);
-                let t = plant.hw.time_secs();
-                logger
-                    .borrow_mut()
-                    .log
-                    .decision(t, &d.event("skip", Some(&place), None, &why));
+        let mut plant = RobotPlant::new(&mut hw, &ws, calibration, task.library, &mut sink).map_err(from_robot)?;
+        dexter::task::run_task(&mut plant, task, &mut judge).map_err(from_robot)?;
+    }
+    let mut reports = std::mem::take(&mut judge.reports);
+    if task.only_near.is_none() {
+        // Objects the robot never saw (the evaluator's view).
+        for (i, m) in judge.matched.iter().enumerate() {
+            if !m {
+                let v = judge.truth0[i].pose.translation.vector;
                 reports.push(ObjectReport::not_executed(
-                    label,
-                    Some(d.segment),
-                    "skip",
-                    why,
-                    Some(place),
-                    d.posterior,
-                    d.log_bayes_factor,
-                    final_of(&logger),
-                    Some("reach: out of both arms' workspace".into()),
+                    judge.labels[i].clone(),
+                    None,
+                    "unseen",
+                    "no tracked segment matched it".into(),
+                    None,
+                    BTreeMap::new(),
+                    None,
+                    [v.x, v.y, v.z],
+                    Some("perception: not seen".into()),
                 ));
-                continue;
-            };
-            {
-                let t = plant.hw.time_secs();
-                let arms = [policy.pick_arm.prefix(), policy.place_arm.prefix()];
-                logger
-                    .borrow_mut()
-                    .log
-                    .decision(t, &d.event("execute", Some(&place), Some(arms), &d.reason));
-            }
-            plant.bind_arms(&[policy.pick_arm, policy.place_arm]);
-            let arms_before = plant.arms_used.len();
-            let exec = schema::execute(library, &schema, &mut plant, &mut policy, 20)?;
-            let transfer = policy.is_transfer();
-            let arms: Vec<String> = plant.arms_used[arms_before..]
-                .iter()
-                .map(|a| a.prefix().to_string())
-                .collect();
-            // Let the object come to rest (an object set down on its side may roll for a while
-            // inside the place, until a wall stops it), then judge by the truth.
-            plant.settle(0.5).map_err(from_robot)?;
-            if let Some(i) = obj {
-                let mut waited = 0.0;
-                while waited < JUDGE_REST_SECS && logger.borrow().objects[i].linvel.norm() >= AT_REST_SPEED {
-                    plant.settle(0.25).map_err(from_robot)?;
-                    waited += 0.25;
-                }
-            }
-            let (success, final_position) = match obj {
-                Some(i) => {
-                    let o = logger.borrow().objects[i];
-                    let p = o.pose.translation.vector;
-                    let spec = scene.place(&place)?;
-                    (
-                        spec.contains([p.x, p.y])
-                            && o.linvel.norm() < AT_REST_SPEED
-                            && p.z < table_z + spec.wall_height + 0.2,
-                        [p.x, p.y, p.z],
-                    )
-                }
-                None => (false, d.at),
-            };
-            let success = success && !duplicate;
-            let failure = if duplicate {
-                Some("perception: a second segment of an object already decided on (a duplicate track)".into())
-            } else {
-                (!success).then(|| failure_cause(&exec, obj.is_some()))
-            };
-            {
-                let t = plant.hw.time_secs();
-                logger.borrow_mut().log.outcome(t, &label, success);
-            }
-            reports.push(ObjectReport {
-                object: label,
-                segment: Some(d.segment),
-                decision: "execute".into(),
-                reason: d.reason,
-                place: Some(place),
-                posterior: d.posterior,
-                log_bayes_factor: d.log_bayes_factor,
-                arms,
-                transfer,
-                contingencies: exec.contingencies.iter().chain(&policy.rebindings).cloned().collect(),
-                execution: Some(exec),
-                final_position,
-                success,
-                failure,
-            });
-        }
-        if only.is_none() {
-            // Objects the robot never saw (the evaluator's view).
-            for (i, m) in matched.iter().enumerate() {
-                if !m {
-                    let v = truth0[i].pose.translation.vector;
-                    reports.push(ObjectReport::not_executed(
-                        labels[i].clone(),
-                        None,
-                        "unseen",
-                        "no tracked segment matched it".into(),
-                        None,
-                        BTreeMap::new(),
-                        None,
-                        [v.x, v.y, v.z],
-                        Some("perception: not seen".into()),
-                    ));
-                }
             }
         }
     }
+    drop(judge);
     let sim_time = hw.sim().time() - t_start;
     let fault_record = hw.fault().map(|f| f.record().clone());
     drop(hw);
@@ -668,7 +553,7 @@ pub fn execute_scene_with_fault(
     let placed = reports.iter().filter(|r| r.success).count();
     Ok(ExecuteReport {
         scene: scene_name.to_string(),
-        schema: schema_name,
+        schema: task.schema.to_string(),
         objects: reports,
         placed,
         relevant,
@@ -677,28 +562,6 @@ pub fn execute_scene_with_fault(
         mcap: None,
         fault: fault_record,
     })
-}
-
-/// The robot looks over the table ([`dexter::exec::Workspace::scan_points`], 0.6 s each; the
-/// tracker gathers what is there) and returns its tracked segments outside the places: what it
-/// decides on before a task.
-pub fn look_over_table(
-    plant: &mut RobotPlant<'_>,
-    ws: &dexter::exec::Workspace,
-) -> Result<Vec<schema::SegmentPercept>, SimError> {
-    for at in ws.scan_points() {
-        plant.look(&at, 0.6).map_err(from_robot)?;
-    }
-    Ok(plant
-        .last_percept()
-        .map(|p| {
-            p.segments
-                .iter()
-                .filter(|s| !ws.places.iter().any(|pl| pl.contains([s.centroid[0], s.centroid[1]])))
-                .cloned()
-                .collect()
-        })
-        .unwrap_or_default())
 }
 
 /// An object slower than this (m/s) is at rest (the evaluator's judgement).

@@ -16,7 +16,7 @@ use schema::Library;
 use serde::{Deserialize, Serialize};
 
 use crate::error::SimError;
-use crate::execute::{Decider, ExecuteReport, NoLog, execute_scene};
+use crate::execute::{Decider, ExecuteReport, MAX_ACTIONS, NoLog, PICK_AND_PLACE, Task, execute_scene};
 use crate::scene::{ObjectPlacement, Scene};
 use bayes::rng::{Draw, Generator};
 use rand::Rng as _;
@@ -173,15 +173,15 @@ pub fn run_scene(
 ) -> Result<(Scene, ExecuteReport), SimError> {
     let scene = random_scene(base, config.objects, &mut bayes::rng::stream(config.seed, i as u64))?;
     let seed = bayes::rng::stream(config.seed ^ 0x5EED_0F5C_E4E5, i as u64).next_u64();
-    let report = execute_scene(
-        &scene,
-        &format!("{base_name}#{i}"),
+    let model = schema::procedural::ProceduralModel::load(&config.model)?;
+    let task = Task {
         library,
-        &Decider::Model(&config.model),
-        seed,
-        None,
-        &mut NoLog,
-    )?;
+        schema: PICK_AND_PLACE,
+        decider: Decider::Model(&model),
+        only_near: None,
+        max_actions: MAX_ACTIONS,
+    };
+    let report = execute_scene(&scene, &format!("{base_name}#{i}"), &task, seed, &mut NoLog)?;
     Ok((scene, report))
 }
 

@@ -748,13 +748,18 @@ pub fn fault_trial(
     let mut seeds = bayes::rng::stream(seed ^ (0x5EED_FA17 + k), i as u64);
     let run_seed = rand::Rng::next_u64(&mut seeds);
     let spec = FaultSpec::new(kind, 0, rand::Rng::next_u64(&mut seeds));
+    let task = crate::execute::Task {
+        library,
+        schema: crate::execute::PICK_AND_PLACE,
+        decider: crate::execute::Decider::Place(place.clone()),
+        only_near: None,
+        max_actions: crate::execute::MAX_ACTIONS,
+    };
     let report = crate::execute::execute_scene_with_fault(
         &scene,
         &format!("{base_name}#{kind}-{i}"),
-        library,
-        &crate::execute::Decider::Place(place.clone()),
+        &task,
         run_seed,
-        None,
         Some(&spec),
         &mut crate::execute::NoLog,
     )?;

@@ -115,7 +115,7 @@ pub fn perceive(scene: &Scene, settings: &SimSettings) -> Result<Result<Percept,
         dexter::skills::locate_object(&mut hw, &mut eyes, &nominal, table_z, frame, &mut obs).map_err(from_robot)?;
     let located = match located {
         Ok(l) => l,
-        Err(why) => return Ok(Err(why)),
+        Err(why) => return Ok(Err(why.message)),
     };
     let c = located.seen.centroid;
     let truth = hw.sim().object_state(0).pose.translation.vector;

@@ -81,7 +81,7 @@ pub fn scan_scene(scene: &Scene, seed: u64) -> Result<ScanReport, SimError> {
     let mut hw = SimRobot::new(&mut sim, scene, seed)?;
     let segments = {
         let mut plant = RobotPlant::new(&mut hw, &ws, calibration, &library, &mut sink).map_err(from_robot)?;
-        crate::execute::look_over_table(&mut plant, &ws)?
+        dexter::task::look_over_table(&mut plant).map_err(from_robot)?
     };
     let mut used = vec![false; segments.len()];
     let mut objects = Vec::with_capacity(truth.len());

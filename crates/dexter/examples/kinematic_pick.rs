@@ -3,8 +3,9 @@
 //! box on a grey table, rendered by a few lines of ray casting for the four cameras, fingertip sensors
 //! that feel the box when the closing fingers meet it, and a box that follows a hand that holds it.
 //!
-//! The same code that runs on the simulator — vision, tracking, the monitors, Pick-And-Place with ψ
-//! through `schema::execute` — runs here unchanged, because it reaches the world only through
+//! The same code that runs on the simulator — vision, tracking, the monitors, the robot's task loop
+//! (`dexter::task::run_task`: look over the table, decide, bind ψ, run Pick-And-Place through
+//! `schema::execute`) — runs here unchanged, because it reaches the world only through
 //! `control_basis::Hardware`.
 //!
 //! `cargo run --release -p dexter --example kinematic_pick`
@@ -18,7 +19,8 @@ use control_basis::{CbError, Chain, IkSettings, JointLimits, Plant, RobotModel, 
 use dexter::Arm;
 use dexter::body::Body;
 use dexter::calibration::{Calibration, CalibrationSettings};
-use dexter::exec::{NoSink, PickPlacePolicy, Place, RobotPlant, Workspace};
+use dexter::exec::{NoSink, Place, RobotPlant, Workspace};
+use dexter::task::{Decider, NoTaskSink, Taken, Task};
 
 const TABLE_Z: f64 = 0.75;
 /// The box: half extents (m) and mass (kg).
@@ -366,30 +368,31 @@ pub fn run() -> Result<(bool, bool), Box<dyn std::error::Error>> {
         ],
     };
     let library = schema::Library::builtin();
-    let schema = library.schema("pick_and_place")?.clone();
     let mut sink = NoSink;
     // Calibration on the cleared table, then the box is put down.
     let calibration = Calibration::capture(&mut hw, &workspace, &CalibrationSettings::default())?;
     hw.box_placed = true;
-    let report = {
+    let runs = {
         let mut plant = RobotPlant::new(&mut hw, &workspace, Arc::new(calibration), &library, &mut sink)?;
-        plant.look(&Vec3::new(0.55, 0.1, TABLE_Z + 0.03), 1.0)?;
-        let seen = plant
-            .last_percept()
-            .and_then(|p| p.segments.iter().find(|s| s.seen).cloned())
-            .ok_or("the robot sees no object")?;
-        println!(
-            "seen segment {} at ({:.3}, {:.3}, {:.3}), extent {:?}",
-            seen.id, seen.centroid[0], seen.centroid[1], seen.centroid[2], seen.extent
-        );
-        let at = Vec3::from(seen.centroid);
-        plant.plan_handoff(&at)?;
-        let handoff = plant.handoff();
-        let mut policy =
-            PickPlacePolicy::decide(&*plant.hw, &workspace, &seen.id.to_string(), &at, "bin-right", handoff)?
-                .ok_or("no arm reaches the box or the bin")?;
-        plant.bind_arms(&[policy.pick_arm, policy.place_arm]);
-        schema::execute(&library, &schema, &mut plant, &mut policy, 20)?
+        // The robot's own task loop: it looks over the table, decides (here: everything it sees goes
+        // to bin-right, as a demonstration would have it), finds the segment again, lets ψ bind the
+        // arms and runs the schema.
+        let task = Task {
+            library: &library,
+            schema: "pick_and_place",
+            decider: Decider::Place("bin-right".into()),
+            only_near: None,
+            max_actions: 20,
+        };
+        dexter::task::run_task(&mut plant, &task, &mut NoTaskSink)?
+    };
+    let run = runs.first().ok_or("the robot sees no object")?;
+    println!(
+        "seen segment {} at ({:.3}, {:.3}, {:.3})",
+        run.decision.segment, run.decision.at[0], run.decision.at[1], run.decision.at[2]
+    );
+    let Taken::Executed { execution: report, .. } = &run.taken else {
+        return Err(format!("the robot did not execute: {:?}", run.taken).into());
     };
     for s in &report.steps {
         println!(
@@ -410,5 +413,5 @@ pub fn run() -> Result<(bool, bool), Box<dyn std::error::Error>> {
         if inside { "inside" } else { "outside" },
         report.contingencies
     );
-    Ok((report.reached_goal, inside))
+    Ok((report.reached_goal && runs.len() == 1, inside))
 }

@@ -33,6 +33,10 @@ pub enum RobotError {
         /// What is missing.
         message: String,
     },
+    /// The schema library, the executive or the procedural model failed (an unknown schema, a
+    /// model that cannot predict).
+    #[error(transparent)]
+    Schema(#[from] schema::SchemaError),
 }
 
 impl RobotError {

@@ -16,10 +16,12 @@
 use control_basis::Hardware;
 use control_basis::math::{Iso3, Vec3};
 use schema::{
-    ActionOutcome, Binding, Library, MonitorBank, MonitorConfig, Percept, PlacePercept, SchemaPlant, StepEvent,
+    ActionOutcome, Binding, Failure, FailureCause, Library, MonitorBank, MonitorConfig, Percept, PlacePercept,
+    SchemaPlant, StepEvent,
 };
 use serde::{Deserialize, Serialize};
 
+use crate::actions::{Skill, SkillMap};
 use crate::arm::Arm;
 use crate::control::{HandControl, ReachControl};
 use crate::error::RobotError;
@@ -367,6 +369,8 @@ pub struct RobotPlant<'a> {
     unseen: (Option<String>, usize),
     /// The library's action names (the entries of x).
     action_names: Vec<String>,
+    /// The library's actions bound to Dexter's skills, by signature.
+    skills: SkillMap,
     /// The reach monitor set's index and the arm ψ bound to the latest action ([`bound_x`]).
     reach_arm: Option<(usize, String)>,
     sink: &'a mut dyn ExecSink,
@@ -429,6 +433,7 @@ impl<'a> RobotPlant<'a> {
             relook: false,
             unseen: (None, 0),
             action_names: library.actions.iter().map(|a| a.name.clone()).collect(),
+            skills: SkillMap::new(library),
             reach_arm: None,
             plan_next_id: 0,
             sink,
@@ -449,7 +454,7 @@ impl<'a> RobotPlant<'a> {
     pub fn bind_arms(&mut self, arms: &[Arm]) {
         self.bound_arms = Some(arms.iter().map(|a| a.prefix().to_string()).collect());
         // The first arm acts first.
-        if let (Some(a), Some(arm)) = (self.action_names.iter().position(|n| n == "reach_object"), arms.first()) {
+        if let (Some(a), Some(arm)) = (self.skills.index(Skill::ReachObject), arms.first()) {
             self.reach_arm = Some((a, arm.prefix().to_string()));
         }
         if let Some(p) = self.percepts.last() {
@@ -795,6 +800,11 @@ impl<'a> RobotPlant<'a> {
         Ok(seen)
     }
 
+    /// The workspace the robot was told (table, places).
+    pub fn workspace(&self) -> &'a Workspace {
+        self.workspace
+    }
+
     /// The latest percept.
     pub fn last_percept(&self) -> Option<&Percept> {
         self.percepts.last()
@@ -920,7 +930,7 @@ impl<'a> RobotPlant<'a> {
             return Ok((*tid, near.unwrap_or_else(|| seen.clone())));
         }
         Err(RobotError::Binding {
-            action: "reach_object".into(),
+            action: self.skills.name(Skill::ReachObject).unwrap_or("reach").into(),
             message: match &binding.object {
                 Some(o) => format!("no tracked segment `{o}` (objects are the segments the robot sees)"),
                 None => "no object".into(),
@@ -1155,15 +1165,13 @@ impl SchemaPlant for RobotPlant<'_> {
         {
             bound.push(arm.clone());
         }
-        if let (Some(a), Some(arm)) = (
-            self.action_names.iter().position(|n| n == "reach_object"),
-            binding.arm.as_ref(),
-        ) {
+        if let (Some(a), Some(arm)) = (self.skills.index(Skill::ReachObject), binding.arm.as_ref()) {
             self.reach_arm = Some((a, arm.clone()));
         }
-        let outcome = match action {
-            "search_track" => ActionOutcome::Converged,
-            "reach_object" => {
+        let skill = self.skills.skill(action);
+        let outcome = match skill {
+            Some(Skill::SearchTrack) => ActionOutcome::Converged,
+            Some(Skill::ReachObject) => {
                 let arm = parse_arm(action, binding.arm.as_deref())?;
                 self.arms_used.push(arm);
                 let resolved = match &self.target {
@@ -1179,7 +1187,10 @@ impl SchemaPlant for RobotPlant<'_> {
                     Ok(t) => t,
                     Err(e) => {
                         self.settle(0.3)?;
-                        return Ok(ActionOutcome::Failed(e.to_string()));
+                        return Ok(ActionOutcome::Failed(Failure::new(
+                            FailureCause::NotSeen,
+                            e.to_string(),
+                        )));
                     }
                 };
                 let target = seen.centroid;
@@ -1251,7 +1262,7 @@ impl SchemaPlant for RobotPlant<'_> {
                     };
                     if let Some(why) = why {
                         self.settle(0.3)?;
-                        return Ok(ActionOutcome::Failed(why));
+                        return Ok(ActionOutcome::Failed(Failure::new(FailureCause::Gone, why)));
                     }
                     (id, seen)
                 };
@@ -1278,25 +1289,28 @@ impl SchemaPlant for RobotPlant<'_> {
                         ActionOutcome::Converged
                     }
                     Err(why) => {
-                        if why.starts_with("grasp pose") {
+                        if why.cause == FailureCause::StoppedShort {
                             // The descent stopped short, on something where the fingers should
                             // have passed: the object is not where it was seen.
                             self.back_off(arm)?;
-                        } else if why.contains("not reached") || why.contains("out of reach") {
+                        } else if why.effector_blocked() {
                             self.unreached.push((arm, [target.x, target.y]));
                         }
                         ActionOutcome::Failed(why)
                     }
                 }
             }
-            "grasp" => {
+            Some(Skill::Grasp) => {
                 let arm = parse_arm(action, binding.arm.as_deref())?;
                 let k = arm.index();
                 if self.target.is_none() {
-                    ActionOutcome::Failed("no object to grasp (no reach yet)".into())
+                    ActionOutcome::Failed(Failure::new(
+                        FailureCause::Precondition,
+                        "no object to grasp (no reach yet)",
+                    ))
                 } else if let Some(why) = self.object_moved() {
                     self.back_off(arm)?;
-                    ActionOutcome::Failed(why)
+                    ActionOutcome::Failed(Failure::new(FailureCause::Moved, why))
                 } else if let Some(id) = self.target.as_ref().and_then(|t| t.0)
                     && self.doubt_checked != Some(id)
                     && self.watcher.doubted(id)
@@ -1307,11 +1321,11 @@ impl SchemaPlant for RobotPlant<'_> {
                     self.doubt_checked = Some(id);
                     self.relook = true;
                     self.back_off(arm)?;
-                    ActionOutcome::Failed(
+                    ActionOutcome::Failed(Failure::new(
+                        FailureCause::Moved,
                         "the object may have moved under the hand (its visible part lies outside where it was \
-                         seen): looking again"
-                            .into(),
-                    )
+                         seen): looking again",
+                    ))
                 } else {
                     let r = self.with_observer(|hw, reach, hand, obs| close_grasp(hw, &mut reach[k], &hand[k], obs))?;
                     match r {
@@ -1328,12 +1342,15 @@ impl SchemaPlant for RobotPlant<'_> {
                     }
                 }
             }
-            "hold" => {
+            Some(Skill::Hold) => {
                 let arm = parse_arm(action, binding.arm.as_deref())?;
                 let k = arm.index();
                 let (Some((_, seen)), Some(plan), Some(grasp_palm)) = (self.target.clone(), self.plan, self.grasp_palm)
                 else {
-                    return Ok(ActionOutcome::Failed("nothing grasped to hold (no grasp yet)".into()));
+                    return Ok(ActionOutcome::Failed(Failure::new(
+                        FailureCause::Precondition,
+                        "nothing grasped to hold (no grasp yet)",
+                    )));
                 };
                 // A hold asked for again while the object is already up (the monitors had not yet
                 // seen the first one converge) rises no further: judge it from where it was grasped.
@@ -1353,11 +1370,14 @@ impl SchemaPlant for RobotPlant<'_> {
                             release_and_retreat(hw, &mut reach[k], &hand[k], obs)
                         })?;
                         self.held = None;
-                        ActionOutcome::Failed(g.outcome)
+                        ActionOutcome::Failed(
+                            g.failure
+                                .unwrap_or_else(|| Failure::new(FailureCause::NotLifted, g.outcome)),
+                        )
                     }
                 }
             }
-            "place" => {
+            Some(Skill::Place) => {
                 let arm = parse_arm(action, binding.arm.as_deref())?;
                 let k = arm.index();
                 // The objects around (the head still looks at the lifted one and its neighbours).
@@ -1368,9 +1388,10 @@ impl SchemaPlant for RobotPlant<'_> {
                     // on the way): open the hand and back off, so that the monitors see the hand
                     // empty and the schema's contingency (a re-grasp after a drop) takes over.
                     self.let_go(arm)?;
-                    return Ok(ActionOutcome::Failed(
-                        "nothing held to place: the hand opened and backed off (a re-grasp follows)".into(),
-                    ));
+                    return Ok(ActionOutcome::Failed(Failure::new(
+                        FailureCause::Precondition,
+                        "nothing held to place: the hand opened and backed off (a re-grasp follows)",
+                    )));
                 };
                 let (target, wall) = if binding.transfer {
                     if !self.unreached.is_empty() {
@@ -1414,7 +1435,7 @@ impl SchemaPlant for RobotPlant<'_> {
                         // The transfer ends with the hand open: the other hand takes it from here.
                         release_and_retreat(hw, &mut reach[k], &hand[k], obs);
                     }
-                    Ok::<(), String>(())
+                    Ok::<(), Failure>(())
                 })?;
                 if transfer {
                     // The object rests on the handoff spot: the next reach sees it there.
@@ -1440,7 +1461,7 @@ impl SchemaPlant for RobotPlant<'_> {
                     }
                 }
             }
-            "release" => {
+            Some(Skill::Release) => {
                 let arm = parse_arm(action, binding.arm.as_deref())?;
                 let k = arm.index();
                 self.with_observer(|hw, reach, hand, obs| release_and_retreat(hw, &mut reach[k], &hand[k], obs))?;
@@ -1455,19 +1476,25 @@ impl SchemaPlant for RobotPlant<'_> {
                 }
                 self.held = None;
                 if self.touch(arm).loaded > 0 {
-                    ActionOutcome::Failed("the fingertips still feel the object after opening".into())
+                    ActionOutcome::Failed(Failure::new(
+                        FailureCause::NotReleased,
+                        "the fingertips still feel the object after opening",
+                    ))
                 } else {
                     ActionOutcome::Converged
                 }
             }
-            other => ActionOutcome::Failed(format!("Dexter has no controller for `{other}`")),
+            Some(Skill::Touch) | None => ActionOutcome::Failed(Failure::new(
+                FailureCause::NoController,
+                format!("Dexter has no controller for `{action}`"),
+            )),
         };
         // Let the monitors see the result: a controller's convergence shows in its monitor set
         // within a few percepts (the palm comes to rest, the tracker catches up).
         self.settle(0.3)?;
         let mut outcome = outcome;
         if outcome == ActionOutcome::Converged
-            && action != "search_track"
+            && skill != Some(Skill::SearchTrack)
             && !binding.transfer
             && let Some(a) = self.action_names.iter().position(|n| n == action)
         {
@@ -1476,7 +1503,7 @@ impl SchemaPlant for RobotPlant<'_> {
                 self.settle(0.1)?;
                 waited += 0.1;
             }
-            if !self.last_x[a] && action == "reach_object" {
+            if !self.last_x[a] && skill == Some(Skill::ReachObject) {
                 // The hand is where the object was seen, and the monitors see no object there:
                 // the robot reached for a segment that is gone.
                 let id = self.target.as_ref().and_then(|t| t.0);
@@ -1485,9 +1512,10 @@ impl SchemaPlant for RobotPlant<'_> {
                     .last()
                     .is_some_and(|p| id.is_some_and(|id| p.segments.iter().any(|s| s.id == id)));
                 if !present {
-                    outcome = ActionOutcome::Failed(
-                        "the hand reached where the object was seen, and no object is seen there (it is gone)".into(),
-                    );
+                    outcome = ActionOutcome::Failed(Failure::new(
+                        FailureCause::Gone,
+                        "the hand reached where the object was seen, and no object is seen there (it is gone)",
+                    ));
                 }
             }
         }
@@ -1539,19 +1567,21 @@ fn debug_exec() -> bool {
 /// Descents to the grasp pose by one arm that stop short before ψ binds another arm.
 const SHORT_DESCENTS: usize = 2;
 
-/// ψ for Pick-And-Place on Dexter (5.31–5.32): the arm whose workspace holds both the object and the
-/// place; if none does, a transfer — the arm that reaches the object puts it on the handoff spot,
-/// and the arm that reaches the place takes it from there.
+/// ψ on Dexter (5.31–5.32) for any schema over its skills: the arm whose workspace holds the
+/// object — and the place, when the schema has one — on the object's side first; if no arm reaches
+/// both, a transfer: the arm that reaches the object puts it on the handoff spot, and the arm that
+/// reaches the place takes it from there. Actions bind by their skill ([`Skill`]), not their names.
 #[derive(Debug, Clone)]
-pub struct PickPlacePolicy {
+pub struct ArmPolicy {
     /// The object (the tracked segment's id, as text).
     pub object: String,
-    /// The place.
-    pub place: String,
+    /// The place, for a schema that puts the object somewhere.
+    pub place: Option<String>,
     /// The arm that picks first.
     pub pick_arm: Arm,
     /// The arm that places (differs from `pick_arm` for a transfer).
     pub place_arm: Arm,
+    skills: SkillMap,
     transferred: bool,
     /// Arms whose palm reaches above the object, the place and the handoff spot (when decided).
     at_object: Vec<Arm>,
@@ -1565,32 +1595,44 @@ pub struct PickPlacePolicy {
     pub rebindings: Vec<String>,
 }
 
-impl PickPlacePolicy {
-    /// Decides the arms for `object` at `object_at` and `place`: one arm if one reaches both, else a
-    /// transfer. `None` if no arm reaches the object or none reaches the place.
+/// ψ for Pick-And-Place: [`ArmPolicy`] with a place.
+pub type PickPlacePolicy = ArmPolicy;
+
+impl ArmPolicy {
+    /// Decides the arms for `object` at `object_at` (and `place`, if the schema has one) for the
+    /// skills of `library`: one arm if one reaches both, else a transfer. `None` if no arm reaches
+    /// the object or none reaches the place.
+    #[allow(clippy::too_many_arguments)]
     pub fn decide(
         hw: &dyn Hardware,
         workspace: &Workspace,
+        library: &Library,
         object: &str,
         object_at: &Vec3,
-        place: &str,
+        place: Option<&str>,
         handoff: [f64; 2],
-    ) -> Result<Option<PickPlacePolicy>, RobotError> {
+    ) -> Result<Option<ArmPolicy>, RobotError> {
         let table_z = workspace.table_z;
-        let p = workspace.place(place)?;
         let at_object = arms_reaching(hw, table_z, object_at)?;
-        let at_place = arms_reaching(
-            hw,
-            table_z,
-            &Vec3::new(p.center[0], p.center[1], table_z + p.wall_height),
-        )?;
+        let at_place = match place {
+            Some(place) => {
+                let p = workspace.place(place)?;
+                arms_reaching(
+                    hw,
+                    table_z,
+                    &Vec3::new(p.center[0], p.center[1], table_z + p.wall_height),
+                )?
+            }
+            None => Arm::BOTH.to_vec(),
+        };
         let hand_spot = Vec3::new(handoff[0], handoff[1], table_z);
         let at_handoff = arms_reaching(hw, table_z, &hand_spot)?;
-        let mut policy = PickPlacePolicy {
+        let mut policy = ArmPolicy {
             object: object.into(),
-            place: place.into(),
+            place: place.map(str::to_string),
             pick_arm: Arm::Left,
             place_arm: Arm::Left,
+            skills: SkillMap::new(library),
             transferred: false,
             at_object,
             at_place,
@@ -1637,15 +1679,15 @@ impl PickPlacePolicy {
     }
 }
 
-impl schema::ProceduralPolicy for PickPlacePolicy {
+impl schema::ProceduralPolicy for ArmPolicy {
     /// A reach to the object that did not converge (the arm could not get there: its path is
     /// blocked, or the object is out of its reach) binds another arm that reaches the object — the
     /// same arm for the place if it reaches that too, else a hand-over through the handoff spot to
     /// an arm that reaches the place (§3.3.3, 5.31–5.32).
-    fn failed(&mut self, _schema: &schema::Schema, _state: &str, action: &str, binding: &Binding, why: &str) {
+    fn failed(&mut self, _schema: &schema::Schema, _state: &str, action: &str, binding: &Binding, why: &Failure) {
         // The approach (hover, pre-grasp) failed; a descent stopped short (on the object) is not the
         // arm's failure.
-        if action != "reach_object" || self.transferred {
+        if self.skills.skill(action) != Some(Skill::ReachObject) || self.transferred {
             return;
         }
         let Some(arm) = binding.arm.as_deref().and_then(Arm::parse) else {
@@ -1654,12 +1696,11 @@ impl schema::ProceduralPolicy for PickPlacePolicy {
         // … unless it stops short again: the second descent of one arm that stops short
         // (after the first, the arm backed off and looked again) is the arm not getting there —
         // an object knocked over near the edge of its workspace.
-        let short = why.starts_with("grasp pose");
+        let short = why.cause == FailureCause::StoppedShort;
         if short {
             self.short_descents[arm.index()] += 1;
         }
-        let not_reached = (why.contains("not reached") || why.contains("out of reach"))
-            && (!short || self.short_descents[arm.index()] >= SHORT_DESCENTS);
+        let not_reached = why.effector_blocked() || (short && self.short_descents[arm.index()] >= SHORT_DESCENTS);
         if !not_reached {
             return;
         }
@@ -1689,15 +1730,15 @@ impl schema::ProceduralPolicy for PickPlacePolicy {
         } else {
             self.pick_arm
         };
-        let transfer = action == "place" && self.is_transfer() && !self.transferred;
+        let transfer = self.skills.skill(action) == Some(Skill::Place) && self.is_transfer() && !self.transferred;
         Binding {
             arm: Some(arm.prefix().to_string()),
             object: Some(self.object.clone()),
-            place: Some(if transfer {
-                HANDOFF.to_string()
+            place: if transfer {
+                Some(HANDOFF.to_string())
             } else {
                 self.place.clone()
-            }),
+            },
             transfer,
         }
     }

@@ -4,8 +4,9 @@
 //! ([`vision`], [`eyes`]: background subtraction, segments, colour terms, moments, triangulation,
 //! support-plane height and footprint; tracking in [`watch`]), the control-basis skills
 //! ([`control`], [`skills`]: Search-Track, Reach ◁ Manipulability, Grasp, Lift, Transport, Place,
-//! Release, hand-to-hand transfer; ways around tall things in [`route`]), and the plant adapter that lets the executive run a schema with
-//! the procedural policy ψ ([`exec`]).
+//! Release, hand-to-hand transfer; ways around tall things in [`route`]), the plant adapter that lets the executive run a schema with
+//! the procedural policy ψ ([`exec`]), and the task loop that looks over the table, decides per
+//! segment and runs the schema on each ([`task`]).
 //!
 //! The robot reaches the world only through [`control_basis::Hardware`]: joint encoders and motor
 //! units, fingertip force/torque sensors, calibrated cameras and a clock. It does not depend on the
@@ -28,6 +29,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod actions;
 pub mod arm;
 pub mod body;
 pub mod calibration;
@@ -37,6 +39,7 @@ pub mod exec;
 pub mod eyes;
 pub mod route;
 pub mod skills;
+pub mod task;
 pub mod vision;
 pub mod watch;
 

@@ -15,6 +15,7 @@ use control_basis::hardware::{ForceTorque, HardwareError};
 use control_basis::math::{Iso3, Vec3};
 use control_basis::{Chain, Hardware, IkSettings, inverse_kinematics};
 use nalgebra::Translation3;
+use schema::{Failure, FailureCause};
 use serde::Serialize;
 
 use crate::arm::Arm;
@@ -566,6 +567,8 @@ pub struct GraspOutcome {
     pub lifted: bool,
     /// What happened.
     pub outcome: String,
+    /// Why it was not lifted, typed (`None` when it was).
+    pub failure: Option<Failure>,
     /// How far the palm rose (m, from the encoders).
     pub rose: f64,
     /// The load the fingertips carried while held still after the lift (N), if it was lifted.
@@ -583,9 +586,10 @@ pub fn grasp_and_lift(
     obs: &mut Observer<'_>,
     phase: &mut dyn FnMut(&str, f64),
 ) -> GraspOutcome {
-    let fail = |outcome: String| GraspOutcome {
+    let fail = |failure: Failure| GraspOutcome {
         lifted: false,
-        outcome,
+        outcome: failure.message.clone(),
+        failure: Some(failure),
         rose: 0.0,
         weighed: None,
     };
@@ -624,7 +628,7 @@ pub fn approach_grasp(
     plan: &GraspPlan,
     obs: &mut Observer<'_>,
     phase: &mut dyn FnMut(&str, f64),
-) -> Result<GraspPlan, String> {
+) -> Result<GraspPlan, Failure> {
     // 1. Pre-grasp: above the object, hand pre-shaped.
     obs.activity = "reach pre-grasp";
     hand.set(hw, plan.preshape, 0.0);
@@ -647,7 +651,10 @@ pub fn approach_grasp(
         }
     }
     let Some((_, grasp_pose)) = best else {
-        return Err("pre-grasp out of reach (no IK solution)".into());
+        return Err(Failure::new(
+            FailureCause::OutOfReach,
+            "pre-grasp out of reach (no IK solution)",
+        ));
     };
     let plan = GraspPlan {
         grasp: grasp_pose,
@@ -672,17 +679,30 @@ pub fn approach_grasp(
     if !run_until(hw, reach, obs, 5.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
         match reach.set_goal_via_ik(hw, hover, 17) {
             Ok(true) => {}
-            _ => return Err("hover above the object out of reach (no IK solution)".into()),
+            _ => {
+                return Err(Failure::new(
+                    FailureCause::OutOfReach,
+                    "hover above the object out of reach (no IK solution)",
+                ));
+            }
         }
         if !run_until(hw, reach, obs, 8.0, |s, r| r.at_goal(s, 0.015, 0.05)) {
             let (d, _) = reach.goal_error(hw);
-            return Err(format!("hover above the object not reached ({:.1} cm away)", d * 100.0));
+            return Err(Failure::short_of(
+                FailureCause::ApproachNotReached,
+                d,
+                format!("hover above the object not reached ({:.1} cm away)", d * 100.0),
+            ));
         }
     }
     reach.set_goal(hw, pre);
     if !run_until(hw, reach, obs, 4.0, |s, r| r.at_goal(s, 0.01, 0.05)) {
         let (d, _) = reach.goal_error(hw);
-        return Err(format!("pre-grasp not reached ({:.1} cm away)", d * 100.0));
+        return Err(Failure::short_of(
+            FailureCause::ApproachNotReached,
+            d,
+            format!("pre-grasp not reached ({:.1} cm away)", d * 100.0),
+        ));
     }
     // 2. Descend.
     phase("reach grasp", hw.time_secs());
@@ -702,7 +722,11 @@ pub fn approach_grasp(
             (palm.xy() - goal.xy()).norm() < RESTING_XY && palm.z > goal.z && palm.z - goal.z < RESTING_Z + plan.guard;
         if !resting {
             let (d, _) = reach.goal_error(hw);
-            return Err(format!("grasp pose not reached ({:.1} cm away)", d * 100.0));
+            return Err(Failure::short_of(
+                FailureCause::StoppedShort,
+                d,
+                format!("grasp pose not reached ({:.1} cm away)", d * 100.0),
+            ));
         }
         // Lift the palm off the top by 5 mm so that it does not press the object into the
         // fingers (which would then carry more than its weight).
@@ -779,7 +803,7 @@ pub fn close_grasp(
     reach: &mut ReachControl,
     hand: &HandControl,
     obs: &mut Observer<'_>,
-) -> Result<(), String> {
+) -> Result<(), Failure> {
     let arm = reach.arm();
     obs.activity = "grasp";
     hand.set(hw, FLEX_CLOSED, 0.0);
@@ -795,7 +819,10 @@ pub fn close_grasp(
         still >= 30
     });
     if !grasped {
-        return Err("grasp did not converge (no opposing contacts)".into());
+        return Err(Failure::new(
+            FailureCause::NoGrasp,
+            "grasp did not converge (no opposing contacts)",
+        ));
     }
     Ok(())
 }
@@ -842,20 +869,22 @@ pub fn lift_and_weigh(
     let rose = reach.tool_pose(hw).translation.z - z_before;
     let load = sum / n.max(1) as f64;
     let lifted = rose > 0.08 && loaded >= 2 && loaded != usize::MAX && load >= MIN_LOAD;
+    let outcome: String = if lifted {
+        "lifted".into()
+    } else if rose <= 0.08 {
+        format!("the hand did not rise ({:.1} cm)", rose * 100.0)
+    } else {
+        format!(
+            "object not held after lift ({} loaded fingertips, load {load:.2} N)",
+            loaded.min(3)
+        )
+    };
     GraspOutcome {
         lifted,
-        outcome: if lifted {
-            "lifted".into()
-        } else if rose <= 0.08 {
-            format!("the hand did not rise ({:.1} cm)", rose * 100.0)
-        } else {
-            format!(
-                "object not held after lift ({} loaded fingertips, load {load:.2} N)",
-                loaded.min(3)
-            )
-        },
         rose,
         weighed: lifted.then_some(load),
+        failure: (!lifted).then(|| Failure::new(FailureCause::NotLifted, outcome.clone())),
+        outcome,
     }
 }
 
@@ -900,7 +929,7 @@ pub fn transport_over(
     table_z: f64,
     wall_height: f64,
     obs: &mut Observer<'_>,
-) -> Result<(), String> {
+) -> Result<(), Failure> {
     obs.activity = "transport";
     let arm = reach.arm();
     let safe_z = table_z + wall_height + held.below + 0.08;
@@ -943,13 +972,23 @@ pub fn transport_over(
         reach.set_goal(hw, here);
         if TouchState::of(&hand_fingertips(hw, arm, &mut buf)).holding() {
             // Still in the hand: something took its load (it met an obstacle on the way).
-            return Err("the carried object met an obstacle (the fingertips felt its load taken)".into());
+            return Err(Failure::new(
+                FailureCause::Obstructed,
+                "the carried object met an obstacle (the fingertips felt its load taken)",
+            ));
         }
-        return Err("object dropped during transport (the fingertips lost the load)".into());
+        return Err(Failure::new(
+            FailureCause::Dropped,
+            "object dropped during transport (the fingertips lost the load)",
+        ));
     }
     if !reach.at_goal(hw, 0.01, 0.05) {
         let (d, _) = reach.goal_error(hw);
-        return Err(format!("place not reached ({:.1} cm away)", d * 100.0));
+        return Err(Failure::short_of(
+            FailureCause::PlaceNotReached,
+            d,
+            format!("place not reached ({:.1} cm away)", d * 100.0),
+        ));
     }
     Ok(())
 }
@@ -1057,7 +1096,7 @@ pub fn locate_object(
     table_z: f64,
     frame_secs: f64,
     obs: &mut Observer<'_>,
-) -> Result<Result<Located, String>, RobotError> {
+) -> Result<Result<Located, Failure>, RobotError> {
     let mut body = Body::new();
     let mut track = SearchTrack::new(hw)?;
     track.look_at(hw, &mut body, nominal)?;
@@ -1127,9 +1166,12 @@ pub fn locate_object(
         idle(hw, obs, frame_secs);
         obs.check()?;
     }
-    Ok(Err(format!(
-        "search-track: no stereo blob foveated near ({:.2}, {:.2}, {:.2})",
-        nominal.x, nominal.y, nominal.z
+    Ok(Err(Failure::new(
+        FailureCause::NotSeen,
+        format!(
+            "search-track: no stereo blob foveated near ({:.2}, {:.2}, {:.2})",
+            nominal.x, nominal.y, nominal.z
+        ),
     )))
 }
 
@@ -1158,7 +1200,7 @@ pub fn choose_arm(
     place_xy: [f64; 2],
     wall_height: f64,
     table_z: f64,
-) -> Result<Result<Arm, String>, RobotError> {
+) -> Result<Result<Arm, Failure>, RobotError> {
     let mut order = candidates.to_vec();
     if seen.centroid.y < 0.0 {
         order.reverse();
@@ -1185,7 +1227,7 @@ pub fn choose_arm(
             }
         ));
     }
-    Ok(Err(reasons.join("; ")))
+    Ok(Err(Failure::new(FailureCause::OutOfReach, reasons.join("; "))))
 }
 
 #[cfg(test)]

@@ -17,7 +17,7 @@ use dexter_sim::scene::Scene;
 use schema::{Library, Percept};
 use serde::{Deserialize, Serialize};
 
-pub use dexter_sim::execute::{Decider, ExecuteReport, RunLog, execute_scene};
+pub use dexter_sim::execute::{Decider, ExecuteReport, RunLog, Task, execute_scene};
 
 use crate::infer::InferFile;
 use crate::mcap_log::{LogLevel, McapLog};
@@ -239,16 +239,19 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
     };
     let scene = Scene::open(&args.scene)?;
     let seed = args.seed.unwrap_or(scene.spec.seed);
-    if let Some(o) = &args.object {
-        scene.object_index(o)?;
-    }
+    let only_near = match &args.object {
+        Some(o) => Some(dexter_sim::execute::pointed_at(&scene, o)?),
+        None => None,
+    };
     let demo_place;
+    let model;
+    let schema_name;
     let decider = match (&args.demo, &args.model) {
         (Some(path), _) => {
             let text = bayes::input::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
             let file = InferFile::from_json(&text, &path.display().to_string())?;
             let schema = file.inference.posterior.map.clone();
-            if schema != "pick_and_place" {
+            if schema != dexter_sim::execute::PICK_AND_PLACE {
                 bail!(
                     "{}: the demonstration was explained by `{schema}`; `pbd execute` runs pick_and_place",
                     path.display()
@@ -264,6 +267,7 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
                     .context("the inference has no instance with a place; pass --place")?,
             };
             scene.place(&demo_place)?;
+            schema_name = schema;
             Decider::Place(demo_place.clone())
         }
         (None, Some(path)) => {
@@ -272,7 +276,9 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
                     "place overrides the place of a demonstration (--demo); a model (--model) decides the place per object"
                 );
             }
-            Decider::Model(path)
+            model = schema::procedural::ProceduralModel::load(path)?;
+            schema_name = dexter_sim::execute::PICK_AND_PLACE.to_string();
+            Decider::Model(&model)
         }
         (None, None) => bail!("pass --demo demo.infer.json or --model model.json"),
     };
@@ -296,7 +302,7 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
             meta.insert("command".to_string(), "execute".to_string());
             meta.insert("scene".to_string(), args.scene.clone());
             meta.insert("seed".to_string(), seed.to_string());
-            meta.insert("schema".to_string(), "pick_and_place".to_string());
+            meta.insert("schema".to_string(), schema_name.clone());
             log.metadata("pbd", meta)?;
             log.log_scene(&scene, sim.header(), 0.0)?;
             log.log_robot(sim.model(), 0.0)?;
@@ -308,15 +314,14 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
     progress.phase("execute", None);
     let mut run_log = McapRunLog::new(log, sim.header().clone(), progress);
     drop(sim);
-    let run = execute_scene(
-        &scene,
-        &args.scene,
-        &library,
-        &decider,
-        seed,
-        args.object.as_deref(),
-        &mut run_log,
-    );
+    let task = Task {
+        library: &library,
+        schema: &schema_name,
+        decider,
+        only_near,
+        max_actions: dexter_sim::execute::MAX_ACTIONS,
+    };
+    let run = execute_scene(&scene, &args.scene, &task, seed, &mut run_log);
     let finished = run_log.finish();
     let mut report = run?;
     finished?;

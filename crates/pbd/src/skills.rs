@@ -40,6 +40,10 @@ pub struct SkillReport {
     pub ok: bool,
     /// What happened, in words.
     pub outcome: String,
+    /// Why it failed, typed (`not_seen`, `approach_not_reached`, `dropped`, …; see
+    /// `schema::FailureCause`), when the skill reported one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cause: Option<schema::FailureCause>,
     /// The arm it used, if any.
     pub arm: Option<Arm>,
     /// Simulated time the skill took (s).
@@ -60,6 +64,7 @@ impl SkillReport {
             skill: skill.into(),
             ok,
             outcome: outcome.into(),
+            cause: None,
             arm,
             sim_time,
             centroid: None,
@@ -67,6 +72,13 @@ impl SkillReport {
             rose: None,
             weighed: None,
         }
+    }
+}
+
+impl SkillReport {
+    fn because(mut self, cause: schema::FailureCause) -> Self {
+        self.cause = Some(cause);
+        self
     }
 }
 
@@ -177,7 +189,7 @@ impl SkillSession {
                 self.seen = Some(l.seen);
                 r
             }
-            Err(why) => SkillReport::new("locate", false, why, None, dt),
+            Err(why) => SkillReport::new("locate", false, why.message, None, dt).because(why.cause),
         })
     }
 
@@ -250,6 +262,7 @@ impl SkillSession {
         obs.check()?;
         let dt = hw.sim().time() - t0;
         let mut r = SkillReport::new("grasp", g.lifted, g.outcome, Some(a), dt);
+        r.cause = g.failure.map(|f| f.cause);
         r.rose = Some(g.rose);
         r.weighed = g.weighed;
         if g.lifted {
@@ -291,7 +304,7 @@ impl SkillSession {
                 if !TouchState::of(&hand_fingertips(&hw, h.arm, &mut buf)).holding() {
                     self.holding = None;
                 }
-                SkillReport::new("transport", false, why, Some(h.arm), dt)
+                SkillReport::new("transport", false, why.message, Some(h.arm), dt).because(why.cause)
             }
         })
     }

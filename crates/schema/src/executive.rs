@@ -24,12 +24,96 @@ pub struct Binding {
 }
 
 /// How running an action ended (an outcome, not an error).
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum ActionOutcome {
     /// The controller converged.
     Converged,
-    /// It did not; why.
-    Failed(String),
+    /// It did not; why, as the plant measured it.
+    Failed(Failure),
+}
+
+/// Why an action did not converge: a typed cause that ψ and the reports match on, the figure the
+/// plant measured where the cause has one, and the plant's own words for people. (§3.3.3: a
+/// controller that does not converge is information for ψ — which resource failed, and how.)
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Failure {
+    /// What went wrong.
+    pub cause: FailureCause,
+    /// How far (m) the effector still was from the controller's goal when it stopped, for the
+    /// causes that have one ([`FailureCause::ApproachNotReached`], [`FailureCause::StoppedShort`],
+    /// [`FailureCause::PlaceNotReached`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distance: Option<f64>,
+    /// What the plant says, with its figures (for logs and reports).
+    pub message: String,
+}
+
+impl Failure {
+    /// A failure of `cause`, described by `message`.
+    pub fn new(cause: FailureCause, message: impl Into<String>) -> Self {
+        Failure {
+            cause,
+            distance: None,
+            message: message.into(),
+        }
+    }
+
+    /// A failure of `cause` that stopped `distance` (m) from its goal.
+    pub fn short_of(cause: FailureCause, distance: f64, message: impl Into<String>) -> Self {
+        Failure {
+            cause,
+            distance: Some(distance),
+            message: message.into(),
+        }
+    }
+
+    /// The effector could not get where the action needed it: no solution for its pose, or its
+    /// approach stopped on the way (something in its path) — the resource failed, not the object.
+    pub fn effector_blocked(&self) -> bool {
+        matches!(self.cause, FailureCause::OutOfReach | FailureCause::ApproachNotReached)
+    }
+}
+
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+/// The kinds of [`Failure`] a plant reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FailureCause {
+    /// No pose of the effector solves the action's goal (inverse kinematics found none).
+    OutOfReach,
+    /// The approach to the object (a pose above it, before the final move) was not reached: the
+    /// arm stopped on the way.
+    ApproachNotReached,
+    /// The final move onto the object stopped short of its goal (on the object or on something
+    /// where the fingers should have passed).
+    StoppedShort,
+    /// The action's object is not seen (no tracked segment, not found by a search).
+    NotSeen,
+    /// The object left the table, or is nowhere to be seen any more.
+    Gone,
+    /// The object moved before the hand closed, or may have moved under it.
+    Moved,
+    /// The hand closed without opposing contacts.
+    NoGrasp,
+    /// The object was not held after the lift.
+    NotLifted,
+    /// The carried object was lost on the way.
+    Dropped,
+    /// The carried object met an obstacle on the way.
+    Obstructed,
+    /// The place was not reached.
+    PlaceNotReached,
+    /// The fingertips still feel the object after the hand opened.
+    NotReleased,
+    /// What the action needs first is not there (nothing grasped to hold, nothing held to place).
+    Precondition,
+    /// The plant has no controller for the action.
+    NoController,
 }
 
 /// A plant the executive can drive: it runs abstract actions bound by ψ and reports the observation
@@ -74,7 +158,7 @@ pub trait ProceduralPolicy {
 
     /// `action`, bound as `binding` in `state`, did not converge (`why`): ψ may bind other resources
     /// next time (another arm, a hand-over; §3.3.3). The default keeps the binding.
-    fn failed(&mut self, _schema: &Schema, _state: &str, _action: &str, _binding: &Binding, _why: &str) {}
+    fn failed(&mut self, _schema: &Schema, _state: &str, _action: &str, _binding: &Binding, _why: &Failure) {}
 }
 
 /// One step of an execution.

@@ -43,7 +43,9 @@ pub mod percept;
 pub mod procedural;
 
 pub use error::SchemaError;
-pub use executive::{ActionOutcome, Binding, ExecReport, ProceduralPolicy, SchemaPlant, StepEvent, execute};
+pub use executive::{
+    ActionOutcome, Binding, ExecReport, Failure, FailureCause, ProceduralPolicy, SchemaPlant, StepEvent, execute,
+};
 pub use infer::{Engine, Inference, InferenceConfig, Instance, Posterior};
 pub use library::{Action, Expect, Library, Schema};
 pub use monitor::{Hit, MonitorBank, MonitorConfig, Observation};

@@ -20,7 +20,8 @@ pub const LIBRARY_VERSION: u32 = 1;
 pub struct Action {
     /// Unique name; also the monitor-set name in observation vectors.
     pub name: String,
-    /// The potential φ: `quadratic` or `force_residual`.
+    /// The potential φ: `quadratic`, `force_residual` (an opposing grasp) or `contact` (a
+    /// fingertip touching, no opposing force required).
     pub potential: String,
     /// The coordinate frame of the feedback element F_f (e.g. `segment_centroid`, `place_region`).
     pub feedback: String,
@@ -241,10 +242,13 @@ impl Library {
                     ));
                 }
             }
-            if !matches!(a.potential.as_str(), "quadratic" | "force_residual") {
+            if !matches!(a.potential.as_str(), "quadratic" | "force_residual" | "contact") {
                 return Err(inv(
                     format!("action[{i}].potential"),
-                    format!("unknown potential `{}` (quadratic, force_residual)", a.potential),
+                    format!(
+                        "unknown potential `{}` (quadratic, force_residual, contact)",
+                        a.potential
+                    ),
                 ));
             }
         }

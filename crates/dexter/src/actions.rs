@@ -1,0 +1,134 @@
+//! How a schema library's abstract actions bind to Dexter's controllers: by their signature
+//! d(C) = (potential φ, feedback frame F_f, effector frame F_τ) (3.22), never by their names — a
+//! library that calls Reach `approach` runs the same controller, and a schema a user writes from the
+//! library's actions runs without code changes.
+
+use schema::Library;
+use schema::library::Action;
+
+/// One of Dexter's closed-loop skills ([`crate::skills`]), as the executive runs it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Skill {
+    /// Search-Track (§3.2.2.1): a segment foveated by both head cameras.
+    SearchTrack,
+    /// Reach to a seen segment: the approach above it, the pre-grasp, the descent to the grasp pose.
+    ReachObject,
+    /// Grasp: close the hand until opposing fingertips squeeze the object, the fingers still.
+    Grasp,
+    /// Reach ◁ Grasp to a hold height: lift the grasped object 10 cm and weigh it.
+    Hold,
+    /// Reach ◁ Place (Fig. 3.8): carry the held object over the place (or the handoff spot) and
+    /// lower it until the support takes its load.
+    Place,
+    /// Release: open the hand and retreat.
+    Release,
+    /// Touch: fingertip contact with a segment without an opposing grasp, then retreat.
+    Touch,
+}
+
+impl Skill {
+    /// Every skill.
+    pub const ALL: [Skill; 7] = [
+        Skill::SearchTrack,
+        Skill::ReachObject,
+        Skill::Grasp,
+        Skill::Hold,
+        Skill::Place,
+        Skill::Release,
+        Skill::Touch,
+    ];
+
+    /// The signature an abstract action must have to bind to this skill: (potential, feedback
+    /// frame, effector frame), as a library spells them.
+    pub fn signature(self) -> (&'static str, &'static str, &'static str) {
+        match self {
+            Skill::SearchTrack => ("quadratic", "segment_image", "head"),
+            Skill::ReachObject => ("quadratic", "segment_centroid", "arm"),
+            Skill::Grasp => ("force_residual", "fingertip_contacts", "hand"),
+            Skill::Hold => ("quadratic", "grasped_height", "arm"),
+            Skill::Place => ("quadratic", "net_force", "arm"),
+            Skill::Release => ("quadratic", "finger_flexion", "hand"),
+            Skill::Touch => ("contact", "fingertip_contacts", "hand"),
+        }
+    }
+
+    /// The skill an abstract action binds to, by its signature; `None`: Dexter has no controller
+    /// for it (e.g. `reach_place`, which Pick-And-Place never runs on its own: its Place carries).
+    pub fn of(action: &Action) -> Option<Skill> {
+        let sig = (
+            action.potential.as_str(),
+            action.feedback.as_str(),
+            action.effector.as_str(),
+        );
+        Skill::ALL.into_iter().find(|s| s.signature() == sig)
+    }
+
+    /// Whether the skill moves an arm (and so needs ψ to bind one).
+    pub fn uses_arm(self) -> bool {
+        !matches!(self, Skill::SearchTrack)
+    }
+}
+
+/// A library's actions bound to Dexter's skills (by index into `library.actions`).
+#[derive(Debug, Clone, Default)]
+pub struct SkillMap {
+    names: Vec<String>,
+    skills: Vec<Option<Skill>>,
+}
+
+impl SkillMap {
+    /// Binds every action of `library` by its signature.
+    pub fn new(library: &Library) -> Self {
+        SkillMap {
+            names: library.actions.iter().map(|a| a.name.clone()).collect(),
+            skills: library.actions.iter().map(Skill::of).collect(),
+        }
+    }
+
+    /// The skill the action named `action` binds to.
+    pub fn skill(&self, action: &str) -> Option<Skill> {
+        self.names.iter().position(|n| n == action).and_then(|i| self.skills[i])
+    }
+
+    /// The index (into the library's actions, = the entry of x) of the first action bound to
+    /// `skill`.
+    pub fn index(&self, skill: Skill) -> Option<usize> {
+        self.skills.iter().position(|s| *s == Some(skill))
+    }
+
+    /// The name of the first action bound to `skill`.
+    pub fn name(&self, skill: Skill) -> Option<&str> {
+        self.index(skill).map(|i| self.names[i].as_str())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_builtin_library_binds_by_signature_and_a_renamed_action_binds_the_same() {
+        let lib = Library::builtin();
+        let map = SkillMap::new(&lib);
+        assert_eq!(map.skill("reach_object"), Some(Skill::ReachObject));
+        assert_eq!(map.skill("grasp"), Some(Skill::Grasp));
+        assert_eq!(map.skill("touch"), Some(Skill::Touch));
+        assert_eq!(map.skill("place"), Some(Skill::Place));
+        assert_eq!(map.skill("reach_place"), None);
+        assert_eq!(map.skill("no_such_action"), None);
+        // Every skill has exactly one action in the built-in library.
+        for s in Skill::ALL {
+            assert_eq!(
+                lib.actions.iter().filter(|a| Skill::of(a) == Some(s)).count(),
+                1,
+                "{s:?}"
+            );
+        }
+        // The name does not matter, the signature does.
+        let mut renamed = lib.actions[lib.action("reach_object").unwrap()].clone();
+        renamed.name = "approach".into();
+        assert_eq!(Skill::of(&renamed), Some(Skill::ReachObject));
+        renamed.effector = "head".into();
+        assert_eq!(Skill::of(&renamed), None);
+    }
+}

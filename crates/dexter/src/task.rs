@@ -1,0 +1,353 @@
+//! The robot's task loop (seed §4.3.2, §5.3): look over the table, decide per seen segment (a
+//! learned procedural model's relevance and place, or a demonstration's place), bind ψ's arms and
+//! run the schema through [`schema::execute`] on each relevant segment, and report per segment what
+//! it did and what its own monitors concluded.
+//!
+//! Everything here is the robot's: it runs on any [`control_basis::Hardware`] through a
+//! [`RobotPlant`] and reads only the robot's percepts. A world that wants to judge the outcome (the
+//! simulator's evaluator) listens through a [`TaskSink`]: it is told which segment the robot takes
+//! up, what it decided and when it is done, and may let time pass then (the robot holding still)
+//! before it looks at its own truth.
+
+use std::collections::BTreeMap;
+
+use control_basis::Hardware;
+use control_basis::math::Vec3;
+use schema::procedural::{Features, ProceduralModel};
+use schema::{ExecReport, Library, SegmentPercept};
+
+use crate::error::RobotError;
+use crate::exec::{ArmPolicy, RobotPlant, Workspace};
+
+/// How long (s) the robot looks at each of [`Workspace::scan_points`] when it looks over the table.
+pub const SCAN_LOOK_SECS: f64 = 0.6;
+/// How long (s) the robot holds still after a schema finished (an object set down may still roll)
+/// before it turns to the next segment.
+pub const SETTLE_AFTER_SECS: f64 = 0.5;
+/// A segment farther than this (m, on the table) from the point a user pointed at is not the one
+/// meant ([`Task::only_near`]).
+pub const POINTED_RADIUS: f64 = 0.08;
+
+/// How the robot decides per segment.
+#[derive(Debug, Clone)]
+pub enum Decider<'a> {
+    /// Every segment goes to this place (a demonstration's place).
+    Place(String),
+    /// A learned procedural model: relevance and place per segment.
+    Model(&'a ProceduralModel),
+}
+
+/// What to do with one seen segment: a place or a reason to leave it.
+#[derive(Debug, Clone)]
+pub struct Decision {
+    /// The robot's segment (track id).
+    pub segment: u32,
+    /// Where it was seen (m, world).
+    pub at: [f64; 3],
+    /// `Ok(place)` to execute, `Err(reason)` to ignore.
+    pub place: Result<String, String>,
+    /// Posterior over places.
+    pub posterior: BTreeMap<String, f64>,
+    /// log B10 of task relevance.
+    pub log_bayes_factor: Option<f64>,
+    /// Why.
+    pub reason: String,
+}
+
+impl Decision {
+    /// The event of this decision as taken: `decision` (`execute`, `ignore`, `skip`), the place and
+    /// arms if any, and why.
+    pub fn event<'a>(
+        &'a self,
+        decision: &'a str,
+        place: Option<&'a str>,
+        arms: Option<[&'a str; 2]>,
+        reason: &'a str,
+    ) -> DecisionEvent<'a> {
+        DecisionEvent {
+            segment: self.segment,
+            decision,
+            place,
+            posterior: &self.posterior,
+            log_bayes_factor: self.log_bayes_factor,
+            arms,
+            reason,
+        }
+    }
+}
+
+/// What the robot decided for one seen segment, from its own percepts ([`TaskSink::decided`]).
+#[derive(Debug, Clone, Copy)]
+pub struct DecisionEvent<'a> {
+    /// The robot's segment (track id).
+    pub segment: u32,
+    /// `execute`, `ignore` (not part of the task) or `skip` (out of reach).
+    pub decision: &'a str,
+    /// The place chosen, if any.
+    pub place: Option<&'a str>,
+    /// Posterior over places (from a model; empty otherwise).
+    pub posterior: &'a BTreeMap<String, f64>,
+    /// ln B10 of task relevance (from a model).
+    pub log_bayes_factor: Option<f64>,
+    /// The arm that picks and the arm that places (the same unless it is a hand-to-hand transfer).
+    pub arms: Option<[&'a str; 2]>,
+    /// Why.
+    pub reason: &'a str,
+}
+
+/// The procedural model's decision on the robot's own percepts: relevance (ln B10 against the
+/// model's threshold, 5.24) and the MAP place (5.27) for every segment; a place that is not in
+/// `places` (this workspace) is a reason to leave the segment.
+pub fn decide(
+    model: &ProceduralModel,
+    places: &[String],
+    segments: &[SegmentPercept],
+) -> Result<Vec<Decision>, RobotError> {
+    let mut out = Vec::with_capacity(segments.len());
+    for seg in segments {
+        let p = model.predict(&Features::from(seg))?;
+        let posterior: BTreeMap<String, f64> = p.places.iter().cloned().collect();
+        let lb = p.relevance.bayes_factor.log_b10;
+        let place = if !p.relevance.relevant {
+            Err(format!(
+                "not part of the task (ln B10 = {lb:.1} ≤ {:.1})",
+                p.relevance.log_threshold
+            ))
+        } else if !places.contains(&p.map_place) {
+            Err(format!("its place `{}` is not in this scene", p.map_place))
+        } else {
+            Ok(p.map_place.clone())
+        };
+        out.push(Decision {
+            segment: seg.id,
+            at: seg.centroid,
+            reason: format!(
+                "MAP place {} (p = {:.3}), ln B10 = {lb:.1}",
+                p.map_place, p.map_probability
+            ),
+            place,
+            posterior,
+            log_bayes_factor: Some(lb),
+        });
+    }
+    Ok(out)
+}
+
+/// The robot looks over the table ([`Workspace::scan_points`], [`SCAN_LOOK_SECS`] each; the
+/// tracker gathers what is there) and returns its tracked segments outside the places: what it
+/// decides on before a task.
+pub fn look_over_table(plant: &mut RobotPlant<'_>) -> Result<Vec<SegmentPercept>, RobotError> {
+    let ws = plant.workspace();
+    for at in ws.scan_points() {
+        plant.look(&at, SCAN_LOOK_SECS)?;
+    }
+    Ok(plant
+        .last_percept()
+        .map(|p| {
+            p.segments
+                .iter()
+                .filter(|s| !ws.places.iter().any(|pl| pl.contains([s.centroid[0], s.centroid[1]])))
+                .cloned()
+                .collect()
+        })
+        .unwrap_or_default())
+}
+
+/// A task for [`run_task`].
+#[derive(Debug, Clone)]
+pub struct Task<'a> {
+    /// The schema library (actions, schemas).
+    pub library: &'a Library,
+    /// The schema to run per relevant segment.
+    pub schema: &'a str,
+    /// How the robot decides per segment.
+    pub decider: Decider<'a>,
+    /// A user pointed at this spot on the table (m, world x, y): only the seen segment nearest it,
+    /// within [`POINTED_RADIUS`], is decided on. `None`: every segment seen.
+    pub only_near: Option<[f64; 2]>,
+    /// How many actions the executive may take per segment.
+    pub max_actions: usize,
+}
+
+/// What the robot did with one decision.
+#[derive(Debug, Clone)]
+pub enum Taken {
+    /// Not part of the task (the decision's reason says why).
+    Ignored {
+        /// Why.
+        why: String,
+    },
+    /// Part of the task, but no arm reaches the segment, or none reaches the place.
+    Skipped {
+        /// The place decided.
+        place: String,
+        /// Why.
+        why: String,
+    },
+    /// The schema ran on it.
+    Executed {
+        /// The place decided.
+        place: String,
+        /// Arms used, in order (`left`, `right`).
+        arms: Vec<String>,
+        /// ψ bound a hand-to-hand transfer.
+        transfer: bool,
+        /// Contingencies the executive took, then ψ's rebindings, in order.
+        contingencies: Vec<String>,
+        /// The executive's report (its steps; whether its monitors saw the goal state).
+        execution: ExecReport,
+    },
+}
+
+/// One seen segment: the decision and what the robot did with it.
+#[derive(Debug, Clone)]
+pub struct SegmentRun {
+    /// The decision.
+    pub decision: Decision,
+    /// What was done.
+    pub taken: Taken,
+}
+
+impl SegmentRun {
+    /// The robot's own verdict: the schema ran and its monitors saw the goal state.
+    pub fn reached_goal(&self) -> bool {
+        matches!(&self.taken, Taken::Executed { execution, .. } if execution.reached_goal)
+    }
+}
+
+/// Listens to [`run_task`]. Every method has a default that ignores it.
+pub trait TaskSink {
+    /// The robot takes up `decision` (before anything is done about it).
+    fn begin(&mut self, _hw: &dyn Hardware, _decision: &Decision) {}
+    /// The robot decided what to do with the segment, before it acts on it.
+    fn decided(&mut self, _hw: &dyn Hardware, _event: &DecisionEvent<'_>) {}
+    /// The robot turns to the segment to put it in `place` (it looks there next).
+    fn acting(&mut self, _hw: &dyn Hardware, _decision: &Decision, _place: &str) {}
+    /// The robot is done with one segment (after [`SETTLE_AFTER_SECS`] when it acted). A listener
+    /// may let time pass here with `plant.settle` (the robot holds still), e.g. to judge an outcome.
+    fn done(&mut self, _plant: &mut RobotPlant<'_>, _run: &SegmentRun) -> Result<(), RobotError> {
+        Ok(())
+    }
+}
+
+/// A [`TaskSink`] that ignores everything.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct NoTaskSink;
+
+impl TaskSink for NoTaskSink {}
+
+/// Runs `task` on `plant`: looks over the table, decides per seen segment, and for each relevant
+/// one looks where it was decided on, finds its track again (the tracker may have lost or
+/// re-identified it while the robot worked elsewhere), plans the handoff spot, lets ψ bind the arms
+/// ([`ArmPolicy`]: one arm, or a hand-to-hand transfer) and runs the schema. Returns, per
+/// decision in order, what the robot did.
+pub fn run_task(
+    plant: &mut RobotPlant<'_>,
+    task: &Task<'_>,
+    sink: &mut dyn TaskSink,
+) -> Result<Vec<SegmentRun>, RobotError> {
+    let schema = task.library.schema(task.schema)?.clone();
+    let ws: &Workspace = plant.workspace();
+    let mut seen = look_over_table(plant)?;
+    if let Some(p) = task.only_near {
+        let d = |s: &SegmentPercept| (s.centroid[0] - p[0]).hypot(s.centroid[1] - p[1]);
+        seen.retain(|s| d(s) < POINTED_RADIUS);
+        seen.sort_by(|a, b| d(a).total_cmp(&d(b)));
+        seen.truncate(1);
+    }
+    let place_names: Vec<String> = ws.places.iter().map(|p| p.name.clone()).collect();
+    let decisions = match &task.decider {
+        Decider::Place(p) => seen
+            .iter()
+            .map(|s| Decision {
+                segment: s.id,
+                at: s.centroid,
+                place: Ok(p.clone()),
+                posterior: BTreeMap::new(),
+                log_bayes_factor: None,
+                reason: format!("the demonstration placed its object in {p}"),
+            })
+            .collect(),
+        Decider::Model(model) => decide(model, &place_names, &seen)?,
+    };
+    let mut runs = Vec::with_capacity(decisions.len());
+    for d in decisions {
+        sink.begin(&*plant.hw, &d);
+        let taken = run_one(plant, task, &schema, &d, sink)?;
+        let run = SegmentRun { decision: d, taken };
+        sink.done(plant, &run)?;
+        runs.push(run);
+    }
+    Ok(runs)
+}
+
+/// One decision of [`run_task`].
+fn run_one(
+    plant: &mut RobotPlant<'_>,
+    task: &Task<'_>,
+    schema: &schema::Schema,
+    d: &Decision,
+    sink: &mut dyn TaskSink,
+) -> Result<Taken, RobotError> {
+    let place = match &d.place {
+        Err(why) => {
+            sink.decided(&*plant.hw, &d.event("ignore", None, None, why));
+            return Ok(Taken::Ignored { why: why.clone() });
+        }
+        Ok(p) => p.clone(),
+    };
+    sink.acting(&*plant.hw, d, &place);
+    // Look where it was decided on, then find it: its track, or the seen segment nearest where it
+    // was decided on, looking there and, failing that, over the table.
+    plant.look(&Vec3::from(d.at), SCAN_LOOK_SECS)?;
+    let by_id = plant.last_percept().and_then(|p| {
+        p.segments
+            .iter()
+            .find(|s| s.id == d.segment)
+            .map(|s| (s.id, Vec3::from(s.centroid)))
+    });
+    let now = match by_id {
+        Some(found) => Some(found),
+        None => plant.find(&Vec3::from(d.at))?,
+    };
+    let (segment_now, at) = now.unwrap_or((d.segment, Vec3::from(d.at)));
+    plant.set_destination(Some(&place));
+    plant.plan_handoff(&at)?;
+    let handoff = plant.handoff();
+    let policy = ArmPolicy::decide(
+        &*plant.hw,
+        plant.workspace(),
+        task.library,
+        &segment_now.to_string(),
+        &at,
+        Some(&place),
+        handoff,
+    )?;
+    let Some(mut policy) = policy else {
+        let why = format!("no arm reaches segment {}, or none reaches `{place}`", d.segment);
+        sink.decided(&*plant.hw, &d.event("skip", Some(&place), None, &why));
+        return Ok(Taken::Skipped { place, why });
+    };
+    let arms = [policy.pick_arm.prefix(), policy.place_arm.prefix()];
+    sink.decided(&*plant.hw, &d.event("execute", Some(&place), Some(arms), &d.reason));
+    plant.bind_arms(&[policy.pick_arm, policy.place_arm]);
+    let arms_before = plant.arms_used.len();
+    let execution = schema::execute(task.library, schema, plant, &mut policy, task.max_actions)?;
+    let arms: Vec<String> = plant.arms_used[arms_before..]
+        .iter()
+        .map(|a| a.prefix().to_string())
+        .collect();
+    plant.settle(SETTLE_AFTER_SECS)?;
+    Ok(Taken::Executed {
+        place,
+        arms,
+        transfer: policy.is_transfer(),
+        contingencies: execution
+            .contingencies
+            .iter()
+            .chain(&policy.rebindings)
+            .cloned()
+            .collect(),
+        execution,
+    })
+}
