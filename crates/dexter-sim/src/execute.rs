@@ -11,6 +11,8 @@ use std::rc::Rc;
 
 use control_basis::Hardware;
 use control_basis::math::Vec3;
+use dexter::Arm;
+use dexter::actions::Skill;
 use dexter::exec::{ExecSink, RobotPlant};
 use dexter::eyes::Eyes;
 pub use dexter::task::{Decider, Decision, DecisionEvent, Task};
@@ -81,7 +83,8 @@ pub struct ObjectReport {
     pub execution: Option<ExecReport>,
     /// Where the object ended, and whether it is inside the chosen place.
     pub final_position: [f64; 3],
-    /// Object at rest inside the chosen place.
+    /// The schema's goal met in the world, judged from the truth ([`GoalKind`]): for
+    /// Pick-And-Place, the object at rest inside the chosen place.
     pub success: bool,
     /// Why it failed, by phase (`perception`, `decision`, `reach`, `grasp`, `hold`, `place`,
     /// `release`, `outcome`), when it did.
@@ -130,7 +133,8 @@ pub struct ExecuteReport {
     pub schema: String,
     /// Per object.
     pub objects: Vec<ObjectReport>,
-    /// Relevant objects placed in their chosen place.
+    /// Relevant objects whose outcome meets the schema's goal (placed in their chosen place, for
+    /// Pick-And-Place).
     pub placed: usize,
     /// Objects decided relevant.
     pub relevant: usize,
@@ -174,8 +178,10 @@ impl std::fmt::Display for ExecuteReport {
                 },
                 match o.decision.as_str() {
                     "execute" =>
-                        if o.success {
+                        if o.success && o.place.is_some() {
                             "PLACED".to_string()
+                        } else if o.success {
+                            "DONE".to_string()
                         } else {
                             format!("FAILED ({})", o.failure.as_deref().unwrap_or("?"))
                         },
@@ -185,7 +191,12 @@ impl std::fmt::Display for ExecuteReport {
         }
         writeln!(
             out,
-            "placed {}/{} relevant objects in {:.1} s simulated ({:.1} s wall){}",
+            "{} {}/{} relevant objects in {:.1} s simulated ({:.1} s wall){}",
+            if r.objects.iter().any(|o| o.place.is_some()) {
+                "placed"
+            } else {
+                "done with"
+            },
             r.placed,
             r.relevant,
             r.sim_time,
@@ -202,6 +213,23 @@ struct Shared<'l> {
     names: Vec<String>,
     last_activity: String,
     objects: Vec<ObjectState>,
+    /// The object under judgement (the evaluator's match of the segment the robot works on), with
+    /// what the evaluator watches while the robot works: its highest centre (m) and the hands'
+    /// parts on it.
+    watched: Option<Watched>,
+    /// Whether the evaluator needs to know whether and how a hand touches the watched object (any
+    /// task but Pick-And-Place, whose outcome is where the object rests).
+    watch_hands: bool,
+}
+
+/// What the evaluator saw of one object while the robot worked on it.
+#[derive(Debug, Clone, Copy)]
+struct Watched {
+    object: usize,
+    start: [f64; 3],
+    max_z: f64,
+    /// Parts of a hand (palm, fingers; the more of the two hands) touching it at the last step.
+    parts_now: usize,
 }
 
 impl Shared<'_> {
@@ -209,10 +237,74 @@ impl Shared<'_> {
         self.objects.clear();
         self.objects
             .extend((0..sim.objects().len()).map(|i| sim.object_state(i)));
+        if let Some(w) = self.watched.as_mut() {
+            w.max_z = w.max_z.max(self.objects[w.object].pose.translation.z);
+            if self.watch_hands {
+                w.parts_now = Arm::BOTH
+                    .into_iter()
+                    .map(|a| sim.hand_wrench_on_object(a, w.object).2)
+                    .max()
+                    .unwrap_or(0);
+            }
+        }
         let Shared { log, last_activity, .. } = self;
         log.world(sim, last_activity);
     }
 }
+
+/// What a schema's goal means in the world, by the skills the schema is made of — how the
+/// evaluator judges it from the truth.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GoalKind {
+    /// The object at rest inside the chosen place (Pick-And-Place).
+    Placed,
+    /// The object held in the air at the end (Pick-And-Hold): a hand touches it and it is at
+    /// least [`LIFTED`] above where it stood.
+    Held,
+    /// The object was lifted at least [`LIFTED`] and let go (Hand-Over): no hand touches it at
+    /// the end.
+    HandedOver,
+    /// A hand touches the object at the end and it stayed where it was (Reach-And-Touch): moved
+    /// less than [`TOUCH_DISPLACEMENT`].
+    Touched,
+    /// The object grasped where it stands (Reach-Grasp): two parts of a hand touch it at the end.
+    Grasped,
+}
+
+impl GoalKind {
+    /// The goal of `schema`, from its actions' skills.
+    pub fn of(library: &schema::Library, schema: &schema::Schema) -> GoalKind {
+        let skills = dexter::actions::SkillMap::new(library);
+        let has = |k: Skill| schema.actions.iter().any(|&a| skills.at(a) == Some(k));
+        if has(Skill::Place) {
+            GoalKind::Placed
+        } else if has(Skill::Touch) {
+            GoalKind::Touched
+        } else if has(Skill::Hold) && has(Skill::Release) {
+            GoalKind::HandedOver
+        } else if has(Skill::Hold) {
+            GoalKind::Held
+        } else {
+            GoalKind::Grasped
+        }
+    }
+
+    /// What failed when the goal was not met in the world although the robot's monitors saw it.
+    fn unmet(self) -> &'static str {
+        match self {
+            GoalKind::Placed => "outcome: not at rest inside the place",
+            GoalKind::Held => "outcome: not held in the air at the end",
+            GoalKind::HandedOver => "outcome: not lifted and let go",
+            GoalKind::Touched => "outcome: not touched, or moved by the touch",
+            GoalKind::Grasped => "outcome: not grasped at the end",
+        }
+    }
+}
+
+/// How far (m) above where it stood an object must have risen to count as lifted.
+pub const LIFTED: f64 = 0.05;
+/// How far (m, on the table) a touched object may have moved and still count as touched in place.
+pub const TOUCH_DISPLACEMENT: f64 = 0.05;
 
 /// The robot side's sink: activity changes and percepts (with the truth beside them).
 struct RobotSink<'l>(Rc<RefCell<Shared<'l>>>);
@@ -298,6 +390,9 @@ pub fn pointed_at(scene: &Scene, label: &str) -> Result<[f64; 2], SimError> {
 /// done with it (waiting, the robot holding still, for the object to come to rest).
 struct Judge<'s, 'l> {
     scene: &'s Scene,
+    /// The schema the robot runs, and what its goal means in the world.
+    schema: String,
+    goal: GoalKind,
     logger: Rc<RefCell<Shared<'l>>>,
     truth0: Vec<ObjectState>,
     labels: Vec<String>,
@@ -310,6 +405,31 @@ struct Judge<'s, 'l> {
 }
 
 impl Judge<'_, '_> {
+    /// Whether object `i`, now `o`, meets the task's goal (`place`: the place decided;
+    /// `watched`: what the evaluator saw while the robot worked on it).
+    fn met(&self, i: usize, o: &ObjectState, place: Option<&str>, watched: Option<Watched>) -> bool {
+        let p = o.pose.translation.vector;
+        let at_rest = o.linvel.norm() < AT_REST_SPEED;
+        let w = watched.filter(|w| w.object == i);
+        let in_hand = || w.is_some_and(|w| w.parts_now >= 2);
+        match self.goal {
+            GoalKind::Placed => {
+                let inside = place
+                    .and_then(|name| self.scene.place(name).ok())
+                    .is_some_and(|spec| spec.contains([p.x, p.y]) && p.z < self.table_z + spec.wall_height + 0.2);
+                inside && at_rest
+            }
+            GoalKind::Held => w.is_some_and(|w| p.z >= w.start[2] + LIFTED) && in_hand(),
+            GoalKind::HandedOver => w.is_some_and(|w| w.max_z >= w.start[2] + LIFTED && w.parts_now == 0),
+            GoalKind::Touched => w.is_some_and(|w| {
+                w.parts_now > 0
+                    && (p.x - w.start[0]).hypot(p.y - w.start[1]) < TOUCH_DISPLACEMENT
+                    && (p.z - w.start[2]).abs() < TOUCH_DISPLACEMENT
+            }),
+            GoalKind::Grasped => in_hand(),
+        }
+    }
+
     /// Which object a segment seen at `c` is: the nearest at the start, within 8 cm.
     fn match_object(&self, c: &[f64; 3]) -> Option<usize> {
         self.truth0
@@ -356,12 +476,23 @@ impl TaskSink for Judge<'_, '_> {
         self.logger.borrow_mut().log.decision(hw.time_secs(), event);
     }
 
-    fn acting(&mut self, hw: &dyn Hardware, d: &Decision, place: &str) {
+    fn acting(&mut self, hw: &dyn Hardware, d: &Decision, place: Option<&str>) {
         let label = self.label();
-        self.logger
-            .borrow_mut()
-            .log
-            .activity(hw.time_secs(), &format!("{label} (segment {}) → {place}", d.segment));
+        let mut l = self.logger.borrow_mut();
+        l.watched = self.current.0.map(|i| {
+            let v = l.objects[i].pose.translation.vector;
+            Watched {
+                object: i,
+                start: [v.x, v.y, v.z],
+                max_z: v.z,
+                parts_now: 0,
+            }
+        });
+        let what = match place {
+            Some(p) => format!("{label} (segment {}) → {p}", d.segment),
+            None => format!("{label} (segment {}): {}", d.segment, self.schema),
+        };
+        l.log.activity(hw.time_secs(), &what);
     }
 
     fn done(&mut self, plant: &mut RobotPlant<'_>, run: &SegmentRun) -> Result<(), dexter::RobotError> {
@@ -385,7 +516,7 @@ impl TaskSink for Judge<'_, '_> {
                 Some(d.segment),
                 "skip",
                 why.clone(),
-                Some(place.clone()),
+                place.clone(),
                 d.posterior.clone(),
                 d.log_bayes_factor,
                 self.final_position(d.at),
@@ -399,23 +530,23 @@ impl TaskSink for Judge<'_, '_> {
                 execution,
             } => {
                 // Let the object come to rest (an object set down on its side may roll for a
-                // while inside the place, until a wall stops it), then judge by the truth.
-                if let Some(i) = obj {
+                // while inside the place, until a wall stops it), then judge by the truth. An
+                // object held in the air is judged as it is.
+                if let Some(i) = obj
+                    && self.goal != GoalKind::Held
+                {
                     let mut waited = 0.0;
                     while waited < JUDGE_REST_SECS && self.logger.borrow().objects[i].linvel.norm() >= AT_REST_SPEED {
                         plant.settle(0.25)?;
                         waited += 0.25;
                     }
                 }
+                let watched = self.logger.borrow_mut().watched.take();
                 let (success, final_position) = match obj {
                     Some(i) => {
                         let o = self.logger.borrow().objects[i];
                         let p = o.pose.translation.vector;
-                        let inside = self
-                            .scene
-                            .place(place)
-                            .is_ok_and(|spec| spec.contains([p.x, p.y]) && p.z < self.table_z + spec.wall_height + 0.2);
-                        (inside && o.linvel.norm() < AT_REST_SPEED, [p.x, p.y, p.z])
+                        (self.met(i, &o, place.as_deref(), watched), [p.x, p.y, p.z])
                     }
                     None => (false, d.at),
                 };
@@ -423,7 +554,7 @@ impl TaskSink for Judge<'_, '_> {
                 let failure = if duplicate {
                     Some("perception: a second segment of an object already decided on (a duplicate track)".into())
                 } else {
-                    (!success).then(|| failure_cause(execution, obj.is_some()))
+                    (!success).then(|| failure_cause(execution, obj.is_some(), self.goal))
                 };
                 self.logger
                     .borrow_mut()
@@ -434,7 +565,7 @@ impl TaskSink for Judge<'_, '_> {
                     segment: Some(d.segment),
                     decision: "execute".into(),
                     reason: d.reason.clone(),
-                    place: Some(place.clone()),
+                    place: place.clone(),
                     posterior: d.posterior.clone(),
                     log_bayes_factor: d.log_bayes_factor,
                     arms: arms.clone(),
@@ -476,8 +607,6 @@ pub fn execute_scene_with_fault(
     fault: Option<&FaultSpec>,
     log: &mut dyn RunLog,
 ) -> Result<ExecuteReport, SimError> {
-    // An unknown schema is the caller's error, before any world is built.
-    task.library.schema(task.schema)?;
     let mut sim = parked_sim(
         scene,
         SimSettings {
@@ -487,11 +616,14 @@ pub fn execute_scene_with_fault(
     )?;
     let truth0: Vec<ObjectState> = (0..sim.objects().len()).map(|i| sim.object_state(i)).collect();
     let names = sim.header().object_names.clone();
+    let goal = GoalKind::of(task.library, task.library.schema(task.schema)?);
     let logger = Rc::new(RefCell::new(Shared {
         log,
         names,
         last_activity: String::new(),
         objects: truth0.clone(),
+        watched: None,
+        watch_hands: goal != GoalKind::Placed,
     }));
     let wall = std::time::Instant::now();
     let t_start = sim.time();
@@ -509,6 +641,8 @@ pub fn execute_scene_with_fault(
     let mut sink = RobotSink(logger.clone());
     let mut judge = Judge {
         scene,
+        schema: task.schema.to_string(),
+        goal,
         logger: logger.clone(),
         matched: vec![false; truth0.len()],
         truth0,
@@ -572,7 +706,7 @@ const JUDGE_REST_SECS: f64 = 3.0;
 
 /// The phase an unsuccessful execution failed in: the first failed action of the executive, else
 /// the outcome.
-fn failure_cause(exec: &ExecReport, matched: bool) -> String {
+fn failure_cause(exec: &ExecReport, matched: bool, goal: GoalKind) -> String {
     if !matched {
         return "perception: the segment matches no object".into();
     }
@@ -605,7 +739,7 @@ fn failure_cause(exec: &ExecReport, matched: bool) -> String {
     // The schema reached its goal by the robot's own monitors (a failure on the way was
     // recovered from): what failed is the outcome.
     if exec.reached_goal {
-        return "outcome: not at rest inside the place".into();
+        return goal.unmet().into();
     }
     match exec.steps.iter().rev().find_map(|s| match &s.outcome {
         schema::ActionOutcome::Failed(why) => Some((phase(&s.action), why.clone())),

@@ -90,6 +90,11 @@ impl SkillMap {
         self.names.iter().position(|n| n == action).and_then(|i| self.skills[i])
     }
 
+    /// The skill the library's action at `index` binds to.
+    pub fn at(&self, index: usize) -> Option<Skill> {
+        self.skills.get(index).copied().flatten()
+    }
+
     /// The index (into the library's actions, = the entry of x) of the first action bound to
     /// `skill`.
     pub fn index(&self, skill: Skill) -> Option<usize> {

@@ -29,7 +29,7 @@ use crate::eyes::Eyes;
 use crate::skills::{
     GraspPlan, Held, MIN_LOAD, Observer, SeenObject, TouchState, approach_grasp, close_grasp, finger_arc,
     hand_fingertips, idle, lift_and_weigh, lower_until_supported, park_pose, plan_top_grasp, reachable,
-    release_and_retreat, run_until, stow_pose, transport_over,
+    release_and_retreat, run_until, stow_pose, touch_object, transport_over,
 };
 use crate::watch::Watcher;
 
@@ -800,6 +800,13 @@ impl<'a> RobotPlant<'a> {
         Ok(seen)
     }
 
+    /// Whether `arm`'s hand holds something: two fingertips loaded with at least [`MIN_LOAD`]
+    /// between them (an object a schema left in it, e.g. Pick-And-Hold's).
+    pub fn holds(&self, arm: Arm) -> bool {
+        let t = self.touch(arm);
+        t.holding() && t.load >= MIN_LOAD
+    }
+
     /// The workspace the robot was told (table, places).
     pub fn workspace(&self) -> &'a Workspace {
         self.workspace
@@ -1484,7 +1491,26 @@ impl SchemaPlant for RobotPlant<'_> {
                     ActionOutcome::Converged
                 }
             }
-            Some(Skill::Touch) | None => ActionOutcome::Failed(Failure::new(
+            Some(Skill::Touch) => {
+                let arm = parse_arm(action, binding.arm.as_deref())?;
+                let k = arm.index();
+                if self.target.is_none() {
+                    ActionOutcome::Failed(Failure::new(
+                        FailureCause::Precondition,
+                        "no object to touch (no reach yet)",
+                    ))
+                } else if let Some(why) = self.object_moved() {
+                    self.back_off(arm)?;
+                    ActionOutcome::Failed(Failure::new(FailureCause::Moved, why))
+                } else {
+                    match self.with_observer(|hw, reach, hand, obs| touch_object(hw, &mut reach[k], &hand[k], obs))? {
+                        Ok(()) => ActionOutcome::Converged,
+                        // The hand stays at the object, open again: the next touch tries from there.
+                        Err(why) => ActionOutcome::Failed(why),
+                    }
+                }
+            }
+            None => ActionOutcome::Failed(Failure::new(
                 FailureCause::NoController,
                 format!("Dexter has no controller for `{action}`"),
             )),
@@ -1644,6 +1670,19 @@ impl ArmPolicy {
         // Prefer the arm on the object's side.
         let side = if object_at.y >= 0.0 { Arm::Left } else { Arm::Right };
         Ok(policy.assign(side).map(|_| policy))
+    }
+
+    /// The same policy restricted to the arms in `free` (the others hold something): `None` if
+    /// the arms it would need are not among them.
+    pub fn among(mut self, free: &[Arm]) -> Option<Self> {
+        if free.len() == Arm::BOTH.len() {
+            return Some(self);
+        }
+        self.at_object.retain(|a| free.contains(a));
+        self.at_place.retain(|a| free.contains(a));
+        self.at_handoff.retain(|a| free.contains(a));
+        let side = self.pick_arm;
+        self.assign(side).map(|_| self)
     }
 
     /// Assigns the arms among those not known to fail: one arm that reaches both the object and the

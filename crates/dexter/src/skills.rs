@@ -795,6 +795,70 @@ fn go_around(
     }
 }
 
+/// How fast (rad/s) the fingers close to touch ([`touch_object`]): slow enough that the first
+/// finger to meet the object stops on it before the others arrive.
+const TOUCH_FLEX_SPEED: f64 = 0.4;
+/// How far (rad) past the flexion at first contact the touching fingers' reference stays, so that
+/// the finger rests on the object with a light force.
+const TOUCH_PRESS: f64 = 0.10;
+
+/// Touch (the Reach-And-Touch schema's last action): from the reach's grasp pose, close the fingers
+/// slowly until a fingertip meets the object, and hold them there — contact without an opposing
+/// grasp, the Touch predicate. Fingers that met it from both sides (a squeeze) open again until one
+/// side lets go. Fails if no fingertip met anything by the time the hand is closed.
+pub fn touch_object(
+    hw: &mut dyn Hardware,
+    reach: &mut ReachControl,
+    hand: &HandControl,
+    obs: &mut Observer<'_>,
+) -> Result<(), Failure> {
+    let arm = reach.arm();
+    obs.activity = "touch";
+    let mut buf = Vec::new();
+    let dt = 1.0 / CONTROL_HZ;
+    let start = hand.flexion(hw);
+    let mut flex = start.iter().copied().fold(f64::INFINITY, f64::min);
+    let met = run_until(hw, reach, obs, 4.0, |h, _| {
+        let touch = TouchState::of(&hand_fingertips(h, arm, &mut buf));
+        if touch.loaded > 0 {
+            return true;
+        }
+        flex = (flex + TOUCH_FLEX_SPEED * dt).min(FLEX_CLOSED);
+        hand.set(h, flex, 0.0);
+        false
+    });
+    if !met {
+        return Err(Failure::new(
+            FailureCause::NoGrasp,
+            "touch: no fingertip met the object (the hand closed on nothing)",
+        ));
+    }
+    // Hold the fingers where they met it, the reference a little past the contact so that the
+    // finger keeps resting on it.
+    flex = (flex + TOUCH_PRESS).min(FLEX_CLOSED);
+    hand.set(hw, flex, 0.0);
+    idle(hw, obs, 0.3);
+    for _ in 0..10 {
+        if !TouchState::of(&hand_fingertips(hw, arm, &mut buf)).opposed {
+            break;
+        }
+        flex -= 0.05;
+        hand.set(hw, flex, 0.0);
+        idle(hw, obs, 0.1);
+    }
+    let touch = TouchState::of(&hand_fingertips(hw, arm, &mut buf));
+    if touch.loaded == 0 {
+        // Open again to where the hand started, for another try from the same pose.
+        hand.set(hw, start.iter().copied().fold(f64::INFINITY, f64::min), 0.0);
+        idle(hw, obs, 0.3);
+        return Err(Failure::new(
+            FailureCause::Moved,
+            "touch: the fingertip lost the object after it met it (it moved away)",
+        ));
+    }
+    Ok(())
+}
+
 /// Grasp (§3.1.3.3): close the hand until the Grasp predicate converges on the fingertip sensors —
 /// F3 and F1 or F2 loaded and squeezing from opposite sides, the fingers still — for 0.15 s. Returns
 /// why it did not converge.
@@ -840,8 +904,10 @@ pub fn lift_and_weigh(
     let mut buf = Vec::new();
     obs.activity = "lift";
     let z_before = reach.tool_pose(hw).translation.z;
+    // 10 cm above where the palm closed (a palm resting on the object's top closed above the
+    // planned grasp: rising from the plan would fall short of the criterion's 8 cm).
     let mut lift = plan.grasp;
-    lift.translation.vector.z += 0.10;
+    lift.translation.vector.z = z_before.max(plan.grasp.translation.z) + 0.10;
     reach.max_speed = 0.10;
     reach.set_goal(hw, lift);
     run_until(hw, reach, obs, 3.0, |h, r| r.at_goal(h, 0.005, 0.03));

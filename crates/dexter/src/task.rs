@@ -16,6 +16,8 @@ use control_basis::math::Vec3;
 use schema::procedural::{Features, ProceduralModel};
 use schema::{ExecReport, Library, SegmentPercept};
 
+use crate::Arm;
+use crate::actions::{Skill, SkillMap};
 use crate::error::RobotError;
 use crate::exec::{ArmPolicy, RobotPlant, Workspace};
 
@@ -33,6 +35,9 @@ pub const POINTED_RADIUS: f64 = 0.08;
 pub enum Decider<'a> {
     /// Every segment goes to this place (a demonstration's place).
     Place(String),
+    /// Every segment is part of the task, which puts nothing anywhere (a demonstration of a schema
+    /// with no place: Pick-And-Hold, Hand-Over, Reach-And-Touch).
+    Every,
     /// A learned procedural model: relevance and place per segment.
     Model(&'a ProceduralModel),
 }
@@ -44,8 +49,9 @@ pub struct Decision {
     pub segment: u32,
     /// Where it was seen (m, world).
     pub at: [f64; 3],
-    /// `Ok(place)` to execute, `Err(reason)` to ignore.
-    pub place: Result<String, String>,
+    /// `Ok(place)` to execute — `Ok(None)` for a task that puts nothing anywhere —, `Err(reason)`
+    /// to ignore.
+    pub place: Result<Option<String>, String>,
     /// Posterior over places.
     pub posterior: BTreeMap<String, f64>,
     /// log B10 of task relevance.
@@ -116,7 +122,7 @@ pub fn decide(
         } else if !places.contains(&p.map_place) {
             Err(format!("its place `{}` is not in this scene", p.map_place))
         } else {
-            Ok(p.map_place.clone())
+            Ok(Some(p.map_place.clone()))
         };
         out.push(Decision {
             segment: seg.id,
@@ -177,17 +183,17 @@ pub enum Taken {
         /// Why.
         why: String,
     },
-    /// Part of the task, but no arm reaches the segment, or none reaches the place.
+    /// Part of the task, but no free arm reaches the segment, or none reaches the place.
     Skipped {
-        /// The place decided.
-        place: String,
+        /// The place decided, if the task has one.
+        place: Option<String>,
         /// Why.
         why: String,
     },
     /// The schema ran on it.
     Executed {
-        /// The place decided.
-        place: String,
+        /// The place decided, if the task has one.
+        place: Option<String>,
         /// Arms used, in order (`left`, `right`).
         arms: Vec<String>,
         /// ψ bound a hand-to-hand transfer.
@@ -221,8 +227,9 @@ pub trait TaskSink {
     fn begin(&mut self, _hw: &dyn Hardware, _decision: &Decision) {}
     /// The robot decided what to do with the segment, before it acts on it.
     fn decided(&mut self, _hw: &dyn Hardware, _event: &DecisionEvent<'_>) {}
-    /// The robot turns to the segment to put it in `place` (it looks there next).
-    fn acting(&mut self, _hw: &dyn Hardware, _decision: &Decision, _place: &str) {}
+    /// The robot turns to the segment to act on it (to put it in `place`, if the task has one;
+    /// it looks there next).
+    fn acting(&mut self, _hw: &dyn Hardware, _decision: &Decision, _place: Option<&str>) {}
     /// The robot is done with one segment (after [`SETTLE_AFTER_SECS`] when it acted). A listener
     /// may let time pass here with `plant.settle` (the robot holds still), e.g. to judge an outcome.
     fn done(&mut self, _plant: &mut RobotPlant<'_>, _run: &SegmentRun) -> Result<(), RobotError> {
@@ -247,6 +254,10 @@ pub fn run_task(
     sink: &mut dyn TaskSink,
 ) -> Result<Vec<SegmentRun>, RobotError> {
     let schema = task.library.schema(task.schema)?.clone();
+    runnable(task.library, &schema).map_err(|message| RobotError::Binding {
+        action: task.schema.to_string(),
+        message,
+    })?;
     let ws: &Workspace = plant.workspace();
     let mut seen = look_over_table(plant)?;
     if let Some(p) = task.only_near {
@@ -262,10 +273,21 @@ pub fn run_task(
             .map(|s| Decision {
                 segment: s.id,
                 at: s.centroid,
-                place: Ok(p.clone()),
+                place: Ok(Some(p.clone())),
                 posterior: BTreeMap::new(),
                 log_bayes_factor: None,
                 reason: format!("the demonstration placed its object in {p}"),
+            })
+            .collect(),
+        Decider::Every => seen
+            .iter()
+            .map(|s| Decision {
+                segment: s.id,
+                at: s.centroid,
+                place: Ok(None),
+                posterior: BTreeMap::new(),
+                log_bayes_factor: None,
+                reason: format!("the demonstration's `{}` is done to every object seen", task.schema),
             })
             .collect(),
         Decider::Model(model) => decide(model, &place_names, &seen)?,
@@ -279,6 +301,29 @@ pub fn run_task(
         runs.push(run);
     }
     Ok(runs)
+}
+
+/// Whether `schema` puts its object somewhere: one of its actions binds to [`Skill::Place`].
+pub fn has_place(library: &Library, schema: &schema::Schema) -> bool {
+    let skills = SkillMap::new(library);
+    schema.actions.iter().any(|&a| skills.at(a) == Some(Skill::Place))
+}
+
+/// Whether Dexter can run `schema`: every action its policy π runs binds to one of its skills.
+/// `Err` names the first that does not.
+pub fn runnable(library: &Library, schema: &schema::Schema) -> Result<(), String> {
+    let skills = SkillMap::new(library);
+    for &a in schema.policy.iter() {
+        if skills.at(a).is_none() {
+            let act = &library.actions[a];
+            let name = &act.name;
+            return Err(format!(
+                "schema `{}` runs `{name}` ({}, {}, {}), which binds to none of Dexter's skills",
+                schema.name, act.potential, act.feedback, act.effector
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// One decision of [`run_task`].
@@ -296,7 +341,21 @@ fn run_one(
         }
         Ok(p) => p.clone(),
     };
-    sink.acting(&*plant.hw, d, &place);
+    let wants_place = has_place(task.library, schema);
+    if wants_place && place.is_none() {
+        let why = format!("`{}` puts its object in a place, and none was decided", schema.name);
+        sink.decided(&*plant.hw, &d.event("ignore", None, None, &why));
+        return Ok(Taken::Ignored { why });
+    }
+    let place = if wants_place { place } else { None };
+    // A hand still holding what an earlier segment's schema left in it (Pick-And-Hold) is not free.
+    let free: Vec<Arm> = Arm::BOTH.into_iter().filter(|&a| !plant.holds(a)).collect();
+    if free.is_empty() {
+        let why = "both hands hold an object from this task".to_string();
+        sink.decided(&*plant.hw, &d.event("skip", place.as_deref(), None, &why));
+        return Ok(Taken::Skipped { place, why });
+    }
+    sink.acting(&*plant.hw, d, place.as_deref());
     // Look where it was decided on, then find it: its track, or the seen segment nearest where it
     // was decided on, looking there and, failing that, over the table.
     plant.look(&Vec3::from(d.at), SCAN_LOOK_SECS)?;
@@ -311,7 +370,7 @@ fn run_one(
         None => plant.find(&Vec3::from(d.at))?,
     };
     let (segment_now, at) = now.unwrap_or((d.segment, Vec3::from(d.at)));
-    plant.set_destination(Some(&place));
+    plant.set_destination(place.as_deref());
     plant.plan_handoff(&at)?;
     let handoff = plant.handoff();
     let policy = ArmPolicy::decide(
@@ -320,16 +379,20 @@ fn run_one(
         task.library,
         &segment_now.to_string(),
         &at,
-        Some(&place),
+        place.as_deref(),
         handoff,
-    )?;
+    )?
+    .and_then(|p| p.among(&free));
     let Some(mut policy) = policy else {
-        let why = format!("no arm reaches segment {}, or none reaches `{place}`", d.segment);
-        sink.decided(&*plant.hw, &d.event("skip", Some(&place), None, &why));
+        let why = match &place {
+            Some(place) => format!("no free arm reaches segment {}, or none reaches `{place}`", d.segment),
+            None => format!("no free arm reaches segment {}", d.segment),
+        };
+        sink.decided(&*plant.hw, &d.event("skip", place.as_deref(), None, &why));
         return Ok(Taken::Skipped { place, why });
     };
     let arms = [policy.pick_arm.prefix(), policy.place_arm.prefix()];
-    sink.decided(&*plant.hw, &d.event("execute", Some(&place), Some(arms), &d.reason));
+    sink.decided(&*plant.hw, &d.event("execute", place.as_deref(), Some(arms), &d.reason));
     plant.bind_arms(&[policy.pick_arm, policy.place_arm]);
     let arms_before = plant.arms_used.len();
     let execution = schema::execute(task.library, schema, plant, &mut policy, task.max_actions)?;

@@ -251,24 +251,41 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
             let text = bayes::input::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
             let file = InferFile::from_json(&text, &path.display().to_string())?;
             let schema = file.inference.posterior.map.clone();
-            if schema != dexter_sim::execute::PICK_AND_PLACE {
+            if schema == "none" {
                 bail!(
-                    "{}: the demonstration was explained by `{schema}`; `pbd execute` runs pick_and_place",
+                    "{}: no schema of the library explains the demonstration (MAP: none); nothing to execute",
                     path.display()
                 );
             }
-            demo_place = match &args.place {
-                Some(p) => p.clone(),
-                None => file
-                    .inference
-                    .instances
-                    .iter()
-                    .find_map(|i| i.place.clone())
-                    .context("the inference has no instance with a place; pass --place")?,
-            };
-            scene.place(&demo_place)?;
-            schema_name = schema;
-            Decider::Place(demo_place.clone())
+            let def = library
+                .schema(&schema)
+                .with_context(|| format!("{}: its MAP schema is not in the library", path.display()))?;
+            if let Err(why) = dexter::task::runnable(&library, def) {
+                bail!(
+                    "{}: the demonstration was explained by `{schema}`: {why}",
+                    path.display()
+                );
+            }
+            if dexter::task::has_place(&library, def) {
+                demo_place = match &args.place {
+                    Some(p) => p.clone(),
+                    None => file
+                        .inference
+                        .instances
+                        .iter()
+                        .find_map(|i| i.place.clone())
+                        .context("the inference has no instance with a place; pass --place")?,
+                };
+                scene.place(&demo_place)?;
+                schema_name = schema;
+                Decider::Place(demo_place.clone())
+            } else {
+                if args.place.is_some() {
+                    bail!("--place: the demonstration's schema `{schema}` puts nothing in a place");
+                }
+                schema_name = schema;
+                Decider::Every
+            }
         }
         (None, Some(path)) => {
             if args.place.is_some() {
