@@ -807,6 +807,19 @@ impl<'a> RobotPlant<'a> {
         t.holding() && t.load >= MIN_LOAD
     }
 
+    /// Opens and retreats every hand that touches something it does not hold (a touch a schema
+    /// ended on): the next segment's monitors must not see that touch as theirs.
+    pub fn let_go_of_touches(&mut self) -> Result<(), RobotError> {
+        for arm in Arm::BOTH {
+            let t = self.touch(arm);
+            if t.loaded > 0 && !self.holds(arm) {
+                let k = arm.index();
+                self.with_observer(|hw, reach, hand, obs| release_and_retreat(hw, &mut reach[k], &hand[k], obs))?;
+            }
+        }
+        Ok(())
+    }
+
     /// The workspace the robot was told (table, places).
     pub fn workspace(&self) -> &'a Workspace {
         self.workspace
@@ -1670,6 +1683,17 @@ impl ArmPolicy {
         // Prefer the arm on the object's side.
         let side = if object_at.y >= 0.0 { Arm::Left } else { Arm::Right };
         Ok(policy.assign(side).map(|_| policy))
+    }
+
+    /// The same policy with `arm` picking first when it reaches what the task needs (the arm a
+    /// model expects the teacher would have used); else unchanged.
+    pub fn prefer(mut self, arm: Arm) -> Self {
+        let (pick, place) = (self.pick_arm, self.place_arm);
+        if self.assign(arm).is_none() || self.pick_arm != arm {
+            self.pick_arm = pick;
+            self.place_arm = place;
+        }
+        self
     }
 
     /// The same policy restricted to the arms in `free` (the others hold something): `None` if

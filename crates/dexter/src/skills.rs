@@ -830,7 +830,7 @@ pub fn touch_object(
     if !met {
         return Err(Failure::new(
             FailureCause::NoGrasp,
-            "touch: no fingertip met the object (the hand closed on nothing)",
+            "no fingertip met the object (the hand closed on nothing)",
         ));
     }
     // Hold the fingers where they met it, the reference a little past the contact so that the
@@ -853,7 +853,7 @@ pub fn touch_object(
         idle(hw, obs, 0.3);
         return Err(Failure::new(
             FailureCause::Moved,
-            "touch: the fingertip lost the object after it met it (it moved away)",
+            "the fingertip lost the object after it met it (it moved away)",
         ));
     }
     Ok(())

@@ -56,6 +56,9 @@ pub struct Decision {
     pub posterior: BTreeMap<String, f64>,
     /// log B10 of task relevance.
     pub log_bayes_factor: Option<f64>,
+    /// The arm the model expects the teacher would have used (for a task that puts nothing
+    /// anywhere, the model's reference is the arm); ψ binds it first when it can.
+    pub arm: Option<Arm>,
     /// Why.
     pub reason: String,
 }
@@ -102,12 +105,14 @@ pub struct DecisionEvent<'a> {
 }
 
 /// The procedural model's decision on the robot's own percepts: relevance (ln B10 against the
-/// model's threshold, 5.24) and the MAP place (5.27) for every segment; a place that is not in
-/// `places` (this workspace) is a reason to leave the segment.
+/// model's threshold, 5.24) and the MAP reference (5.27) for every segment. For a task with a place
+/// (`wants_place`) the reference is the place, and one that is not in `places` (this workspace) is
+/// a reason to leave the segment; otherwise it is the arm the teacher would have used.
 pub fn decide(
     model: &ProceduralModel,
     places: &[String],
     segments: &[SegmentPercept],
+    wants_place: bool,
 ) -> Result<Vec<Decision>, RobotError> {
     let mut out = Vec::with_capacity(segments.len());
     for seg in segments {
@@ -119,21 +124,25 @@ pub fn decide(
                 "not part of the task (ln B10 = {lb:.1} ≤ {:.1})",
                 p.relevance.log_threshold
             ))
+        } else if !wants_place {
+            Ok(None)
         } else if !places.contains(&p.map_place) {
             Err(format!("its place `{}` is not in this scene", p.map_place))
         } else {
             Ok(Some(p.map_place.clone()))
         };
+        let what = if wants_place { "place" } else { "arm" };
         out.push(Decision {
             segment: seg.id,
             at: seg.centroid,
             reason: format!(
-                "MAP place {} (p = {:.3}), ln B10 = {lb:.1}",
+                "MAP {what} {} (p = {:.3}), ln B10 = {lb:.1}",
                 p.map_place, p.map_probability
             ),
             place,
             posterior,
             log_bayes_factor: Some(lb),
+            arm: if wants_place { None } else { Arm::parse(&p.map_place) },
         });
     }
     Ok(out)
@@ -276,6 +285,7 @@ pub fn run_task(
                 place: Ok(Some(p.clone())),
                 posterior: BTreeMap::new(),
                 log_bayes_factor: None,
+                arm: None,
                 reason: format!("the demonstration placed its object in {p}"),
             })
             .collect(),
@@ -287,10 +297,11 @@ pub fn run_task(
                 place: Ok(None),
                 posterior: BTreeMap::new(),
                 log_bayes_factor: None,
+                arm: None,
                 reason: format!("the demonstration's `{}` is done to every object seen", task.schema),
             })
             .collect(),
-        Decider::Model(model) => decide(model, &place_names, &seen)?,
+        Decider::Model(model) => decide(model, &place_names, &seen, has_place(task.library, &schema))?,
     };
     let mut runs = Vec::with_capacity(decisions.len());
     for d in decisions {
@@ -298,6 +309,7 @@ pub fn run_task(
         let taken = run_one(plant, task, &schema, &d, sink)?;
         let run = SegmentRun { decision: d, taken };
         sink.done(plant, &run)?;
+        plant.let_go_of_touches()?;
         runs.push(run);
     }
     Ok(runs)
@@ -382,7 +394,11 @@ fn run_one(
         place.as_deref(),
         handoff,
     )?
-    .and_then(|p| p.among(&free));
+    .and_then(|p| p.among(&free))
+    .map(|p| match d.arm {
+        Some(arm) => p.prefer(arm),
+        None => p,
+    });
     let Some(mut policy) = policy else {
         let why = match &place {
             Some(place) => format!("no free arm reaches segment {}, or none reaches `{place}`", d.segment),

@@ -294,7 +294,21 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
                 );
             }
             model = schema::procedural::ProceduralModel::load(path)?;
-            schema_name = dexter_sim::execute::PICK_AND_PLACE.to_string();
+            // The schema the model's demonstrations were instances of (older models: Pick-And-Place).
+            let schema = model
+                .schema()
+                .unwrap_or(dexter_sim::execute::PICK_AND_PLACE)
+                .to_string();
+            let def = library.schema(&schema).with_context(|| {
+                format!(
+                    "{}: the model was learned from `{schema}`, which the library does not hold",
+                    path.display()
+                )
+            })?;
+            if let Err(why) = dexter::task::runnable(&library, def) {
+                bail!("{}: {why}", path.display());
+            }
+            schema_name = schema;
             Decider::Model(&model)
         }
         (None, None) => bail!("pass --demo demo.infer.json or --model model.json"),

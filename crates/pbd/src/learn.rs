@@ -86,8 +86,11 @@ pub struct ModelExplanation {
     pub sampled_sizes: Vec<(usize, f64)>,
 }
 
-/// Examples (features, place) from the Pick-And-Place instances of a demonstration file.
-pub fn examples_from(path: &Path, progress: &dyn Progress) -> Result<Vec<Example>> {
+/// Examples from the instances of a demonstration file, with each one's schema: (features,
+/// reference) where the reference is the place the teacher put the object in, for a schema that
+/// puts it somewhere (Pick-And-Place), else the arm the teacher used (Pick-And-Hold, Hand-Over,
+/// Reach-And-Touch): what ψ binds from the object's features.
+pub fn examples_from(path: &Path, progress: &dyn Progress) -> Result<Vec<(String, Example)>> {
     let file: InferFile = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap")) {
         let (percepts, _, metadata, warnings) = crate::infer::read_percepts(path)?;
         for w in &warnings {
@@ -108,30 +111,57 @@ pub fn examples_from(path: &Path, progress: &dyn Progress) -> Result<Vec<Example
         let text = bayes::input::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
         InferFile::from_json(&text, &path.display().to_string())?
     };
+    let library = Library::builtin();
     let mut out = Vec::new();
     for (i, inst) in file.inference.instances.iter().enumerate() {
-        if inst.schema != "pick_and_place" {
-            continue;
-        }
-        let (Some(seg), Some(place)) = (&inst.features, &inst.place) else {
+        let Ok(def) = library.schema(&inst.schema) else {
             progress.warn(&format!(
-                "{}: instance {} has no {} — skipped",
+                "{}: instance {} is of `{}`, which the built-in library does not hold — skipped",
                 path.display(),
                 i + 1,
+                inst.schema
+            ));
+            continue;
+        };
+        let wants_place = dexter::task::has_place(&library, def);
+        let reference = if wants_place { &inst.place } else { &inst.arm };
+        let (Some(seg), Some(reference)) = (&inst.features, reference) else {
+            progress.warn(&format!(
+                "{}: instance {} ({}) has no {} — skipped",
+                path.display(),
+                i + 1,
+                inst.schema,
                 if inst.features.is_none() {
                     "object features"
-                } else {
+                } else if wants_place {
                     "place"
+                } else {
+                    "arm"
                 }
             ));
             continue;
         };
-        out.push(Example {
-            features: Features::from(seg),
-            reference: place.clone(),
-        });
+        out.push((
+            inst.schema.clone(),
+            Example {
+                features: Features::from(seg),
+                reference: reference.clone(),
+            },
+        ));
     }
     Ok(out)
+}
+
+/// The schema most of `examples` are instances of (ties: by name); `None` for no examples.
+pub fn main_schema(examples: &[(String, Example)]) -> Option<String> {
+    let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
+    for (s, _) in examples {
+        *counts.entry(s.as_str()).or_default() += 1;
+    }
+    counts
+        .into_iter()
+        .max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(a.0)))
+        .map(|(s, _)| s.to_string())
 }
 
 /// `pbd learn`: learns (or updates) the procedural model from demonstrations and saves it.
@@ -161,7 +191,7 @@ pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport
     let mut listing = Vec::new();
     for d in &args.demos {
         let ex = examples_from(d, progress)?;
-        for e in &ex {
+        for (schema, e) in &ex {
             let mut colors = e.features.colors.clone();
             colors.sort_by(|x, y| y.1.total_cmp(&x.1));
             let colors: Vec<String> = colors
@@ -173,16 +203,45 @@ pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport
                 d.display().to_string(),
                 e.reference.clone(),
                 format!("colours {} px {:?}", colors.join(", "), e.features.pixels),
+                schema.clone(),
             ));
         }
         examples.extend(ex);
     }
-    if examples.is_empty() {
-        bail!("empty demonstration set: no Pick-And-Place instance with object features and a place in the inputs");
+    let Some(schema) = main_schema(&examples) else {
+        bail!(
+            "empty demonstration set: no instance of a schema with object features and a place (or, for a schema \
+             that puts nothing anywhere, an arm) in the inputs"
+        );
+    };
+    // One task at a time: the instances of other schemas are not this task's examples.
+    let others = examples.iter().filter(|(s, _)| *s != schema).count();
+    if others > 0 {
+        progress.warn(&format!(
+            "{others} instance(s) of schemas other than `{schema}` (the one most instances are of) — skipped"
+        ));
     }
-    let model = match &args.update {
+    let examples: Vec<Example> = examples
+        .into_iter()
+        .filter(|(s, _)| *s == schema)
+        .map(|(_, e)| e)
+        .collect();
+    let listing: Vec<(String, String, String)> = listing
+        .into_iter()
+        .filter(|l| l.3 == schema)
+        .map(|l| (l.0, l.1, l.2))
+        .collect();
+    let mut model = match &args.update {
         Some(path) => {
             let mut m = ProceduralModel::load(path)?;
+            let was = m.schema().unwrap_or(dexter_sim::execute::PICK_AND_PLACE).to_string();
+            if was != schema {
+                bail!(
+                    "{}: the model was learned from `{was}` instances; these demonstrations are `{schema}` — learn a \
+                     new model for a new task",
+                    path.display()
+                );
+            }
             for e in &examples {
                 m.update(e)?;
             }
@@ -202,6 +261,7 @@ pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport
             ProceduralModel::learn(hyper, &examples)?
         }
     };
+    model.set_schema(schema);
     model.save(&output)?;
     let explanation = model.explain()?;
     Ok(LearnReport {

@@ -98,3 +98,48 @@ fn pick_and_place_is_demonstrated_inferred_and_executed() {
     assert_done(&r, "blue_block");
     assert!(r.objects[0].place.is_some());
 }
+
+#[test]
+fn a_model_learned_from_touch_demonstrations_runs_its_schema_on_the_objects_it_finds_relevant() {
+    let d = dir();
+    let demo = d.join("touch-for-model.mcap");
+    record(
+        &RecordOptions {
+            script: Script::Touch,
+            seed: Some(3),
+            output: demo.clone(),
+            ..RecordOptions::default()
+        },
+        &Quiet,
+    )
+    .unwrap();
+    let model_path = d.join("touch.model.json");
+    pbd::learn::learn(
+        &pbd::learn::LearnOptions {
+            demos: vec![demo],
+            output: model_path.clone(),
+            ..pbd::learn::LearnOptions::default()
+        },
+        &Quiet,
+    )
+    .unwrap();
+    let model = pbd::schema::procedural::ProceduralModel::load(&model_path).unwrap();
+    assert_eq!(model.schema(), Some("reach_and_touch"));
+    // The model's reference for a schema without a place is the arm the teacher used.
+    assert_eq!(model.place_names(), vec!["left"]);
+    let report = execute(
+        &ExecuteOptions {
+            scene: "sorting-new".into(),
+            model: Some(model_path),
+            seed: Some(21),
+            ..ExecuteOptions::default()
+        },
+        &Quiet,
+    )
+    .unwrap();
+    assert_eq!(report.schema, "reach_and_touch", "{report}");
+    // Every object is decided on by relevance; none is put anywhere.
+    assert!(report.objects.iter().all(|o| o.place.is_none()), "{report}");
+    assert!(report.objects.iter().any(|o| o.decision == "execute"), "{report}");
+    assert!(report.placed >= 1, "{report}");
+}

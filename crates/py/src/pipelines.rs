@@ -295,6 +295,13 @@ fn examples_from_input(py: Python<'_>, item: &Bound<'_, PyAny>) -> PyResult<Vec<
         value_error("expected a path to a demo (.mcap or .infer.json) or an example dict {features, reference}")
     })?;
     let (examples, _) = runner::run(py, None, |p| pbd::learn::examples_from(&path, p))?;
+    // One task: the instances of the schema most of them are of.
+    let main = pbd::learn::main_schema(&examples);
+    let examples: Vec<Example> = examples
+        .into_iter()
+        .filter(|(s, _)| Some(s) == main.as_ref())
+        .map(|(_, e)| e)
+        .collect();
     Ok(examples)
 }
 

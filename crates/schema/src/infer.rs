@@ -209,7 +209,8 @@ pub struct Instance {
     pub place: Option<String>,
     /// The arm that grasped (or acted).
     pub arm: Option<String>,
-    /// The object's features when the grasp converged (its segment percept).
+    /// The object's features when the grasp (else the touch, else the reach) converged (its
+    /// segment percept).
     pub features: Option<SegmentPercept>,
 }
 
@@ -685,9 +686,10 @@ impl Engine {
                 .or(pick("reach_object"))
                 .and_then(|f| f.arm.clone());
             let place = pick("place").or(pick("reach_place")).and_then(|f| f.place.clone());
-            // Features at the grasp: the segment's percept when the grasp first converged (the last
-            // frame it was seen before, if the hand hides it).
-            let features = grasp.and_then(|g| {
+            // Features at the grasp (or the touch, or the reach, for a schema without a grasp): the
+            // segment's percept when that monitor first converged (the last frame it was seen
+            // before, if the hand hides it).
+            let features = grasp.or(pick("touch")).or(pick("reach_object")).and_then(|g| {
                 let seg = g.segment?;
                 let k = obs.iter().position(|o| o.t >= g.first)?;
                 percepts

@@ -1225,6 +1225,10 @@ pub struct ProceduralModel {
     /// Objects of the demonstration scenes that the teacher left alone: the data of the background
     /// model M₀ (§5.1.3). Empty: M₀ is the prior predictive.
     background: PlaceStats,
+    /// The schema the demonstrations were instances of (`None`: a model from before the field,
+    /// Pick-And-Place's). Its references are places for a schema that puts the object somewhere,
+    /// else the arm the teacher used.
+    schema: Option<String>,
 }
 
 impl ProceduralModel {
@@ -1235,7 +1239,19 @@ impl ProceduralModel {
             hyper,
             places: BTreeMap::new(),
             background: PlaceStats::empty(),
+            schema: None,
         })
+    }
+
+    /// The schema whose instances the model learned from (`None`: not recorded — a model written
+    /// before the field, learned from Pick-And-Place instances).
+    pub fn schema(&self) -> Option<&str> {
+        self.schema.as_deref()
+    }
+
+    /// Records the schema whose instances the model learned from.
+    pub fn set_schema(&mut self, schema: impl Into<String>) {
+        self.schema = Some(schema.into());
     }
 
     /// Learns from a batch of demonstrations. Errors: an empty set, invalid hyper-parameters or an

@@ -81,6 +81,8 @@ struct FileV4<'a> {
     places: Vec<PlaceFile>,
     #[serde(skip_serializing_if = "Option::is_none")]
     background: Option<BackgroundFile>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    schema: Option<String>,
 }
 
 const SIZE_UNIT: &str = "deci-pixels";
@@ -106,6 +108,7 @@ impl ProceduralModel {
     ///     "structure": "inferred",                         // or a fixed structure name
     ///     "relevance_log_threshold": 2.0                   // relevant when ln B10 > this
     ///   },
+    ///   "schema": "pick_and_place",                        // the demonstrations' schema (optional)
     ///   "places": [                                        // sorted by name
     ///     { "name": "bin_left", "demonstrations": 3,
     ///       "color_objects": [[[3, 21], [9, 9]], …],        // per object its (term, draws), D in all
@@ -168,6 +171,7 @@ impl ProceduralModel {
                 color_objects: self.background.objects.clone(),
                 size: self.background.size,
             }),
+            schema: self.schema.clone(),
         };
         let mut s = serde_json::to_string_pretty(&file).unwrap_or_default();
         s.push('\n');
@@ -233,7 +237,10 @@ impl ProceduralModel {
             None => return Err(invalid("version", "missing".into())),
         }
         for key in obj.keys() {
-            if !matches!(key.as_str(), "format" | "version" | "hyper" | "places" | "background") {
+            if !matches!(
+                key.as_str(),
+                "format" | "version" | "hyper" | "places" | "background" | "schema"
+            ) {
                 return Err(invalid(key, "unknown field".into()));
             }
         }
@@ -341,6 +348,16 @@ impl ProceduralModel {
             stats.demonstrations = pf.demonstrations;
             stats.size = pf.size;
             model.places.insert(pf.name, stats);
+        }
+        match obj.get("schema") {
+            None => {}
+            Some(Value::String(name)) if !name.is_empty() => model.schema = Some(name.clone()),
+            Some(other) => {
+                return Err(invalid(
+                    "schema",
+                    format!("must be a schema name, got {other} (a JSON {})", json_kind(other)),
+                ));
+            }
         }
         if let Some(bv) = obj.get("background") {
             let field = "background";
