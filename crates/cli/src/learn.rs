@@ -19,11 +19,14 @@ pub struct LearnArgs {
     /// Add the demonstrations to this model instead of starting afresh.
     #[arg(long)]
     update: Option<PathBuf>,
+    /// Schema library (TOML) the demonstrations were inferred with (default: the built-in one).
+    #[arg(long)]
+    library: Option<PathBuf>,
     /// Output model (JSON).
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Explain the model MODEL.json in plain words (no learning).
-    #[arg(long, value_name = "MODEL", conflicts_with_all = ["demos", "update", "output", "relevance_threshold"])]
+    #[arg(long, value_name = "MODEL", conflicts_with_all = ["demos", "update", "output", "relevance_threshold", "library"])]
     explain: Option<PathBuf>,
     /// With --explain: draw N synthetic task instances from the posterior predictive and render them.
     #[arg(long, default_value_t = 0)]
@@ -57,6 +60,7 @@ pub fn main(a: LearnArgs, out: &mut dyn Write) -> Result<()> {
     let options = LearnOptions {
         demos: a.demos,
         update: a.update,
+        library: a.library,
         output: a.output.context("pass -o model.json")?,
         relevance_threshold: a.relevance_threshold,
     };

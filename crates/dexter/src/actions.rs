@@ -3,8 +3,8 @@
 //! library that calls Reach `approach` runs the same controller, and a schema a user writes from the
 //! library's actions runs without code changes.
 
-use schema::Library;
 use schema::library::Action;
+use schema::{ActionKind, Library};
 
 /// One of Dexter's closed-loop skills ([`crate::skills`]), as the executive runs it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -38,29 +38,35 @@ impl Skill {
         Skill::Touch,
     ];
 
-    /// The signature an abstract action must have to bind to this skill: (potential, feedback
-    /// frame, effector frame), as a library spells them.
-    pub fn signature(self) -> (&'static str, &'static str, &'static str) {
-        match self {
-            Skill::SearchTrack => ("quadratic", "segment_image", "head"),
-            Skill::ReachObject => ("quadratic", "segment_centroid", "arm"),
-            Skill::Grasp => ("force_residual", "fingertip_contacts", "hand"),
-            Skill::Hold => ("quadratic", "grasped_height", "arm"),
-            Skill::Place => ("quadratic", "net_force", "arm"),
-            Skill::Release => ("quadratic", "finger_flexion", "hand"),
-            Skill::Touch => ("contact", "fingertip_contacts", "hand"),
+    /// The skill an action of `kind` binds to; `None` for Reach-to-place, which Dexter never runs
+    /// on its own (Pick-And-Place's Place carries the object there).
+    pub fn of_kind(kind: ActionKind) -> Option<Skill> {
+        match kind {
+            ActionKind::SearchTrack => Some(Skill::SearchTrack),
+            ActionKind::ReachObject => Some(Skill::ReachObject),
+            ActionKind::Grasp => Some(Skill::Grasp),
+            ActionKind::Hold => Some(Skill::Hold),
+            ActionKind::ReachPlace => None,
+            ActionKind::Place => Some(Skill::Place),
+            ActionKind::Release => Some(Skill::Release),
+            ActionKind::Touch => Some(Skill::Touch),
         }
+    }
+
+    /// The signature an abstract action must have to bind to this skill: (potential, feedback
+    /// frame, effector frame), as a library spells them ([`ActionKind::signature`]).
+    pub fn signature(self) -> (&'static str, &'static str, &'static str) {
+        ActionKind::ALL
+            .into_iter()
+            .find(|&k| Skill::of_kind(k) == Some(self))
+            .map(ActionKind::signature)
+            .unwrap_or(("", "", ""))
     }
 
     /// The skill an abstract action binds to, by its signature; `None`: Dexter has no controller
     /// for it (e.g. `reach_place`, which Pick-And-Place never runs on its own: its Place carries).
     pub fn of(action: &Action) -> Option<Skill> {
-        let sig = (
-            action.potential.as_str(),
-            action.feedback.as_str(),
-            action.effector.as_str(),
-        );
-        Skill::ALL.into_iter().find(|s| s.signature() == sig)
+        ActionKind::of(action).and_then(Skill::of_kind)
     }
 
     /// Whether the skill moves an arm (and so needs ψ to bind one).

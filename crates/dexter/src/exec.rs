@@ -1784,8 +1784,18 @@ impl schema::ProceduralPolicy for ArmPolicy {
         }
     }
 
-    fn bind(&mut self, _schema: &schema::Schema, state: &str, action: &str) -> Binding {
-        if state == "transfer_placed" {
+    fn bind(&mut self, schema: &schema::Schema, state: &str, action: &str) -> Binding {
+        // The object was put down on the handoff spot: the state is entered by a `transfer`
+        // contingency from a state whose action is a Place (Pick-And-Place's `transfer_placed`,
+        // whatever a library calls it).
+        let handed = schema.state(state).is_some_and(|s| {
+            schema.transitions.iter().any(|t| {
+                t.to == s
+                    && t.contingency.as_deref() == Some("transfer")
+                    && self.skills.at(schema.policy[t.from]) == Some(Skill::Place)
+            })
+        });
+        if handed {
             self.transferred = true;
         }
         let arm = if self.transferred {

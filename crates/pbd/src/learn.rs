@@ -27,6 +27,8 @@ pub struct LearnOptions {
     pub demos: Vec<PathBuf>,
     /// Add the demonstrations to this model instead of starting afresh.
     pub update: Option<PathBuf>,
+    /// Schema library (TOML) the demonstrations were inferred with (default: the built-in one).
+    pub library: Option<PathBuf>,
     /// Output model (JSON).
     pub output: PathBuf,
     /// Relevance decision threshold on ln B10 (5.19–5.21) for a new model: an object belongs to the
@@ -39,6 +41,7 @@ impl Default for LearnOptions {
         LearnOptions {
             demos: Vec::new(),
             update: None,
+            library: None,
             output: PathBuf::from("model.json"),
             relevance_threshold: 0.0,
         }
@@ -90,19 +93,19 @@ pub struct ModelExplanation {
 /// reference) where the reference is the place the teacher put the object in, for a schema that
 /// puts it somewhere (Pick-And-Place), else the arm the teacher used (Pick-And-Hold, Hand-Over,
 /// Reach-And-Touch): what ψ binds from the object's features.
-pub fn examples_from(path: &Path, progress: &dyn Progress) -> Result<Vec<(String, Example)>> {
+pub fn examples_from(path: &Path, library: &Library, progress: &dyn Progress) -> Result<Vec<(String, Example)>> {
     let file: InferFile = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap")) {
         let (percepts, _, metadata, warnings) = crate::infer::read_percepts(path)?;
         for w in &warnings {
             progress.warn(w);
         }
-        let (inference, _, _) = crate::infer::infer_percepts(&Library::builtin(), &percepts)?;
+        let (inference, _, _) = crate::infer::infer_percepts(library, &percepts)?;
         InferFile {
             format: INFER_FORMAT.into(),
             version: crate::infer::INFER_VERSION,
             demo: path.display().to_string(),
             metadata,
-            library: "<builtin>".into(),
+            library: library.origin.clone(),
             warnings,
             inference,
             truth: vec![],
@@ -111,19 +114,19 @@ pub fn examples_from(path: &Path, progress: &dyn Progress) -> Result<Vec<(String
         let text = bayes::input::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
         InferFile::from_json(&text, &path.display().to_string())?
     };
-    let library = Library::builtin();
     let mut out = Vec::new();
     for (i, inst) in file.inference.instances.iter().enumerate() {
         let Ok(def) = library.schema(&inst.schema) else {
             progress.warn(&format!(
-                "{}: instance {} is of `{}`, which the built-in library does not hold — skipped",
+                "{}: instance {} is of `{}`, which the library does not hold — skipped (pass the library it was \
+                 inferred with)",
                 path.display(),
                 i + 1,
                 inst.schema
             ));
             continue;
         };
-        let wants_place = dexter::task::has_place(&library, def);
+        let wants_place = dexter::task::has_place(library, def);
         let reference = if wants_place { &inst.place } else { &inst.arm };
         let (Some(seg), Some(reference)) = (&inst.features, reference) else {
             progress.warn(&format!(
@@ -187,10 +190,14 @@ pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport
             );
         }
     }
+    let library = match &args.library {
+        Some(p) => Library::open(p)?,
+        None => Library::builtin(),
+    };
     let mut examples = Vec::new();
     let mut listing = Vec::new();
     for d in &args.demos {
-        let ex = examples_from(d, progress)?;
+        let ex = examples_from(d, &library, progress)?;
         for (schema, e) in &ex {
             let mut colors = e.features.colors.clone();
             colors.sort_by(|x, y| y.1.total_cmp(&x.1));

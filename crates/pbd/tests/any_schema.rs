@@ -143,3 +143,60 @@ fn a_model_learned_from_touch_demonstrations_runs_its_schema_on_the_objects_it_f
     assert!(report.objects.iter().any(|o| o.decision == "execute"), "{report}");
     assert!(report.placed >= 1, "{report}");
 }
+
+/// A library a user writes (`assets/schemas/examples/renamed.toml`: every action, schema and the
+/// transfer state renamed) is inferred, learned and executed without code changes: pbd binds actions
+/// to its monitors and skills by their signature, never by their names.
+#[test]
+fn a_library_with_other_names_is_inferred_learned_and_executed() {
+    let library = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/schemas/examples/renamed.toml");
+    let d = dir();
+    let demo = d.join("hold-renamed.mcap");
+    record(
+        &RecordOptions {
+            script: Script::PickHold,
+            seed: Some(3),
+            output: demo.clone(),
+            ..RecordOptions::default()
+        },
+        &Quiet,
+    )
+    .unwrap();
+    let inferred = infer(
+        &InferOptions {
+            demo: demo.clone(),
+            library: Some(library.clone()),
+            ..InferOptions::default()
+        },
+        &Quiet,
+    )
+    .unwrap();
+    assert_eq!(inferred.file.inference.posterior.map, "show_me");
+    let model_path = d.join("show_me.model.json");
+    pbd::learn::learn(
+        &pbd::learn::LearnOptions {
+            demos: vec![inferred.json_path.clone()],
+            output: model_path.clone(),
+            library: Some(library.clone()),
+            ..pbd::learn::LearnOptions::default()
+        },
+        &Quiet,
+    )
+    .unwrap();
+    let model = pbd::schema::procedural::ProceduralModel::load(&model_path).unwrap();
+    assert_eq!(model.schema(), Some("show_me"));
+    let report = execute(
+        &ExecuteOptions {
+            scene: "sorting-new".into(),
+            demo: Some(inferred.json_path.clone()),
+            library: Some(library),
+            object: Some("blue_block".into()),
+            seed: Some(21),
+            ..ExecuteOptions::default()
+        },
+        &Quiet,
+    )
+    .unwrap();
+    assert_eq!(report.schema, "show_me");
+    assert_done(&report, "blue_block");
+}

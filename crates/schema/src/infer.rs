@@ -39,7 +39,7 @@ use bayes::special::log_sum_exp;
 use serde::{Deserialize, Serialize};
 
 use crate::error::SchemaError;
-use crate::library::{Expect, Library};
+use crate::library::{ActionKind, Expect, Library};
 use crate::monitor::Observation;
 use crate::percept::{Percept, SegmentPercept};
 
@@ -656,7 +656,7 @@ impl Engine {
         let mut merged: Vec<(usize, usize, usize, bool)> = Vec::with_capacity(runs.len());
         for run in runs {
             if let Some(prev) = merged.last_mut() {
-                let object = |a: usize, b: usize| object_of(&facts(&self.library, &obs[a..=b]));
+                let object = |a: usize, b: usize| object_of(&self.library, &facts(&self.library, &obs[a..=b]));
                 if prev.0 == run.0 && !prev.3 && object(prev.1, prev.2).is_some_and(|o| object(run.1, run.2) == Some(o))
                 {
                     prev.2 = run.2;
@@ -678,28 +678,36 @@ impl Engine {
             };
             let posterior = self.posterior(&obs[lo..=hi])?;
             let facts = facts(&self.library, &obs[a..=b]);
-            let pick = |action: &str| facts.iter().filter(|f| f.action == action).max_by_key(|f| f.steps);
-            let grasp = pick("grasp");
-            let object = object_of(&facts);
+            let pick = |kind: ActionKind| {
+                let name = self.library.action_name_of_kind(kind)?;
+                facts.iter().filter(|f| f.action == name).max_by_key(|f| f.steps)
+            };
+            let grasp = pick(ActionKind::Grasp);
+            let object = object_of(&self.library, &facts);
             let arm = grasp
-                .or(pick("touch"))
-                .or(pick("reach_object"))
+                .or(pick(ActionKind::Touch))
+                .or(pick(ActionKind::ReachObject))
                 .and_then(|f| f.arm.clone());
-            let place = pick("place").or(pick("reach_place")).and_then(|f| f.place.clone());
+            let place = pick(ActionKind::Place)
+                .or(pick(ActionKind::ReachPlace))
+                .and_then(|f| f.place.clone());
             // Features at the grasp (or the touch, or the reach, for a schema without a grasp): the
             // segment's percept when that monitor first converged (the last frame it was seen
             // before, if the hand hides it).
-            let features = grasp.or(pick("touch")).or(pick("reach_object")).and_then(|g| {
-                let seg = g.segment?;
-                let k = obs.iter().position(|o| o.t >= g.first)?;
-                percepts
-                    .get(..=k.min(percepts.len().saturating_sub(1)))?
-                    .iter()
-                    .rev()
-                    .filter_map(|p| p.segments.iter().find(|s| s.id == seg && s.seen))
-                    .next()
-                    .cloned()
-            });
+            let features = grasp
+                .or(pick(ActionKind::Touch))
+                .or(pick(ActionKind::ReachObject))
+                .and_then(|g| {
+                    let seg = g.segment?;
+                    let k = obs.iter().position(|o| o.t >= g.first)?;
+                    percepts
+                        .get(..=k.min(percepts.len().saturating_sub(1)))?
+                        .iter()
+                        .rev()
+                        .filter_map(|p| p.segments.iter().find(|s| s.id == seg && s.seen))
+                        .next()
+                        .cloned()
+                });
             instances.push(Instance {
                 schema: self.library.schemas[schema].name.clone(),
                 t_start: obs[a].t,
@@ -739,11 +747,14 @@ impl Engine {
 
 /// Groups the converged monitors of `obs` by binding.
 /// The object an instance acted on: the segment of its longest grasp, else touch, else reach.
-fn object_of(facts: &[Fact]) -> Option<u32> {
-    let pick = |action: &str| facts.iter().filter(|f| f.action == action).max_by_key(|f| f.steps);
-    pick("grasp")
-        .or(pick("touch"))
-        .or(pick("reach_object"))
+fn object_of(library: &Library, facts: &[Fact]) -> Option<u32> {
+    let pick = |kind: ActionKind| {
+        let name = library.action_name_of_kind(kind)?;
+        facts.iter().filter(|f| f.action == name).max_by_key(|f| f.steps)
+    };
+    pick(ActionKind::Grasp)
+        .or(pick(ActionKind::Touch))
+        .or(pick(ActionKind::ReachObject))
         .and_then(|f| f.segment)
 }
 

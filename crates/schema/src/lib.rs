@@ -47,6 +47,6 @@ pub use executive::{
     ActionOutcome, Binding, ExecReport, Failure, FailureCause, ProceduralPolicy, SchemaPlant, StepEvent, execute,
 };
 pub use infer::{Engine, Inference, InferenceConfig, Instance, Posterior};
-pub use library::{Action, Expect, Library, Schema};
+pub use library::{Action, ActionKind, Expect, Library, Schema};
 pub use monitor::{Hit, MonitorBank, MonitorConfig, Observation};
 pub use percept::{HandPercept, Percept, PlacePercept, SeenExtent, SegmentPercept};

@@ -38,6 +38,69 @@ pub struct Action {
     pub false_alarm: Option<f64>,
 }
 
+/// The kinds of abstract action pbd monitors and runs, told apart by their signature d(C) =
+/// (potential, feedback frame, effector frame) (3.22) — never by their names: a library may call
+/// its actions anything.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ActionKind {
+    /// Search-Track: a segment foveated by the head (`segment_image`, `head`).
+    SearchTrack,
+    /// Reach to a segment (`segment_centroid`, `arm`).
+    ReachObject,
+    /// Grasp: opposing fingertip contacts (`force_residual`, `fingertip_contacts`, `hand`).
+    Grasp,
+    /// Hold: the grasped object lifted (`grasped_height`, `arm`).
+    Hold,
+    /// Reach to a place (`place_region`, `arm`).
+    ReachPlace,
+    /// Place: the support takes the load (`net_force`, `arm`).
+    Place,
+    /// Release: the hand opens (`finger_flexion`, `hand`).
+    Release,
+    /// Touch: fingertip contact without an opposing grasp (`contact`, `fingertip_contacts`,
+    /// `hand`).
+    Touch,
+}
+
+impl ActionKind {
+    /// Every kind.
+    pub const ALL: [ActionKind; 8] = [
+        ActionKind::SearchTrack,
+        ActionKind::ReachObject,
+        ActionKind::Grasp,
+        ActionKind::Hold,
+        ActionKind::ReachPlace,
+        ActionKind::Place,
+        ActionKind::Release,
+        ActionKind::Touch,
+    ];
+
+    /// The signature (potential, feedback frame, effector frame) of this kind.
+    pub fn signature(self) -> (&'static str, &'static str, &'static str) {
+        match self {
+            ActionKind::SearchTrack => ("quadratic", "segment_image", "head"),
+            ActionKind::ReachObject => ("quadratic", "segment_centroid", "arm"),
+            ActionKind::Grasp => ("force_residual", "fingertip_contacts", "hand"),
+            ActionKind::Hold => ("quadratic", "grasped_height", "arm"),
+            ActionKind::ReachPlace => ("quadratic", "place_region", "arm"),
+            ActionKind::Place => ("quadratic", "net_force", "arm"),
+            ActionKind::Release => ("quadratic", "finger_flexion", "hand"),
+            ActionKind::Touch => ("contact", "fingertip_contacts", "hand"),
+        }
+    }
+
+    /// The kind of `action`, by its signature; `None` for a signature pbd does not know.
+    pub fn of(action: &Action) -> Option<ActionKind> {
+        let sig = (
+            action.potential.as_str(),
+            action.feedback.as_str(),
+            action.effector.as_str(),
+        );
+        ActionKind::ALL.into_iter().find(|k| k.signature() == sig)
+    }
+}
+
 /// What a state says about one of its schema's abstract actions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Expect {
@@ -385,6 +448,16 @@ impl Library {
             actions: raw.action,
             schemas,
         })
+    }
+
+    /// The index of the first action of `kind` (by signature, [`ActionKind::of`]).
+    pub fn action_of_kind(&self, kind: ActionKind) -> Option<usize> {
+        self.actions.iter().position(|a| ActionKind::of(a) == Some(kind))
+    }
+
+    /// The name of the first action of `kind`.
+    pub fn action_name_of_kind(&self, kind: ActionKind) -> Option<&str> {
+        self.action_of_kind(kind).map(|i| self.actions[i].name.as_str())
     }
 
     /// The index of the action with this name.

@@ -21,7 +21,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::SchemaError;
-use crate::library::Library;
+use crate::library::{ActionKind, Library};
 use crate::percept::{HandPercept, Percept};
 
 /// Thresholds of the monitors' convergence tests.
@@ -143,18 +143,19 @@ impl MonitorBank {
     /// Monitors for every abstract action of `library` that this crate knows how to monitor. Actions
     /// it does not know stay 0 in x_t (a library may declare actions for execution only).
     pub fn new(library: &Library, config: MonitorConfig) -> MonitorBank {
-        let find = |n: &str| library.actions.iter().position(|a| a.name == n);
+        // Each monitor watches the action of its kind, whatever the library calls it.
+        let find = |k: ActionKind| library.action_of_kind(k);
         MonitorBank {
             config,
             index: ActionIndex {
-                search_track: find("search_track"),
-                reach_object: find("reach_object"),
-                grasp: find("grasp"),
-                hold: find("hold"),
-                reach_place: find("reach_place"),
-                place: find("place"),
-                release: find("release"),
-                touch: find("touch"),
+                search_track: find(ActionKind::SearchTrack),
+                reach_object: find(ActionKind::ReachObject),
+                grasp: find(ActionKind::Grasp),
+                hold: find(ActionKind::Hold),
+                reach_place: find(ActionKind::ReachPlace),
+                place: find(ActionKind::Place),
+                release: find(ActionKind::Release),
+                touch: find(ActionKind::Touch),
             },
             k: library.actions.len(),
             memory: Vec::new(),
