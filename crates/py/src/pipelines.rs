@@ -294,7 +294,9 @@ fn examples_from_input(py: Python<'_>, item: &Bound<'_, PyAny>) -> PyResult<Vec<
     let path: PathBuf = item.extract().map_err(|_| {
         value_error("expected a path to a demo (.mcap or .infer.json) or an example dict {features, reference}")
     })?;
-    let (examples, _) = runner::run(py, None, |p| pbd::learn::examples_from(&path, &pbd::schema::Library::builtin(), p))?;
+    let (examples, _) = runner::run(py, None, |p| {
+        pbd::learn::examples_from(&path, &pbd::schema::Library::builtin(), p)
+    })?;
     // One task: the instances of the schema most of them are of.
     let main = pbd::learn::main_schema(&examples);
     let examples: Vec<Example> = examples
