@@ -14,11 +14,10 @@ fn dir() -> std::path::PathBuf {
     d
 }
 
-/// Records `script` (seed 3, the pick-place scene), infers it, checks the MAP schema, and executes
-/// the demonstration in `sorting-new` on `object`; returns the report.
-fn demonstrate_and_execute(script: Script, schema: &str, object: &str) -> pbd::execute::ExecuteReport {
-    let d = dir();
-    let demo = d.join(format!("{schema}.mcap"));
+/// Records `script` with the scripted teacher (seed 3, the pick-place scene) to `name`.mcap in
+/// [`dir`]; returns its path.
+fn recorded(script: Script, name: &str) -> std::path::PathBuf {
+    let demo = dir().join(format!("{name}.mcap"));
     record(
         &RecordOptions {
             script,
@@ -29,6 +28,13 @@ fn demonstrate_and_execute(script: Script, schema: &str, object: &str) -> pbd::e
         &Quiet,
     )
     .unwrap();
+    demo
+}
+
+/// Records `script` (seed 3, the pick-place scene), infers it, checks the MAP schema, and executes
+/// the demonstration in `sorting-new` on `object`; returns the report.
+fn demonstrate_and_execute(script: Script, schema: &str, object: &str) -> pbd::execute::ExecuteReport {
+    let demo = recorded(script, schema);
     let inferred = infer(
         &InferOptions {
             demo: demo.clone(),
@@ -102,17 +108,7 @@ fn pick_and_place_is_demonstrated_inferred_and_executed() {
 #[test]
 fn a_model_learned_from_touch_demonstrations_runs_its_schema_on_the_objects_it_finds_relevant() {
     let d = dir();
-    let demo = d.join("touch-for-model.mcap");
-    record(
-        &RecordOptions {
-            script: Script::Touch,
-            seed: Some(3),
-            output: demo.clone(),
-            ..RecordOptions::default()
-        },
-        &Quiet,
-    )
-    .unwrap();
+    let demo = recorded(Script::Touch, "touch-for-model");
     let model_path = d.join("touch.model.json");
     pbd::learn::learn(
         &pbd::learn::LearnOptions {
@@ -151,17 +147,7 @@ fn a_model_learned_from_touch_demonstrations_runs_its_schema_on_the_objects_it_f
 fn a_library_with_other_names_is_inferred_learned_and_executed() {
     let library = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/schemas/examples/renamed.toml");
     let d = dir();
-    let demo = d.join("hold-renamed.mcap");
-    record(
-        &RecordOptions {
-            script: Script::PickHold,
-            seed: Some(3),
-            output: demo.clone(),
-            ..RecordOptions::default()
-        },
-        &Quiet,
-    )
-    .unwrap();
+    let demo = recorded(Script::PickHold, "hold-renamed");
     let inferred = infer(
         &InferOptions {
             demo: demo.clone(),
