@@ -18,6 +18,8 @@ pub enum ScriptArg {
     PickPlace,
     /// Sort every object of the scene into the bins (one pick-and-place each).
     Sort,
+    /// Pick with one arm, put the object down between the hands, place it with the other arm.
+    PassPlace,
     /// Pick an object up and hold it (a rival schema).
     PickHold,
     /// Pick an object up and hand it to the teacher (a rival schema).
@@ -33,6 +35,7 @@ impl From<ScriptArg> for Script {
         match s {
             ScriptArg::PickPlace => Script::PickPlace,
             ScriptArg::Sort => Script::Sort,
+            ScriptArg::PassPlace => Script::PassPlace,
             ScriptArg::PickHold => Script::PickHold,
             ScriptArg::HandOver => Script::HandOver,
             ScriptArg::Touch => Script::Touch,

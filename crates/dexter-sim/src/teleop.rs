@@ -399,6 +399,18 @@ pub enum TeachTask {
         /// Fail the first grasp and retry.
         retry: bool,
     },
+    /// Pick `object` with `arm`, put it down on the table at `handoff`, and let the other arm take it
+    /// from there and place it in `place` (a hand-to-hand pass; a schema a user writes).
+    PassPlace {
+        /// Object (scene label).
+        object: String,
+        /// Place name.
+        place: String,
+        /// The arm that picks; the other one places.
+        arm: Arm,
+        /// Where on the table (x, y in m) the object is put down between the hands.
+        handoff: [f64; 2],
+    },
     /// Pick `object` up and hold it in the air (rival schema).
     PickHold {
         /// Object.
@@ -517,6 +529,7 @@ enum Step {
     Lift { rise: f64 },
     CheckHeld { object: usize },
     OverPlace { place: usize, object: usize },
+    OverSpot { xy: [f64; 2] },
     Lower { place: usize, object: usize },
     Open,
     Retreat { rise: f64 },
@@ -578,6 +591,7 @@ impl Teacher {
         for task in tasks {
             let arm = match task {
                 TeachTask::PickPlace { arm, .. }
+                | TeachTask::PassPlace { arm, .. }
                 | TeachTask::PickHold { arm, .. }
                 | TeachTask::HandOver { arm, .. }
                 | TeachTask::Touch { arm, .. }
@@ -623,6 +637,48 @@ impl Teacher {
                     steps.push(Step::Open);
                     steps.push(Step::Pause(0.4));
                     steps.push(Step::Retreat { rise: 0.15 });
+                }
+                TeachTask::PassPlace {
+                    object, place, handoff, ..
+                } => {
+                    let o = sim.object(object)?;
+                    let p = place_index(scene, place)?;
+                    let carry = |steps: &mut Vec<Step>, rng: &mut Generator| {
+                        steps.push(hesitate(rng));
+                        steps.push(Step::Hover { object: o });
+                        steps.push(Step::Descend {
+                            object: o,
+                            early: false,
+                        });
+                        steps.push(Step::Close);
+                        // Wait until the grasp feels firm.
+                        steps.push(Step::Pause(0.5));
+                        steps.push(Step::Lift { rise: 0.12 });
+                        steps.push(Step::Pause(0.6));
+                        steps.push(Step::CheckHeld { object: o });
+                    };
+                    let put_down = |steps: &mut Vec<Step>| {
+                        steps.push(Step::Pause(0.5));
+                        steps.push(Step::Open);
+                        steps.push(Step::Pause(0.4));
+                        steps.push(Step::Retreat { rise: 0.15 });
+                    };
+                    // The first hand puts it down between the hands and goes back to its park pose.
+                    carry(&mut steps, &mut rng);
+                    steps.push(Step::OverSpot { xy: *handoff });
+                    steps.push(Step::Pause(0.3));
+                    steps.push(Step::Lower { place: p, object: o });
+                    put_down(&mut steps);
+                    steps.push(Step::Park);
+                    steps.push(Step::Pause(0.8));
+                    // The other hand takes it from there to the place.
+                    steps.push(Step::SwitchArm(arm.other()));
+                    carry(&mut steps, &mut rng);
+                    steps.push(Step::OverPlace { place: p, object: o });
+                    steps.push(Step::Pause(0.3));
+                    steps.push(Step::Lower { place: p, object: o });
+                    put_down(&mut steps);
+                    last_arm = Some(arm.other());
                 }
                 TeachTask::PickHold { object, .. } => {
                     let o = sim.object(object)?;
@@ -846,6 +902,11 @@ impl Teacher {
                 // The palm over a free spot of the place (the teacher sees what is already in it).
                 let spot = free_spot(sim, scene, place, object);
                 let to = Iso3::from_parts(Translation3::new(spot[0], spot[1], z), here.rotation);
+                self.begin(t, to, self.flex, 0.22);
+            }
+            Step::OverSpot { xy } => {
+                let z = (self.table_z + self.carry_depth + 0.08).max(here.translation.z);
+                let to = Iso3::from_parts(Translation3::new(xy[0], xy[1], z), here.rotation);
                 self.begin(t, to, self.flex, 0.22);
             }
             Step::Lower { place, object: _ } => {

@@ -1606,6 +1606,71 @@ fn debug_exec() -> bool {
 /// Descents to the grasp pose by one arm that stop short before ψ binds another arm.
 const SHORT_DESCENTS: usize = 2;
 
+/// The hand-to-hand pass a schema's graph spells out on its main path: a state whose action is a
+/// Place and from which the schema's plain edges lead (before any goal) to a state whose action is a
+/// reach to the object puts the object down for the other hand (a user's `pass_and_place`); the
+/// states reachable after it, and not before it, belong to the other hand. Pick-And-Place's Place
+/// leads by plain edges only to its goal (its transfer is a contingency), so it has none.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Passing {
+    /// Per state of the schema: its Place puts the object down for the other hand.
+    pub handoff: Vec<bool>,
+    /// Per state: the other hand acts (after a pass).
+    pub after: Vec<bool>,
+}
+
+impl Passing {
+    /// Reads the pass of `schema` from its graph, its actions bound by `skills`.
+    pub fn of(schema: &schema::Schema, skills: &SkillMap) -> Passing {
+        let n = schema.states.len();
+        let skill = |s: usize| skills.at(schema.policy[s]);
+        // States reachable from `from`'s successors (`plain`: by edges without a contingency label
+        // only, not going on from a goal).
+        let reach = |from: usize, plain: bool| -> Vec<bool> {
+            let mut seen = vec![false; n];
+            let mut stack: Vec<usize> = vec![from];
+            let mut first = true;
+            while let Some(s) = stack.pop() {
+                if !first && plain && schema.is_goal(s) {
+                    continue;
+                }
+                first = false;
+                for t in schema.successors(s) {
+                    if (!plain || t.contingency.is_none()) && !seen[t.to] {
+                        seen[t.to] = true;
+                        stack.push(t.to);
+                    }
+                }
+            }
+            seen
+        };
+        let handoff: Vec<bool> = (0..n)
+            .map(|s| {
+                skill(s) == Some(Skill::Place)
+                    && reach(s, true)
+                        .iter()
+                        .enumerate()
+                        .any(|(t, &r)| r && skill(t) == Some(Skill::ReachObject))
+            })
+            .collect();
+        let mut after = vec![false; n];
+        for h in (0..n).filter(|&h| handoff[h]) {
+            let later = reach(h, false);
+            for (t, a) in after.iter_mut().enumerate() {
+                // Not a state the pass can come back to (one before it, or the pass itself).
+                let before = t == h || reach(t, false)[h];
+                *a |= later[t] && !before;
+            }
+        }
+        Passing { handoff, after }
+    }
+
+    /// Whether the schema passes the object from one hand to the other on its main path.
+    pub fn passes(&self) -> bool {
+        self.handoff.iter().any(|&h| h)
+    }
+}
+
 /// ψ on Dexter (5.31–5.32) for any schema over its skills: the arm whose workspace holds the
 /// object — and the place, when the schema has one — on the object's side first; if no arm reaches
 /// both, a transfer: the arm that reaches the object puts it on the handoff spot, and the arm that
@@ -1626,6 +1691,8 @@ pub struct ArmPolicy {
     at_object: Vec<Arm>,
     at_place: Vec<Arm>,
     at_handoff: Vec<Arm>,
+    /// The pass the schema's graph spells out (if any): then the arms are always two.
+    passing: Passing,
     /// Arms whose reach to the object did not converge.
     failed_arms: Vec<Arm>,
     /// Per arm (left, right): its descents to the grasp pose that stopped short.
@@ -1639,13 +1706,15 @@ pub type PickPlacePolicy = ArmPolicy;
 
 impl ArmPolicy {
     /// Decides the arms for `object` at `object_at` (and `place`, if the schema has one) for the
-    /// skills of `library`: one arm if one reaches both, else a transfer. `None` if no arm reaches
-    /// the object or none reaches the place.
+    /// skills of `library` and the graph of `schema`: one arm if one reaches both, else a transfer
+    /// — always two arms for a schema that passes the object from hand to hand ([`Passing`]).
+    /// `None` if no arm (pair) reaches what the schema needs.
     #[allow(clippy::too_many_arguments)]
     pub fn decide(
         hw: &dyn Hardware,
         workspace: &Workspace,
         library: &Library,
+        schema: &schema::Schema,
         object: &str,
         object_at: &Vec3,
         place: Option<&str>,
@@ -1666,12 +1735,14 @@ impl ArmPolicy {
         };
         let hand_spot = Vec3::new(handoff[0], handoff[1], table_z);
         let at_handoff = arms_reaching(hw, table_z, &hand_spot)?;
+        let skills = SkillMap::new(library);
         let mut policy = ArmPolicy {
             object: object.into(),
             place: place.map(str::to_string),
             pick_arm: Arm::Left,
             place_arm: Arm::Left,
-            skills: SkillMap::new(library),
+            passing: Passing::of(schema, &skills),
+            skills,
             transferred: false,
             at_object,
             at_place,
@@ -1718,6 +1789,18 @@ impl ArmPolicy {
             .copied()
             .filter(|a| !self.failed_arms.contains(a))
             .collect();
+        if self.passing.passes() {
+            // Two arms, whatever one alone reaches: `side` picks if it can.
+            let mut picks: Vec<Arm> = usable.iter().copied().filter(|a| self.at_handoff.contains(a)).collect();
+            picks.sort_by_key(|&a| a != side);
+            let (a, b) = picks.iter().find_map(|&a| {
+                let b = a.other();
+                (self.at_place.contains(&b) && self.at_handoff.contains(&b)).then_some((a, b))
+            })?;
+            self.pick_arm = a;
+            self.place_arm = b;
+            return Some(());
+        }
         let both: Vec<Arm> = usable.iter().copied().filter(|a| self.at_place.contains(a)).collect();
         if let Some(arm) = both
             .iter()
@@ -1740,6 +1823,15 @@ impl ArmPolicy {
     pub fn is_transfer(&self) -> bool {
         self.pick_arm != self.place_arm
     }
+
+    /// Whether the object has passed to the placing arm in `state`: a `transfer` contingency was
+    /// taken, or the state comes after the schema's own pass ([`Passing`]).
+    fn handed(&self, schema: &schema::Schema, state: &str) -> bool {
+        self.transferred
+            || schema
+                .state(state)
+                .is_some_and(|s| self.passing.after.get(s).copied().unwrap_or(false))
+    }
 }
 
 impl schema::ProceduralPolicy for ArmPolicy {
@@ -1747,10 +1839,10 @@ impl schema::ProceduralPolicy for ArmPolicy {
     /// blocked, or the object is out of its reach) binds another arm that reaches the object — the
     /// same arm for the place if it reaches that too, else a hand-over through the handoff spot to
     /// an arm that reaches the place (§3.3.3, 5.31–5.32).
-    fn failed(&mut self, _schema: &schema::Schema, _state: &str, action: &str, binding: &Binding, why: &Failure) {
+    fn failed(&mut self, schema: &schema::Schema, state: &str, action: &str, binding: &Binding, why: &Failure) {
         // The approach (hover, pre-grasp) failed; a descent stopped short (on the object) is not the
         // arm's failure.
-        if self.skills.skill(action) != Some(Skill::ReachObject) || self.transferred {
+        if self.skills.skill(action) != Some(Skill::ReachObject) || self.handed(schema, state) {
             return;
         }
         let Some(arm) = binding.arm.as_deref().and_then(Arm::parse) else {
@@ -1798,12 +1890,9 @@ impl schema::ProceduralPolicy for ArmPolicy {
         if handed {
             self.transferred = true;
         }
-        let arm = if self.transferred {
-            self.place_arm
-        } else {
-            self.pick_arm
-        };
-        let transfer = self.skills.skill(action) == Some(Skill::Place) && self.is_transfer() && !self.transferred;
+        let after = self.handed(schema, state);
+        let arm = if after { self.place_arm } else { self.pick_arm };
+        let transfer = self.skills.skill(action) == Some(Skill::Place) && self.is_transfer() && !after;
         Binding {
             arm: Some(arm.prefix().to_string()),
             object: Some(self.object.clone()),
@@ -1820,6 +1909,47 @@ impl schema::ProceduralPolicy for ArmPolicy {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Pick-And-Place's transfer is a contingency: no pass on its main path. The user-written
+    /// `pass_and_place` puts the object down in `carrying`; every state from `put_down` on belongs to
+    /// the other hand, none before it (its first-half drop and re-grasp included).
+    #[test]
+    fn the_pass_is_read_from_the_schema_graph() {
+        let lib = Library::builtin();
+        let skills = SkillMap::new(&lib);
+        for s in &lib.schemas {
+            assert!(!Passing::of(s, &skills).passes(), "{}", s.name);
+        }
+        let text = include_str!("../../../assets/schemas/examples/pass-and-place.toml");
+        let lib = Library::parse(text, "pass-and-place.toml").unwrap();
+        let skills = SkillMap::new(&lib);
+        let schema = lib.schema("pass_and_place").unwrap();
+        let p = Passing::of(schema, &skills);
+        let named = |v: &[bool]| -> Vec<&str> {
+            v.iter()
+                .enumerate()
+                .filter(|(_, b)| **b)
+                .map(|(i, _)| schema.states[i].name.as_str())
+                .collect()
+        };
+        assert_eq!(named(&p.handoff), ["carrying"]);
+        let mut after = named(&p.after);
+        after.sort();
+        assert_eq!(
+            after,
+            [
+                "at_object_again",
+                "carrying_again",
+                "done",
+                "dropped_again",
+                "grasped_again",
+                "placed",
+                "put_down",
+                "released",
+                "waiting"
+            ]
+        );
+    }
 
     /// A 20 × 25 cm bin: an empty one takes the object in its middle; with a can (radius 3 cm)
     /// already in the middle, a 3 cm object goes where the gap between them is widest (a corner:

@@ -389,6 +389,7 @@ fn run_one(
         &*plant.hw,
         plant.workspace(),
         task.library,
+        schema,
         &segment_now.to_string(),
         &at,
         place.as_deref(),

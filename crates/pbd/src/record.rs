@@ -42,6 +42,9 @@ pub enum Script {
     PickPlace,
     /// Sort every object of the scene into the bins (one pick-and-place each).
     Sort,
+    /// Pick an object with one arm, put it down between the hands, and place it with the other arm
+    /// (the user-written `pass_and_place` of `assets/schemas/examples/pass-and-place.toml`).
+    PassPlace,
     /// Pick an object up and hold it (a rival schema).
     PickHold,
     /// Pick an object up and hand it to the teacher (a rival schema).
@@ -153,6 +156,55 @@ pub struct RecordReport {
 struct Truth<'a> {
     t: f64,
     objects: Vec<(&'a str, [f64; 3])>,
+}
+
+/// Whether `arm`'s palm, pointing down as when parked, reaches 15 cm above `at` (IK from the parked
+/// pose, `tries` restarts).
+fn reaches_over(sim: &DexterSim, scene: &Scene, arm: Arm, at: [f64; 3], tries: u64) -> Result<bool> {
+    let mut over = dexter::skills::park_pose(arm, scene.spec.table.height);
+    over.translation.vector.x = at[0];
+    over.translation.vector.y = at[1];
+    over.translation.vector.z = at[2] + 0.15;
+    Ok(dexter::skills::reachable(sim.model(), arm, &over, tries)?)
+}
+
+/// How far (m) the scripted teacher carries the object towards the receiving arm's side before
+/// putting it down for the pass.
+const PASS_SHIFT: f64 = 0.15;
+
+/// The pass of `object` to `place` with `want` picking (default: the arm on the other side from the
+/// place): the picking arm, and the spot on the table between the hands — the object's spot moved
+/// [`PASS_SHIFT`] towards the place's side, where both arms reach.
+fn pass_plan(sim: &DexterSim, scene: &Scene, object: &str, place: &str, want: Option<Arm>) -> Result<(Arm, [f64; 2])> {
+    let p = scene.place(place)?;
+    let receiver_side = if p.center[1] >= 0.0 { Arm::Left } else { Arm::Right };
+    let arm = want.unwrap_or(receiver_side.other());
+    let op = sim.object_state(sim.object(object)?).pose.translation.vector;
+    let table_z = scene.spec.table.height;
+    let toward = (p.center[1] - op.y).signum();
+    let spot = [op.x, op.y + toward * PASS_SHIFT];
+    if !reaches_over(sim, scene, arm, [op.x, op.y, op.z], 5)? {
+        bail!("the {arm} arm cannot reach `{object}` to pass it");
+    }
+    for a in [arm, arm.other()] {
+        if !reaches_over(sim, scene, a, [spot[0], spot[1], table_z], 5)? {
+            bail!(
+                "the {a} arm cannot reach the pass spot ({:.2}, {:.2}) next to `{object}`; move the object",
+                spot[0],
+                spot[1]
+            );
+        }
+    }
+    if !reaches_over(
+        sim,
+        scene,
+        arm.other(),
+        [p.center[0], p.center[1], table_z + p.wall_height],
+        6,
+    )? {
+        bail!("the {} arm cannot reach `{place}`", arm.other());
+    }
+    Ok((arm, spot))
 }
 
 /// Which arm can take `object` to `place` (the requested one if it can).
@@ -305,6 +357,25 @@ fn tasks(args: &RecordOptions, sim: &DexterSim, scene: &Scene) -> Result<Vec<Tea
                 });
             }
             out
+        }
+        Script::PassPlace => {
+            let place =
+                match &args.place {
+                    Some(p) => {
+                        scene.place(p)?;
+                        p.clone()
+                    }
+                    None => scene.spec.places.first().map(|p| p.name.clone()).with_context(|| {
+                        format!("scene {} has no places (add [[places]] to it)", scene.path.display())
+                    })?,
+                };
+            let (arm, handoff) = pass_plan(sim, scene, &object, &place, want)?;
+            vec![TeachTask::PassPlace {
+                object,
+                place,
+                arm,
+                handoff,
+            }]
         }
         Script::PickHold => vec![TeachTask::PickHold {
             arm: choose_arm(sim, scene, &object, None, want)?,
@@ -639,6 +710,17 @@ fn describe(t: &TeachTask) -> String {
         } => format!(
             "pick-place `{object}` → `{place}` with the {arm} arm{}",
             if *retry { " (first grasp retried)" } else { "" }
+        ),
+        TeachTask::PassPlace {
+            object,
+            place,
+            arm,
+            handoff,
+        } => format!(
+            "pass-place `{object}` → `{place}`: the {arm} arm puts it down at ({:.2}, {:.2}), the {} arm places it",
+            handoff[0],
+            handoff[1],
+            arm.other()
         ),
         TeachTask::PickHold { object, arm } => format!("pick-hold `{object}` with the {arm} arm"),
         TeachTask::HandOver { object, arm } => format!("hand-over `{object}` with the {arm} arm"),

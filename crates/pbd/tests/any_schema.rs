@@ -186,3 +186,92 @@ fn a_library_with_other_names_is_inferred_learned_and_executed() {
     assert_eq!(report.schema, "show_me");
     assert_done(&report, "blue_block");
 }
+
+/// A schema a user writes (`assets/schemas/examples/pass-and-place.toml`: the built-in library and a
+/// new `pass_and_place` — pick with one hand, put the object down where the other hand takes it,
+/// place it with that hand) is inferred, learned and executed without code changes: ψ reads the pass
+/// from the schema's graph and binds the two arms and the handoff spot.
+#[test]
+fn a_schema_the_user_writes_is_inferred_learned_and_executed() {
+    let library =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/schemas/examples/pass-and-place.toml");
+    let d = dir();
+    let demo = recorded(Script::PassPlace, "pass");
+    let inferred = infer(
+        &InferOptions {
+            demo: demo.clone(),
+            library: Some(library.clone()),
+            ..InferOptions::default()
+        },
+        &Quiet,
+    )
+    .unwrap();
+    assert_eq!(inferred.file.inference.posterior.map, "pass_and_place");
+    let instances = &inferred.file.inference.instances;
+    assert_eq!(instances.len(), 1, "{instances:?}");
+    // The teacher picked with the right arm (the place is on the left).
+    assert_eq!(instances[0].arm.as_deref(), Some("right"));
+    assert_eq!(instances[0].place.as_deref(), Some("bin-left"));
+    let model_path = d.join("pass.model.json");
+    pbd::learn::learn(
+        &pbd::learn::LearnOptions {
+            demos: vec![inferred.json_path.clone()],
+            output: model_path.clone(),
+            library: Some(library.clone()),
+            ..pbd::learn::LearnOptions::default()
+        },
+        &Quiet,
+    )
+    .unwrap();
+    let model = pbd::schema::procedural::ProceduralModel::load(&model_path).unwrap();
+    assert_eq!(model.schema(), Some("pass_and_place"));
+    // A new scene: another object, somewhere else, on the right of the table. (In the cluttered
+    // `sorting-new` the pass fails today — see the README's status — as the transfers of the
+    // blocked-arm faults do.)
+    let catalog = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/objects/household.toml");
+    let scene = d.join("pass-scene.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "version = 1\nname = \"pass\"\ncatalog = {:?}\nseed = 5\n\n[table]\nheight = 0.75\ncenter = [0.6, 0.0]\n\
+             size = [0.6, 1.4]\n\n[[places]]\nname = \"bin-left\"\ncenter = [0.55, 0.45]\nsize = [0.2, 0.25]\n\
+             wall_height = 0.06\n\n[[places]]\nname = \"bin-right\"\ncenter = [0.55, -0.45]\nsize = [0.2, 0.25]\n\
+             wall_height = 0.06\n\n[[objects]]\npresentation = \"blue_block\"\nxy = [0.6, -0.12]\n",
+            catalog.display().to_string()
+        ),
+    )
+    .unwrap();
+    let report = execute(
+        &ExecuteOptions {
+            scene: scene.display().to_string(),
+            model: Some(model_path),
+            library: Some(library),
+            seed: Some(21),
+            ..ExecuteOptions::default()
+        },
+        &Quiet,
+    )
+    .unwrap();
+    assert_eq!(report.schema, "pass_and_place");
+    assert_done(&report, "blue_block");
+    let o = &report.objects[0];
+    assert_eq!(o.place.as_deref(), Some("bin-left"), "{report}");
+    // The right arm picked and put it down, the left one placed it: two Place actions, the first on
+    // the handoff spot.
+    let steps = &o.execution.as_ref().unwrap().steps;
+    let places: Vec<&pbd::schema::Binding> = steps
+        .iter()
+        .filter(|s| s.action == "place" && s.outcome == pbd::schema::ActionOutcome::Converged)
+        .map(|s| &s.binding)
+        .collect();
+    assert_eq!(places.len(), 2, "{steps:?}");
+    assert!(
+        places[0].transfer && places[0].arm.as_deref() == Some("right"),
+        "{places:?}"
+    );
+    assert!(
+        !places[1].transfer && places[1].arm.as_deref() == Some("left"),
+        "{places:?}"
+    );
+    assert_eq!(places[1].place.as_deref(), Some("bin-left"));
+}

@@ -207,7 +207,8 @@ pub struct Instance {
     pub object: Option<u32>,
     /// The place: the place where Place converged (else Reach-to-place).
     pub place: Option<String>,
-    /// The arm that grasped (or acted).
+    /// The arm that grasped (the first to, when the object passed from one hand to the other), else
+    /// the one that touched or reached.
     pub arm: Option<String>,
     /// The object's features when the grasp (else the touch, else the reach) converged (its
     /// segment percept).
@@ -684,7 +685,16 @@ impl Engine {
             };
             let grasp = pick(ActionKind::Grasp);
             let object = object_of(&self.library, &facts);
-            let arm = grasp
+            // The arm that picked: of the hands that held the object for a third of the longest
+            // grasp or more, the first to close on it (a pass hands it on to the other hand; a
+            // brief grasp is a monitor's false alarm).
+            let first_grasp = grasp.and_then(|g| {
+                facts
+                    .iter()
+                    .filter(|f| f.action == g.action && f.segment == g.segment && 3 * f.steps >= g.steps)
+                    .min_by(|a, b| a.first.total_cmp(&b.first))
+            });
+            let arm = first_grasp
                 .or(pick(ActionKind::Touch))
                 .or(pick(ActionKind::ReachObject))
                 .and_then(|f| f.arm.clone());
