@@ -4,7 +4,7 @@
 //! `PBD_DEBUG_EXEC=1` to see the monitors after every action, `PBD_DEBUG_BLOBS=1` for every stereo
 //! blob.
 
-use dexter_sim::execute::{Decider, MAX_ACTIONS, PICK_AND_PLACE, RunLog, Task, execute_scene};
+use dexter_sim::execute::{Decider, MAX_ACTIONS, RunLog, Task, execute_scene};
 use dexter_sim::experiment::random_scene;
 use dexter_sim::physics::DexterSim;
 use dexter_sim::scene::Scene;
@@ -67,7 +67,7 @@ fn main() {
     let model = schema::procedural::ProceduralModel::load(&model).expect("model");
     let task = Task {
         library: &library,
-        schema: PICK_AND_PLACE,
+        schema: model.schema_in(&library).expect("the model's schema"),
         decider: Decider::Model(&model),
         only_near: None,
         max_actions: MAX_ACTIONS,

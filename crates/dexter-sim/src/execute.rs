@@ -373,8 +373,6 @@ fn debug_frames(t: f64, eyes: &Eyes) {
     }
 }
 
-/// The schema the experiments run (the fault and execute experiments are Pick-And-Place tasks).
-pub const PICK_AND_PLACE: &str = "pick_and_place";
 /// How many actions the executive may take per segment in the experiments and `pbd execute`.
 pub const MAX_ACTIONS: usize = 20;
 

@@ -16,7 +16,7 @@ use schema::Library;
 use serde::{Deserialize, Serialize};
 
 use crate::error::SimError;
-use crate::execute::{Decider, ExecuteReport, MAX_ACTIONS, NoLog, PICK_AND_PLACE, Task, execute_scene};
+use crate::execute::{Decider, ExecuteReport, MAX_ACTIONS, NoLog, Task, execute_scene};
 use crate::scene::{ObjectPlacement, Scene};
 use bayes::rng::{Draw, Generator};
 use rand::Rng as _;
@@ -176,7 +176,7 @@ pub fn run_scene(
     let model = schema::procedural::ProceduralModel::load(&config.model)?;
     let task = Task {
         library,
-        schema: PICK_AND_PLACE,
+        schema: model.schema_in(library)?,
         decider: Decider::Model(&model),
         only_near: None,
         max_actions: MAX_ACTIONS,

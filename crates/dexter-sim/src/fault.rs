@@ -750,7 +750,7 @@ pub fn fault_trial(
     let spec = FaultSpec::new(kind, 0, rand::Rng::next_u64(&mut seeds));
     let task = crate::execute::Task {
         library,
-        schema: crate::execute::PICK_AND_PLACE,
+        schema: &library.task_schema()?.name,
         decider: crate::execute::Decider::Place(place.clone()),
         only_near: None,
         max_actions: crate::execute::MAX_ACTIONS,

@@ -295,10 +295,7 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
             }
             model = schema::procedural::ProceduralModel::load(path)?;
             // The schema the model's demonstrations were instances of (older models: Pick-And-Place).
-            let schema = model
-                .schema()
-                .unwrap_or(dexter_sim::execute::PICK_AND_PLACE)
-                .to_string();
+            let schema = model.schema_in(&library)?.to_string();
             let def = library.schema(&schema).with_context(|| {
                 format!(
                     "{}: the model was learned from `{schema}`, which the library does not hold",

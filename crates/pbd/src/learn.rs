@@ -241,7 +241,7 @@ pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport
     let mut model = match &args.update {
         Some(path) => {
             let mut m = ProceduralModel::load(path)?;
-            let was = m.schema().unwrap_or(dexter_sim::execute::PICK_AND_PLACE).to_string();
+            let was = m.schema_in(&library)?.to_string();
             if was != schema {
                 bail!(
                     "{}: the model was learned from `{was}` instances; these demonstrations are `{schema}` — learn a \

@@ -194,6 +194,10 @@ pub struct Library {
     pub actions: Vec<Action>,
     /// Schemas.
     pub schemas: Vec<Schema>,
+    /// The library's task (optional `task` field): the schema the pick-and-place experiments run
+    /// and the one a procedural model without a `schema` field was learned from.
+    #[serde(default)]
+    pub task: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -203,6 +207,8 @@ struct RawLibrary {
     miss: f64,
     false_alarm: f64,
     dwell_secs: f64,
+    #[serde(default)]
+    task: Option<String>,
     #[serde(default)]
     action: Vec<Action>,
     #[serde(default)]
@@ -440,6 +446,21 @@ impl Library {
                 policy,
             });
         }
+        if let Some(task) = &raw.task
+            && !schemas.iter().any(|s| &s.name == task)
+        {
+            return Err(inv(
+                "task".into(),
+                format!(
+                    "`{task}` is not a schema of this library (it has {})",
+                    schemas
+                        .iter()
+                        .map(|s| format!("`{}`", s.name))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
+        }
         Ok(Library {
             origin: origin.to_string(),
             miss: raw.miss,
@@ -447,7 +468,21 @@ impl Library {
             dwell_secs: raw.dwell_secs,
             actions: raw.action,
             schemas,
+            task: raw.task,
         })
+    }
+
+    /// The library's task ([`Library::task`]): its schema, or an error naming the field when the
+    /// library declares none.
+    pub fn task_schema(&self) -> Result<&Schema, SchemaError> {
+        let name = self.task.as_deref().ok_or_else(|| {
+            SchemaError::invalid(
+                &self.origin,
+                "task",
+                "the library names no task (add `task = \"SCHEMA\"`)".to_string(),
+            )
+        })?;
+        self.schema(name)
     }
 
     /// The index of the first action of `kind` (by signature, [`ActionKind::of`]).
@@ -500,6 +535,7 @@ mod tests {
         let lib = Library::builtin();
         assert!(lib.schemas.len() >= 6);
         let pp = lib.schema("pick_and_place").unwrap();
+        assert_eq!(lib.task_schema().unwrap().name, "pick_and_place");
         assert!(
             pp.transitions
                 .iter()
@@ -522,6 +558,7 @@ mod tests {
             ("z = \"*100000\"", "z = \"*1x0000\"", "states[1].z"),
             ("goal = [\"released\", \"done\"]", "goal = [\"nowhere\"]", "goal[0]"),
             ("to = \"at_object\" }", "to = \"nowhere\" }", "transitions"),
+            ("task = \"pick_and_place\"", "task = \"pick_and_plaice\"", "task"),
         ] {
             let text = good.replacen(from, to, 1);
             assert_ne!(text, good, "{from}");

@@ -1249,6 +1249,15 @@ impl ProceduralModel {
         self.schema.as_deref()
     }
 
+    /// The schema to run this model with from `library`: the one it learned from, else (a model
+    /// written before the field) the library's task ([`crate::Library::task`]).
+    pub fn schema_in<'a>(&'a self, library: &'a crate::Library) -> Result<&'a str, SchemaError> {
+        match self.schema() {
+            Some(s) => Ok(s),
+            None => library.task_schema().map(|s| s.name.as_str()),
+        }
+    }
+
     /// Records the schema whose instances the model learned from.
     pub fn set_schema(&mut self, schema: impl Into<String>) {
         self.schema = Some(schema.into());
