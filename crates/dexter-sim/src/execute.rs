@@ -12,10 +12,10 @@ use std::rc::Rc;
 use control_basis::Hardware;
 use control_basis::math::Vec3;
 use dexter::Arm;
-use dexter::actions::Skill;
+use dexter::actions::{Skill, SkillMap};
 use dexter::exec::{ExecSink, RobotPlant};
 use dexter::eyes::Eyes;
-pub use dexter::task::{Decider, Decision, DecisionEvent, Task};
+pub use dexter::task::{Decider, Decision, DecisionEvent, Task, Verdict};
 use dexter::task::{SegmentRun, Taken, TaskSink};
 use schema::{ExecReport, Percept};
 use serde::{Deserialize, Serialize};
@@ -63,8 +63,8 @@ pub struct ObjectReport {
     pub object: String,
     /// The robot's segment (track id) the decision was made on; `None` for an object it never saw.
     pub segment: Option<u32>,
-    /// `execute`, `ignore` (not relevant) or `skip` (unreachable).
-    pub decision: String,
+    /// Execute, ignore (not relevant), skip (unreachable) or unseen.
+    pub decision: Verdict,
     /// Why (posterior, Bayes factor, reachability).
     pub reason: String,
     /// The place chosen.
@@ -97,7 +97,7 @@ impl ObjectReport {
     fn not_executed(
         object: String,
         segment: Option<u32>,
-        decision: &str,
+        decision: Verdict,
         reason: String,
         place: Option<String>,
         posterior: BTreeMap<String, f64>,
@@ -108,7 +108,7 @@ impl ObjectReport {
         ObjectReport {
             object,
             segment,
-            decision: decision.into(),
+            decision,
             reason,
             place,
             posterior,
@@ -176,8 +176,8 @@ impl std::fmt::Display for ExecuteReport {
                 } else {
                     format!("contingencies: {}", o.contingencies.join(", "))
                 },
-                match o.decision.as_str() {
-                    "execute" =>
+                match o.decision {
+                    Verdict::Execute =>
                         if o.success && o.place.is_some() {
                             "PLACED".to_string()
                         } else if o.success {
@@ -391,6 +391,8 @@ struct Judge<'s, 'l> {
     /// The schema the robot runs, and what its goal means in the world.
     schema: String,
     goal: GoalKind,
+    /// The library's actions bound to the robot's skills (to name a failure's phase).
+    skills: SkillMap,
     logger: Rc<RefCell<Shared<'l>>>,
     truth0: Vec<ObjectState>,
     labels: Vec<String>,
@@ -501,7 +503,7 @@ impl TaskSink for Judge<'_, '_> {
             Taken::Ignored { why } => ObjectReport::not_executed(
                 label,
                 Some(d.segment),
-                "ignore",
+                Verdict::Ignore,
                 why.clone(),
                 None,
                 d.posterior.clone(),
@@ -512,7 +514,7 @@ impl TaskSink for Judge<'_, '_> {
             Taken::Skipped { place, why } => ObjectReport::not_executed(
                 label,
                 Some(d.segment),
-                "skip",
+                Verdict::Skip,
                 why.clone(),
                 place.clone(),
                 d.posterior.clone(),
@@ -552,7 +554,7 @@ impl TaskSink for Judge<'_, '_> {
                 let failure = if duplicate {
                     Some("perception: a second segment of an object already decided on (a duplicate track)".into())
                 } else {
-                    (!success).then(|| failure_cause(execution, obj.is_some(), self.goal))
+                    (!success).then(|| failure_cause(execution, obj.is_some(), self.goal, &self.skills))
                 };
                 self.logger
                     .borrow_mut()
@@ -561,7 +563,7 @@ impl TaskSink for Judge<'_, '_> {
                 ObjectReport {
                     object: label,
                     segment: Some(d.segment),
-                    decision: "execute".into(),
+                    decision: Verdict::Execute,
                     reason: d.reason.clone(),
                     place: place.clone(),
                     posterior: d.posterior.clone(),
@@ -641,6 +643,7 @@ pub fn execute_scene_with_fault(
         scene,
         schema: task.schema.to_string(),
         goal,
+        skills: SkillMap::new(task.library),
         logger: logger.clone(),
         matched: vec![false; truth0.len()],
         truth0,
@@ -662,7 +665,7 @@ pub fn execute_scene_with_fault(
                 reports.push(ObjectReport::not_executed(
                     judge.labels[i].clone(),
                     None,
-                    "unseen",
+                    Verdict::Unseen,
                     "no tracked segment matched it".into(),
                     None,
                     BTreeMap::new(),
@@ -680,7 +683,7 @@ pub fn execute_scene_with_fault(
     drop(sink);
     let relevant = reports
         .iter()
-        .filter(|r| r.decision == "execute" || r.decision == "skip")
+        .filter(|r| matches!(r.decision, Verdict::Execute | Verdict::Skip))
         .count();
     let placed = reports.iter().filter(|r| r.success).count();
     Ok(ExecuteReport {
@@ -704,21 +707,12 @@ const JUDGE_REST_SECS: f64 = 3.0;
 
 /// The phase an unsuccessful execution failed in: the first failed action of the executive, else
 /// the outcome.
-fn failure_cause(exec: &ExecReport, matched: bool, goal: GoalKind) -> String {
+fn failure_cause(exec: &ExecReport, matched: bool, goal: GoalKind, skills: &SkillMap) -> String {
     if !matched {
         return "perception: the segment matches no object".into();
     }
-    let phase = |a: &str| {
-        match a {
-            "reach_object" => "reach",
-            "grasp" => "grasp",
-            "hold" => "hold",
-            "place" => "place",
-            "release" => "release",
-            other => other,
-        }
-        .to_string()
-    };
+    // The phase is the skill the action bound to (whatever the library calls it).
+    let phase = |a: &str| skills.skill(a).map_or_else(|| a.to_string(), |s| s.phase().to_string());
     // The executive gave up on an action that converged by the robot's own predicate while the
     // monitors did not see the state change.
     if !exec.reached_goal

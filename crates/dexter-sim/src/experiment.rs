@@ -16,7 +16,7 @@ use schema::Library;
 use serde::{Deserialize, Serialize};
 
 use crate::error::SimError;
-use crate::execute::{Decider, ExecuteReport, MAX_ACTIONS, NoLog, Task, execute_scene};
+use crate::execute::{Decider, ExecuteReport, MAX_ACTIONS, NoLog, Task, Verdict, execute_scene};
 use crate::scene::{ObjectPlacement, Scene};
 use bayes::rng::{Draw, Generator};
 use rand::Rng as _;
@@ -47,8 +47,8 @@ pub struct ObjectRow {
     pub color_class: String,
     /// The place the task intends, or `-`.
     pub intended: String,
-    /// The robot's decision: `execute`, `ignore`, `skip`, `unseen`.
-    pub decision: String,
+    /// The robot's decision.
+    pub decision: Verdict,
     /// The place it chose.
     pub place: String,
     /// ln B10.
@@ -196,9 +196,9 @@ pub fn summarize(config: &ExperimentConfig, runs: &[(Scene, ExecuteReport)]) -> 
                 .and_then(|k| scene.catalog.objects[scene.resolved[k].object].color_class.clone())
                 .unwrap_or_else(|| "-".into());
             let intended = config.task.get(&class).cloned();
-            let decision_correct = match (&intended, o.decision.as_str()) {
-                (None, "ignore") => true,
-                (Some(p), "execute" | "skip") => o.place.as_deref() == Some(p.as_str()),
+            let decision_correct = match (&intended, o.decision) {
+                (None, Verdict::Ignore) => true,
+                (Some(p), Verdict::Execute | Verdict::Skip) => o.place.as_deref() == Some(p.as_str()),
                 _ => false,
             };
             rows.push(ObjectRow {
@@ -206,7 +206,7 @@ pub fn summarize(config: &ExperimentConfig, runs: &[(Scene, ExecuteReport)]) -> 
                 object: o.object.clone(),
                 color_class: class,
                 intended: intended.unwrap_or_else(|| "-".into()),
-                decision: o.decision.clone(),
+                decision: o.decision,
                 place: o.place.clone().unwrap_or_else(|| "-".into()),
                 log_b10: o.log_bayes_factor,
                 arms: o.arms.join(">"),
@@ -217,8 +217,11 @@ pub fn summarize(config: &ExperimentConfig, runs: &[(Scene, ExecuteReport)]) -> 
             });
         }
     }
-    let executed = rows.iter().filter(|r| r.decision == "execute").count();
-    let placed = rows.iter().filter(|r| r.decision == "execute" && r.placed).count();
+    let executed = rows.iter().filter(|r| r.decision == Verdict::Execute).count();
+    let placed = rows
+        .iter()
+        .filter(|r| r.decision == Verdict::Execute && r.placed)
+        .count();
     // Task objects, once each (an object seen as two segments has two rows): done if any row placed
     // it in its intended place.
     let mut task_objects: BTreeMap<(usize, String), bool> = BTreeMap::new();

@@ -17,6 +17,7 @@ use control_basis::math::{Iso3, Rot3, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::error::SimError;
+use crate::execute::Verdict;
 use crate::physics::DexterSim;
 use crate::scene::Scene;
 use crate::snapshot::Arm;
@@ -769,8 +770,8 @@ pub fn fault_trial(
     let o = report
         .objects
         .iter()
-        .find(|o| o.decision == "execute" && Some(o.object.as_str()) == label)
-        .or_else(|| report.objects.iter().find(|o| o.decision == "execute"))
+        .find(|o| o.decision == Verdict::Execute && Some(o.object.as_str()) == label)
+        .or_else(|| report.objects.iter().find(|o| o.decision == Verdict::Execute))
         .or(report.objects.first());
     let success = o.is_some_and(|o| o.success);
     let contingencies = o.map(|o| o.contingencies.clone()).unwrap_or_default();
@@ -794,9 +795,9 @@ pub fn fault_trial(
     let reason = if success {
         String::new()
     } else {
-        o.map(|o| match (&o.failure, o.decision.as_str()) {
+        o.map(|o| match (&o.failure, o.decision) {
             (Some(f), _) => f.clone(),
-            (None, "execute") => "outcome: not in its place".into(),
+            (None, Verdict::Execute) => "outcome: not in its place".into(),
             (None, d) => format!("{d}: {}", o.reason),
         })
         .unwrap_or_else(|| "perception: the object was not seen".into())

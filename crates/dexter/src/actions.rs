@@ -69,6 +69,20 @@ impl Skill {
         ActionKind::of(action).and_then(Skill::of_kind)
     }
 
+    /// The phase of a task the skill is, as failure reports name it: `search`, `reach`, `grasp`,
+    /// `hold`, `place`, `release`, `touch`.
+    pub fn phase(self) -> &'static str {
+        match self {
+            Skill::SearchTrack => "search",
+            Skill::ReachObject => "reach",
+            Skill::Grasp => "grasp",
+            Skill::Hold => "hold",
+            Skill::Place => "place",
+            Skill::Release => "release",
+            Skill::Touch => "touch",
+        }
+    }
+
     /// Whether the skill moves an arm (and so needs ψ to bind one).
     pub fn uses_arm(self) -> bool {
         !matches!(self, Skill::SearchTrack)

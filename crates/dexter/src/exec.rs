@@ -265,6 +265,23 @@ impl SeenThing {
         }
     }
 }
+/// Least overlap of two segments' colour terms ([`colour_overlap`]) for one to look like the other.
+const LOOKS_ALIKE: f64 = 0.3;
+
+/// The overlap of two colour-term distributions (histogram intersection: the share of pixels whose
+/// terms both have), 0 (nothing alike) to 1 (the same).
+fn colour_overlap(a: &[(u8, f64)], b: &[(u8, f64)]) -> f64 {
+    a.iter()
+        .map(|&(t, wa)| b.iter().find(|(u, _)| *u == t).map_or(0.0, |&(_, wb)| wa.min(wb)))
+        .sum()
+}
+
+/// The head cameras' frames: a handoff spot is chosen where neither sees the object hidden behind a
+/// seen thing.
+const HEAD_CAMERA_FRAMES: [&str; 2] = ["head/left_camera_optical_frame", "head/right_camera_optical_frame"];
+/// Points sampled along a camera's line of sight to a handoff spot.
+const SIGHT_SAMPLES: usize = 24;
+
 /// A segment this close (m) to a carrying palm is the carried object.
 const CARRIED_CLEARANCE: f64 = 0.15;
 
@@ -343,6 +360,8 @@ pub struct RobotPlant<'a> {
     hand: [HandControl; 2],
     /// The object being manipulated (its track id and what was seen of it), once a reach bound it.
     target: Option<(Option<u32>, SeenObject)>,
+    /// The target's colour terms when a reach last found it seen (what a search looks for).
+    target_colors: Vec<(u8, f64)>,
     plan: Option<GraspPlan>,
     /// The first track id not yet given when the grasp was planned (tracks from then on are new).
     plan_next_id: u32,
@@ -421,6 +440,7 @@ impl<'a> RobotPlant<'a> {
             reach,
             hand,
             target: None,
+            target_colors: Vec::new(),
             plan: None,
             grasp_palm: None,
             held: None,
@@ -755,18 +775,46 @@ impl<'a> RobotPlant<'a> {
                 sized
             );
         }
-        for (c, _, _) in candidates {
-            // The head must see the spot (both cameras, for stereo) to find the object there.
-            let seen_at = Vec3::new(c[0], c[1], table_z + 0.05);
-            if !self.watcher.can_look_at(self.hw, &seen_at, HEAD_LIMIT_MARGIN)? {
-                continue;
-            }
-            if arms_reaching(self.hw, table_z, &Vec3::new(c[0], c[1], table_z))?.len() == 2 {
-                if debug_exec() {
-                    eprintln!("  handoff spot {c:?}");
+        // Whether a seen thing stands between a head camera and the top of the object put down on
+        // spot `c` (a tall box in front of it): the object there would be hidden from the head
+        // whole, and the receiving hand would not find it. (The cameras move a few cm as the head
+        // turns to the spot; the thing's footprint is its seen radius; the object's top is twice
+        // its centroid's height.)
+        let mut eyes = [Vec3::zeros(); 2];
+        for (eye, link) in eyes.iter_mut().zip(HEAD_CAMERA_FRAMES) {
+            *eye = body.pose(self.hw, link)?.translation.vector;
+        }
+        let top_z = table_z + (2.0 * (object_at.z - table_z)).max(0.01);
+        let hidden = |c: [f64; 2]| {
+            let p = Vec3::new(c[0], c[1], top_z);
+            eyes.iter().any(|e| {
+                sized.iter().any(|t| {
+                    (1..SIGHT_SAMPLES).any(|i| {
+                        let q = e + (p - e) * (i as f64 / SIGHT_SAMPLES as f64);
+                        (q.x - t.at[0]).hypot(q.y - t.at[1]) < t.radius && q.z < table_z + t.height
+                    })
+                })
+            })
+        };
+        // Spots the head sees the object on first; if there are none, any.
+        for must_see in [true, false] {
+            for (c, _, _) in &candidates {
+                let c = *c;
+                // The head must turn to the spot (both cameras, for stereo) to find the object there.
+                let seen_at = Vec3::new(c[0], c[1], table_z + 0.05);
+                if (must_see && hidden(c)) || !self.watcher.can_look_at(self.hw, &seen_at, HEAD_LIMIT_MARGIN)? {
+                    continue;
                 }
-                self.handoff = c;
-                return Ok(Some(c));
+                if arms_reaching(self.hw, table_z, &Vec3::new(c[0], c[1], table_z))?.len() == 2 {
+                    if debug_exec() {
+                        eprintln!(
+                            "  handoff spot {c:?}{}",
+                            if must_see { "" } else { " (hidden from the head)" }
+                        );
+                    }
+                    self.handoff = c;
+                    return Ok(Some(c));
+                }
             }
         }
         Ok(None)
@@ -1131,7 +1179,11 @@ impl<'a> RobotPlant<'a> {
     /// [`RobotPlant::search_within`]'s scan of the table from where the arms are.
     fn scan_for(&mut self, last: &Vec3, gate: f64) -> Result<Option<(Option<u32>, SeenObject)>, RobotError> {
         let table_z = self.workspace.table_z;
-        let mut best: Option<(f64, u32, SeenObject)> = None;
+        // Segments that look like the target first (its colour terms overlap by
+        // [`LOOKS_ALIKE`]: a rolled object is found beside a nearer one of another colour), then
+        // tracks seen whole (one only ever seen cut by the image border or an arm has a biased
+        // centroid: the visible piece of another object), then by distance.
+        let mut best: Option<((bool, bool, f64), u32, SeenObject)> = None;
         for at in self.workspace.scan_points() {
             self.look(&at, 0.6)?;
             let Some(p) = self.percepts.last() else {
@@ -1146,8 +1198,12 @@ impl<'a> RobotPlant<'a> {
                     .hands
                     .iter()
                     .any(|h| (Vec3::from(h.palm) - c).norm() < 0.12 && h.load.abs() > 0.5);
-                if d < gate && on_table && !in_place && !carried && best.as_ref().is_none_or(|b| d < b.0) {
-                    best = Some((d, s.id, SeenObject::from_percept(s, table_z)));
+                let unlike = !self.target_colors.is_empty()
+                    && !s.colors.is_empty()
+                    && colour_overlap(&self.target_colors, &s.colors) < LOOKS_ALIKE;
+                let key = (unlike, !self.watcher.seen_whole(s.id), d);
+                if d < gate && on_table && !in_place && !carried && best.as_ref().is_none_or(|b| key < b.0) {
+                    best = Some((key, s.id, SeenObject::from_percept(s, table_z)));
                 }
             }
         }
@@ -1287,6 +1343,13 @@ impl SchemaPlant for RobotPlant<'_> {
                     (id, seen)
                 };
                 self.target = Some((id, seen.clone()));
+                if let Some(s) = self
+                    .percepts
+                    .last()
+                    .and_then(|p| p.segments.iter().find(|s| Some(s.id) == id && s.seen))
+                {
+                    self.target_colors.clone_from(&s.colors);
+                }
                 self.held = None;
                 self.grasp_palm = None;
                 let arc = finger_arc(self.hw.model(), arm)?;
@@ -1909,6 +1972,19 @@ impl schema::ProceduralPolicy for ArmPolicy {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Red against red-and-orange overlaps by the shared red; red against blue not at all.
+    #[test]
+    fn colour_overlap_is_the_shared_share() {
+        let red = [(3u8, 1.0)];
+        let red_orange = [(3u8, 0.6), (4, 0.4)];
+        let blue = [(7u8, 0.9), (1, 0.1)];
+        assert!((colour_overlap(&red, &red_orange) - 0.6).abs() < 1e-12);
+        assert!((colour_overlap(&red_orange, &red_orange) - 1.0).abs() < 1e-12);
+        assert_eq!(colour_overlap(&red, &blue), 0.0);
+        assert!(colour_overlap(&red_orange, &red) >= LOOKS_ALIKE);
+        assert!(colour_overlap(&blue, &red) < LOOKS_ALIKE);
+    }
 
     /// Pick-And-Place's transfer is a contingency: no pass on its main path. The user-written
     /// `pass_and_place` puts the object down in `carrying`; every state from `put_down` on belongs to

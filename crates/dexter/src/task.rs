@@ -42,6 +42,39 @@ pub enum Decider<'a> {
     Model(&'a ProceduralModel),
 }
 
+/// What the robot did about one object: the decision per seen segment, as reports and logs name it
+/// (serialised in lower case: `execute`, `ignore`, `skip`, `unseen`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Verdict {
+    /// Part of the task, and the schema ran on it.
+    Execute,
+    /// Not part of the task (relevance), or the task has no reference for it.
+    Ignore,
+    /// Part of the task, but no free arm (pair) reaches what the schema needs.
+    Skip,
+    /// An object no tracked segment matched (an evaluator's row: the robot never decided on it).
+    Unseen,
+}
+
+impl Verdict {
+    /// The lower-case name (`execute`, `ignore`, `skip`, `unseen`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Execute => "execute",
+            Verdict::Ignore => "ignore",
+            Verdict::Skip => "skip",
+            Verdict::Unseen => "unseen",
+        }
+    }
+}
+
+impl std::fmt::Display for Verdict {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.as_str())
+    }
+}
+
 /// What to do with one seen segment: a place or a reason to leave it.
 #[derive(Debug, Clone)]
 pub struct Decision {
@@ -68,7 +101,7 @@ impl Decision {
     /// arms if any, and why.
     pub fn event<'a>(
         &'a self,
-        decision: &'a str,
+        decision: Verdict,
         place: Option<&'a str>,
         arms: Option<[&'a str; 2]>,
         reason: &'a str,
@@ -90,8 +123,8 @@ impl Decision {
 pub struct DecisionEvent<'a> {
     /// The robot's segment (track id).
     pub segment: u32,
-    /// `execute`, `ignore` (not part of the task) or `skip` (out of reach).
-    pub decision: &'a str,
+    /// Execute, ignore (not part of the task) or skip (out of reach).
+    pub decision: Verdict,
     /// The place chosen, if any.
     pub place: Option<&'a str>,
     /// Posterior over places (from a model; empty otherwise).
@@ -348,7 +381,7 @@ fn run_one(
 ) -> Result<Taken, RobotError> {
     let place = match &d.place {
         Err(why) => {
-            sink.decided(&*plant.hw, &d.event("ignore", None, None, why));
+            sink.decided(&*plant.hw, &d.event(Verdict::Ignore, None, None, why));
             return Ok(Taken::Ignored { why: why.clone() });
         }
         Ok(p) => p.clone(),
@@ -356,7 +389,7 @@ fn run_one(
     let wants_place = has_place(task.library, schema);
     if wants_place && place.is_none() {
         let why = format!("`{}` puts its object in a place, and none was decided", schema.name);
-        sink.decided(&*plant.hw, &d.event("ignore", None, None, &why));
+        sink.decided(&*plant.hw, &d.event(Verdict::Ignore, None, None, &why));
         return Ok(Taken::Ignored { why });
     }
     let place = if wants_place { place } else { None };
@@ -364,7 +397,7 @@ fn run_one(
     let free: Vec<Arm> = Arm::BOTH.into_iter().filter(|&a| !plant.holds(a)).collect();
     if free.is_empty() {
         let why = "both hands hold an object from this task".to_string();
-        sink.decided(&*plant.hw, &d.event("skip", place.as_deref(), None, &why));
+        sink.decided(&*plant.hw, &d.event(Verdict::Skip, place.as_deref(), None, &why));
         return Ok(Taken::Skipped { place, why });
     }
     sink.acting(&*plant.hw, d, place.as_deref());
@@ -405,11 +438,14 @@ fn run_one(
             Some(place) => format!("no free arm reaches segment {}, or none reaches `{place}`", d.segment),
             None => format!("no free arm reaches segment {}", d.segment),
         };
-        sink.decided(&*plant.hw, &d.event("skip", place.as_deref(), None, &why));
+        sink.decided(&*plant.hw, &d.event(Verdict::Skip, place.as_deref(), None, &why));
         return Ok(Taken::Skipped { place, why });
     };
     let arms = [policy.pick_arm.prefix(), policy.place_arm.prefix()];
-    sink.decided(&*plant.hw, &d.event("execute", place.as_deref(), Some(arms), &d.reason));
+    sink.decided(
+        &*plant.hw,
+        &d.event(Verdict::Execute, place.as_deref(), Some(arms), &d.reason),
+    );
     plant.bind_arms(&[policy.pick_arm, policy.place_arm]);
     let arms_before = plant.arms_used.len();
     let execution = schema::execute(task.library, schema, plant, &mut policy, task.max_actions)?;

@@ -775,6 +775,14 @@ impl Watcher {
             .any(|(tr, &d)| tr.id == id && d >= DOUBT_FRAMES)
     }
 
+    /// Whether track `id` was ever seen whole — in both cameras, cut by neither the image border
+    /// nor the robot's body. A track born of a cut view has a centroid biased towards its visible
+    /// part (the border-cut edge of an object can put it 8 cm off and its top 10 cm too high).
+    pub fn seen_whole(&self, id: u32) -> bool {
+        let t = &self.tracker;
+        t.tracks.iter().zip(&t.whole).any(|(tr, &w)| tr.id == id && w)
+    }
+
     /// The places the robot was told.
     pub fn places(&self) -> &[PlacePercept] {
         &self.places

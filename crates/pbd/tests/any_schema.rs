@@ -3,6 +3,7 @@
 //! MAP schema with the robot's own task loop in a new scene on an object the teacher never handled,
 //! and the evaluator judges the outcome from the truth by what the schema's goal means.
 
+use pbd::dexter::task::Verdict;
 use pbd::execute::{ExecuteOptions, execute};
 use pbd::infer::{InferOptions, infer};
 use pbd::progress::Quiet;
@@ -63,7 +64,7 @@ fn assert_done(report: &pbd::execute::ExecuteReport, object: &str) {
     assert_eq!(report.objects.len(), 1, "{report}");
     let o = &report.objects[0];
     assert_eq!(o.object, object, "{report}");
-    assert_eq!(o.decision, "execute", "{report}");
+    assert_eq!(o.decision, Verdict::Execute, "{report}");
     assert!(o.success, "{report}\n{:?}", o.execution);
     assert!(o.execution.as_ref().is_some_and(|e| e.reached_goal), "{report}");
 }
@@ -136,7 +137,10 @@ fn a_model_learned_from_touch_demonstrations_runs_its_schema_on_the_objects_it_f
     assert_eq!(report.schema, "reach_and_touch", "{report}");
     // Every object is decided on by relevance; none is put anywhere.
     assert!(report.objects.iter().all(|o| o.place.is_none()), "{report}");
-    assert!(report.objects.iter().any(|o| o.decision == "execute"), "{report}");
+    assert!(
+        report.objects.iter().any(|o| o.decision == Verdict::Execute),
+        "{report}"
+    );
     assert!(report.placed >= 1, "{report}");
 }
 
