@@ -620,23 +620,11 @@ impl Teacher {
                         steps.push(hesitate(&mut rng));
                         steps.push(Step::Hover { object: o });
                     }
-                    steps.push(Step::Descend {
-                        object: o,
-                        early: false,
-                    });
-                    steps.push(Step::Close);
-                    // Wait until the grasp feels firm.
-                    steps.push(Step::Pause(0.5));
-                    steps.push(Step::Lift { rise: 0.12 });
-                    steps.push(Step::Pause(0.6));
-                    steps.push(Step::CheckHeld { object: o });
+                    steps.extend(grasp_and_lift(o));
                     steps.push(Step::OverPlace { place: p, object: o });
                     steps.push(Step::Pause(0.3));
                     steps.push(Step::Lower { place: p, object: o });
-                    steps.push(Step::Pause(0.5));
-                    steps.push(Step::Open);
-                    steps.push(Step::Pause(0.4));
-                    steps.push(Step::Retreat { rise: 0.15 });
+                    steps.extend(let_go_and_retreat());
                 }
                 TeachTask::PassPlace {
                     object, place, handoff, ..
@@ -646,29 +634,14 @@ impl Teacher {
                     let carry = |steps: &mut Vec<Step>, rng: &mut Generator| {
                         steps.push(hesitate(rng));
                         steps.push(Step::Hover { object: o });
-                        steps.push(Step::Descend {
-                            object: o,
-                            early: false,
-                        });
-                        steps.push(Step::Close);
-                        // Wait until the grasp feels firm.
-                        steps.push(Step::Pause(0.5));
-                        steps.push(Step::Lift { rise: 0.12 });
-                        steps.push(Step::Pause(0.6));
-                        steps.push(Step::CheckHeld { object: o });
-                    };
-                    let put_down = |steps: &mut Vec<Step>| {
-                        steps.push(Step::Pause(0.5));
-                        steps.push(Step::Open);
-                        steps.push(Step::Pause(0.4));
-                        steps.push(Step::Retreat { rise: 0.15 });
+                        steps.extend(grasp_and_lift(o));
                     };
                     // The first hand puts it down between the hands and goes back to its park pose.
                     carry(&mut steps, &mut rng);
                     steps.push(Step::OverSpot { xy: *handoff });
                     steps.push(Step::Pause(0.3));
                     steps.push(Step::Lower { place: p, object: o });
-                    put_down(&mut steps);
+                    steps.extend(let_go_and_retreat());
                     steps.push(Step::Park);
                     steps.push(Step::Pause(0.8));
                     // The other hand takes it from there to the place.
@@ -677,7 +650,7 @@ impl Teacher {
                     steps.push(Step::OverPlace { place: p, object: o });
                     steps.push(Step::Pause(0.3));
                     steps.push(Step::Lower { place: p, object: o });
-                    put_down(&mut steps);
+                    steps.extend(let_go_and_retreat());
                     last_arm = Some(arm.other());
                 }
                 TeachTask::PickHold { object, .. } => {
@@ -1004,6 +977,32 @@ impl Teacher {
         }
         Ok(plan)
     }
+}
+
+/// From above object `o`: down to the grasp, close, wait until the grasp feels firm, lift 12 cm,
+/// and check that the object came up.
+fn grasp_and_lift(o: usize) -> [Step; 6] {
+    [
+        Step::Descend {
+            object: o,
+            early: false,
+        },
+        Step::Close,
+        Step::Pause(0.5),
+        Step::Lift { rise: 0.12 },
+        Step::Pause(0.6),
+        Step::CheckHeld { object: o },
+    ]
+}
+
+/// With the object set down: open the hand and rise 15 cm away from it.
+fn let_go_and_retreat() -> [Step; 4] {
+    [
+        Step::Pause(0.5),
+        Step::Open,
+        Step::Pause(0.4),
+        Step::Retreat { rise: 0.15 },
+    ]
 }
 
 /// Hover over object `o`, go down to the grasp, close, and lift by `rise` (m).

@@ -60,6 +60,42 @@ fn demonstrate_and_execute(script: Script, schema: &str, object: &str) -> pbd::e
     report
 }
 
+/// Infers `demo` with the example library `file` (in `assets/schemas/examples`), checks that `schema`
+/// is MAP, and learns a model of it; returns the library's path, the inference and the model's path.
+fn infer_and_learn(
+    demo: &std::path::Path,
+    file: &str,
+    schema: &str,
+) -> (std::path::PathBuf, pbd::infer::InferRun, std::path::PathBuf) {
+    let library = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../assets/schemas/examples")
+        .join(file);
+    let inferred = infer(
+        &InferOptions {
+            demo: demo.to_path_buf(),
+            library: Some(library.clone()),
+            ..InferOptions::default()
+        },
+        &Quiet,
+    )
+    .unwrap();
+    assert_eq!(inferred.file.inference.posterior.map, schema);
+    let model_path = dir().join(format!("{schema}.model.json"));
+    pbd::learn::learn(
+        &pbd::learn::LearnOptions {
+            demos: vec![inferred.json_path.clone()],
+            output: model_path.clone(),
+            library: Some(library.clone()),
+            ..pbd::learn::LearnOptions::default()
+        },
+        &Quiet,
+    )
+    .unwrap();
+    let model = pbd::schema::procedural::ProceduralModel::load(&model_path).unwrap();
+    assert_eq!(model.schema(), Some(schema));
+    (library, inferred, model_path)
+}
+
 fn assert_done(report: &pbd::execute::ExecuteReport, object: &str) {
     assert_eq!(report.objects.len(), 1, "{report}");
     let o = &report.objects[0];
@@ -149,32 +185,8 @@ fn a_model_learned_from_touch_demonstrations_runs_its_schema_on_the_objects_it_f
 /// to its monitors and skills by their signature, never by their names.
 #[test]
 fn a_library_with_other_names_is_inferred_learned_and_executed() {
-    let library = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/schemas/examples/renamed.toml");
-    let d = dir();
     let demo = recorded(Script::PickHold, "hold-renamed");
-    let inferred = infer(
-        &InferOptions {
-            demo: demo.clone(),
-            library: Some(library.clone()),
-            ..InferOptions::default()
-        },
-        &Quiet,
-    )
-    .unwrap();
-    assert_eq!(inferred.file.inference.posterior.map, "show_me");
-    let model_path = d.join("show_me.model.json");
-    pbd::learn::learn(
-        &pbd::learn::LearnOptions {
-            demos: vec![inferred.json_path.clone()],
-            output: model_path.clone(),
-            library: Some(library.clone()),
-            ..pbd::learn::LearnOptions::default()
-        },
-        &Quiet,
-    )
-    .unwrap();
-    let model = pbd::schema::procedural::ProceduralModel::load(&model_path).unwrap();
-    assert_eq!(model.schema(), Some("show_me"));
+    let (library, inferred, _) = infer_and_learn(&demo, "renamed.toml", "show_me");
     let report = execute(
         &ExecuteOptions {
             scene: "sorting-new".into(),
@@ -197,38 +209,14 @@ fn a_library_with_other_names_is_inferred_learned_and_executed() {
 /// from the schema's graph and binds the two arms and the handoff spot.
 #[test]
 fn a_schema_the_user_writes_is_inferred_learned_and_executed() {
-    let library =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/schemas/examples/pass-and-place.toml");
     let d = dir();
     let demo = recorded(Script::PassPlace, "pass");
-    let inferred = infer(
-        &InferOptions {
-            demo: demo.clone(),
-            library: Some(library.clone()),
-            ..InferOptions::default()
-        },
-        &Quiet,
-    )
-    .unwrap();
-    assert_eq!(inferred.file.inference.posterior.map, "pass_and_place");
+    let (library, inferred, model_path) = infer_and_learn(&demo, "pass-and-place.toml", "pass_and_place");
     let instances = &inferred.file.inference.instances;
     assert_eq!(instances.len(), 1, "{instances:?}");
     // The teacher picked with the right arm (the place is on the left).
     assert_eq!(instances[0].arm.as_deref(), Some("right"));
     assert_eq!(instances[0].place.as_deref(), Some("bin-left"));
-    let model_path = d.join("pass.model.json");
-    pbd::learn::learn(
-        &pbd::learn::LearnOptions {
-            demos: vec![inferred.json_path.clone()],
-            output: model_path.clone(),
-            library: Some(library.clone()),
-            ..pbd::learn::LearnOptions::default()
-        },
-        &Quiet,
-    )
-    .unwrap();
-    let model = pbd::schema::procedural::ProceduralModel::load(&model_path).unwrap();
-    assert_eq!(model.schema(), Some("pass_and_place"));
     // A new scene: another object, somewhere else, on the right of the table. (In the cluttered
     // `sorting-new` the pass fails today — see the README's status — as the transfers of the
     // blocked-arm faults do.)
