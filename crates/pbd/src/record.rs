@@ -214,20 +214,14 @@ fn choose_arm(sim: &DexterSim, scene: &Scene, object: &str, place: Option<&str>,
     let pp = place.map(|p| scene.place(p)).transpose()?;
     let table_z = scene.spec.table.height;
     let ok = |arm: Arm| -> Result<bool> {
-        let mut over = dexter::skills::park_pose(arm, table_z);
-        over.translation.vector.x = op.translation.x;
-        over.translation.vector.y = op.translation.y;
-        over.translation.vector.z = op.translation.z + 0.15;
-        if !dexter::skills::reachable(sim.model(), arm, &over, 5)? {
+        let o = op.translation.vector;
+        if !reaches_over(sim, scene, arm, [o.x, o.y, o.z], 5)? {
             return Ok(false);
         }
-        if let Some(p) = pp {
-            over.translation.vector.x = p.center[0];
-            over.translation.vector.y = p.center[1];
-            over.translation.vector.z = table_z + p.wall_height + 0.15;
-            return Ok(dexter::skills::reachable(sim.model(), arm, &over, 6)?);
+        match pp {
+            Some(p) => reaches_over(sim, scene, arm, [p.center[0], p.center[1], table_z + p.wall_height], 6),
+            None => Ok(true),
         }
-        Ok(true)
     };
     let candidates: Vec<Arm> = match want {
         Some(a) => vec![a],
