@@ -1,7 +1,9 @@
 //! One injected-fault scene, for debugging: `cargo run --release -p dexter-sim --example fault_probe
 //! -- <kind> <index> [seed]` (set `PBD_DEBUG_EXEC=1` to see the monitors after every action,
 //! `PBD_DEBUG_BLOBS=1` for every stereo blob and forgotten track, `PBD_DEBUG_TRUTH=1` for the
-//! object's true position every half second).
+//! object's true position, both palms and the six fingertip heights every half second, or
+//! `PBD_DEBUG_TRUTH=50` every 50 ms). Rebuild it after a change: a stale probe disagrees with the
+//! experiment, which is deterministic (one thread or two give the same rows).
 
 use dexter_sim::fault::{FaultKind, fault_trial};
 use dexter_sim::scene::Scene;

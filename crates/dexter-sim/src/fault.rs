@@ -350,10 +350,33 @@ impl Fault {
     /// After the physics steps: evaluates the trigger from the world's truth and applies the fault.
     pub fn after_advance(&mut self, sim: &mut DexterSim) {
         let t = sim.time();
-        if debug_truth() && ((t * 1000.0).round() as u64).is_multiple_of(500) {
+        if debug_truth() && ((t * 1000.0).round() as u64).is_multiple_of(truth_period_ms()) {
             let o = sim.object_state(self.spec.object);
             let p = o.pose.translation.vector;
-            eprintln!("TRUTH t={t:.2} object at ({:.3}, {:.3}, {:.3})", p.x, p.y, p.z);
+            let palm = |k: usize| sim.link_pose(self.palms[k]).translation.vector;
+            let (l, r) = (palm(0), palm(1));
+            let tips: Vec<String> = ["left", "right"]
+                .iter()
+                .flat_map(|a| (1..=3).map(move |f| format!("{a}/bhand/finger_{f}/tip_link")))
+                .map(|n| {
+                    sim.link_pose_by_name(&n)
+                        .map(|q| format!("{:.3}", q.translation.z))
+                        .unwrap_or_default()
+                })
+                .collect();
+            eprintln!(
+                "TRUTH t={t:.2} object at ({:.3}, {:.3}, {:.3}) palms ({:.3}, {:.3}, {:.3}) ({:.3}, {:.3}, {:.3}) tips z {}",
+                p.x,
+                p.y,
+                p.z,
+                l.x,
+                l.y,
+                l.z,
+                r.x,
+                r.y,
+                r.z,
+                tips.join(" ")
+            );
         }
         if let Some(until) = self.until {
             if t >= until {
@@ -823,8 +846,21 @@ pub fn fault_trial(
     })
 }
 
+/// The period (ms) of `PBD_DEBUG_TRUTH`: its value when it is a number of milliseconds, else 500.
+fn truth_period_ms() -> u64 {
+    static MS: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
+    *MS.get_or_init(|| {
+        std::env::var("PBD_DEBUG_TRUTH")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .filter(|&ms| ms > 0)
+            .unwrap_or(500)
+    })
+}
+
 /// Whether `PBD_DEBUG_TRUTH` is set: a fault then prints the object's true position every half
-/// second of simulated time to standard error, for debugging recoveries (read once).
+/// second of simulated time (or every `PBD_DEBUG_TRUTH` ms) to standard error, for debugging
+/// recoveries (read once).
 fn debug_truth() -> bool {
     static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     *ON.get_or_init(|| std::env::var_os("PBD_DEBUG_TRUTH").is_some())

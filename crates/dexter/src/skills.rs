@@ -1072,7 +1072,15 @@ pub fn lower_until_supported(
     obs.activity = "place";
     let arm = reach.arm();
     let mut down = reach.tool_pose(hw);
+    let palm_z = down.translation.vector.z;
     down.translation.vector.z = table_z + 0.002 + held.below - 0.02;
+    // Fingertips curled below the object's bottom (a ball drawn up into the hand as the fingers
+    // closed under it) would reach the table first and be pressed onto it, and as they open they
+    // flick the object away: the descent stops with the lowest fingertip just above the table.
+    if let Some(tip_z) = lowest_fingertip(hw, arm) {
+        let floor = table_z + (palm_z - tip_z) + FINGERTIP_RADIUS + FINGERTIP_CLEARANCE;
+        down.translation.vector.z = down.translation.vector.z.max(floor);
+    }
     reach.max_speed = 0.09;
     reach.set_goal(hw, down);
     let mut supported = 0;
@@ -1097,6 +1105,26 @@ pub fn lower_until_supported(
         obs.activity = "place (no support felt)";
     }
     touched
+}
+
+/// Radius (m) of a BarrettHand fingertip (the `tip_link` spheres of the robot's model).
+pub const FINGERTIP_RADIUS: f64 = 0.01;
+
+/// Least gap (m) kept between the lowest fingertip and the table when an object is lowered onto
+/// it ([`lower_until_supported`]).
+pub const FINGERTIP_CLEARANCE: f64 = 0.01;
+
+/// The height (m) of the lowest fingertip centre of `arm`'s hand, from the robot's model at the
+/// measured joint angles (`None` if the model has no such links).
+fn lowest_fingertip(hw: &dyn Hardware, arm: Arm) -> Option<f64> {
+    let mut body = Body::new();
+    (1..=3)
+        .filter_map(|f| {
+            body.pose(hw, &format!("{}/bhand/finger_{f}/tip_link", arm.prefix()))
+                .ok()
+                .map(|p| p.translation.z)
+        })
+        .reduce(f64::min)
 }
 
 /// Release: hold the hand where it is, open it, and retreat 12 cm up.
