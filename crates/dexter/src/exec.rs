@@ -1520,8 +1520,12 @@ impl SchemaPlant for RobotPlant<'_> {
                     }
                     Ok::<(), Failure>(())
                 })?;
-                if transfer {
-                    // The object rests on the handoff spot: the next reach sees it there.
+                if transfer && r.is_ok() {
+                    // The object rests on the handoff spot: the next reach sees it there. (A carry
+                    // that failed keeps the hold: the object is still in the hand, and a retry
+                    // carries it from where the hand is; forgetting it made the retry recompute
+                    // the hold from the spot it never reached, and carry the object back towards
+                    // where it was picked: development seed 2, blocked arm, scene 14.)
                     if let Some((_, seen)) = self.target.as_mut() {
                         let dx = target[0] - seen.extent.center[0];
                         let dy = target[1] - seen.extent.center[1];
