@@ -480,3 +480,146 @@ fn sim_pick_place_stops_on_sigint_with_a_complete_log() {
     assert!(o.status.success(), "the log is complete: {}", stderr(&o));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Issue 38: every command declares what it reads — the files named inside other inputs too (a
+/// scene's catalog) — and what it writes — the fixed names inside an output directory too — and
+/// one guard refuses any overlap before work starts; a special file is never replaced. Each case
+/// once destroyed its input (or a device node).
+#[test]
+fn inputs_read_through_other_inputs_and_output_directories_are_never_overwritten() {
+    let d = dir("io-plan");
+    let scene = d.join("s.toml");
+    let text = std::fs::read_to_string(repo().join("assets/scenes/pick-place.toml"))
+        .unwrap()
+        .replace("../objects/household.toml", "household.toml");
+    std::fs::write(&scene, text).unwrap();
+    let catalog = d.join("household.toml");
+    std::fs::copy(repo().join("assets/objects/household.toml"), &catalog).unwrap();
+    let model = d.join("m.json");
+    std::fs::copy(repo().join("crates/py/tests/data/sorting-model.json"), &model).unwrap();
+    let out = d.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(
+        out.join("summary.md"),
+        "a catalog? no: a file a careless user named so\n",
+    )
+    .unwrap();
+    std::fs::copy(&model, out.join("objects.csv")).unwrap();
+    std::fs::write(out.join("trials.csv"), "object,outcome\n").unwrap();
+    let files = [
+        &scene,
+        &catalog,
+        &model,
+        &out.join("summary.md"),
+        &out.join("objects.csv"),
+        &out.join("trials.csv"),
+    ];
+    let before: Vec<Vec<u8>> = files.iter().map(|f| std::fs::read(f).unwrap()).collect();
+    let x = s(&d.join("x.mcap"));
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        // Two outputs that are one file.
+        (
+            vec![
+                "record".into(),
+                "--scene".into(),
+                s(&scene),
+                "-o".into(),
+                x.clone(),
+                "--save-teleop".into(),
+                x.clone(),
+            ],
+            "two outputs cannot be one file",
+        ),
+        // The scene's catalog, read through the scene.
+        (
+            vec!["record".into(), "--scene".into(), s(&scene), "-o".into(), s(&catalog)],
+            "the scene's catalog",
+        ),
+        (
+            vec![
+                "sim".into(),
+                "pick-place".into(),
+                "--scene".into(),
+                s(&scene),
+                "--mcap".into(),
+                s(&catalog),
+            ],
+            "the scene's catalog",
+        ),
+        // An input given as the output of a command that reads it whole first.
+        (
+            vec![
+                "execute".into(),
+                "--model".into(),
+                s(&model),
+                "-o".into(),
+                format!("{}/./m.json", s(&d)),
+            ],
+            "refusing to overwrite an input",
+        ),
+        (
+            vec![
+                "execute".into(),
+                "--model".into(),
+                s(&model),
+                "--scene".into(),
+                s(&scene),
+                "-o".into(),
+                s(&scene),
+            ],
+            "refusing to overwrite an input",
+        ),
+        // An input inside the output directory with the name of a file written there.
+        (
+            vec![
+                "experiment".into(),
+                "execute".into(),
+                "--model".into(),
+                s(&out.join("objects.csv")),
+                "-o".into(),
+                s(&out),
+            ],
+            "refusing to overwrite an input",
+        ),
+        (
+            vec![
+                "experiment".into(),
+                "sorting".into(),
+                "--feature".into(),
+                "color".into(),
+                "--catalog".into(),
+                s(&out.join("summary.md")),
+                "-o".into(),
+                s(&out),
+            ],
+            "refusing to overwrite an input",
+        ),
+        (
+            vec![
+                "grasp".into(),
+                "eval".into(),
+                "--corpus".into(),
+                s(&out.join("trials.csv")),
+                "-o".into(),
+                s(&out),
+            ],
+            "refusing to overwrite an input",
+        ),
+        // A device node is never replaced by a regular file.
+        (
+            vec!["sim".into(), "pick-place".into(), "--mcap".into(), "/dev/null".into()],
+            "not a regular file",
+        ),
+    ];
+    for (args, needle) in &cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        refused(&args, &[needle]);
+    }
+    for (f, b) in files.iter().zip(&before) {
+        assert_eq!(&std::fs::read(f).unwrap(), b, "{} was changed", f.display());
+    }
+    assert!(!Path::new(&x).exists(), "x.mcap was written");
+    use std::os::unix::fs::FileTypeExt;
+    assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device());
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -314,6 +314,23 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
         args.output.is_some() || (args.live.is_none() && args.live_view.is_none()),
         "--live streams the execution's log: pass --output FILE.mcap too"
     );
+    // Every input, the scene's catalog included, is refused as the output before anything is written.
+    let mut io = crate::files::IoPlan::new();
+    io.read("--scene", &scene.path)
+        .read("the scene's catalog", &scene.catalog.path);
+    for (what, p) in [
+        ("--model", &args.model),
+        ("--demo", &args.demo),
+        ("--library", &args.library),
+    ] {
+        if let Some(p) = p {
+            io.read(what, p);
+        }
+    }
+    if let Some(p) = &args.output {
+        io.write("-o", p);
+    }
+    io.check()?;
     let log = match &args.output {
         Some(p) => {
             let sim = DexterSim::new(&scene, SimSettings::default())?;

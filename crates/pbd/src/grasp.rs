@@ -314,7 +314,14 @@ pub fn record(args: &GraspRecordOptions, progress: &dyn Progress) -> Result<Reco
         .iter()
         .map(|p| dexter_sim::teleop::TeleopStream::load(p).map_err(anyhow::Error::from))
         .collect::<Result<Vec<_>>>()?;
-    // Run.
+    // Run: the corpus is refused as any input (the scene, its catalog, a teleop file).
+    let mut io = crate::files::IoPlan::new();
+    io.read("--scene", &presenter.base.path)
+        .read("the scene's catalog", &presenter.base.catalog.path);
+    for t in &args.teleop {
+        io.read("--teleop", t);
+    }
+    io.write("-o", &args.output).check()?;
     crate::files::check_writable(&args.output)?;
     progress.phase("record", Some(objects.len() as u64));
     let (new, demos, skipped) = if teleops.is_empty() {

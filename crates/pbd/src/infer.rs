@@ -258,7 +258,14 @@ pub fn infer(args: &InferOptions, progress: &dyn Progress) -> Result<InferRun> {
         .clone()
         .unwrap_or_else(|| default_output(&args.demo, "infer.json"));
     let mcap_path = json_path.with_extension("mcap");
-    crate::files::refuse_inputs_as_outputs(&[args.demo.as_path()], &[json_path.as_path(), mcap_path.as_path()])?;
+    let mut io = crate::files::IoPlan::new();
+    io.read("the demonstration", &args.demo);
+    if let Some(l) = &args.library {
+        io.read("--library", l);
+    }
+    io.write("-o", &json_path)
+        .write("its companion MCAP", &mcap_path)
+        .check()?;
     write_companion(&mcap_path, &engine, &obs, &file)?;
     let text = serde_json::to_string_pretty(&file)?;
     crate::files::write_atomic(&json_path, text.as_bytes())?;

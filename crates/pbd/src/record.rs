@@ -528,14 +528,21 @@ pub fn record(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordRep
             dir.display()
         );
     }
+    // Every input (the scene's catalog included) and both outputs, checked before anything is written.
+    let mut io = crate::files::IoPlan::new();
+    io.read("--scene", &scene.path)
+        .read("the scene's catalog", &scene.catalog.path);
+    if let Some(t) = &args.teleop {
+        io.read("--teleop", t);
+    }
+    io.write("-o", &args.output);
     if let Some(t) = &args.save_teleop {
-        crate::files::refuse_inputs_as_outputs(&[args.output.as_path()], &[t.as_path()])?;
+        io.write("--save-teleop", t);
+    }
+    io.check()?;
+    if let Some(t) = &args.save_teleop {
         crate::files::check_writable(t)?;
     }
-    let mut inputs: Vec<&std::path::Path> = args.teleop.iter().map(PathBuf::as_path).collect();
-    let scene_path = PathBuf::from(&args.scene);
-    inputs.push(scene_path.as_path());
-    crate::files::refuse_inputs_as_outputs(&inputs, &[args.output.as_path()])?;
     let mut log = McapLog::create_with(
         &args.output,
         crate::mcap_log::McapLogOptions {

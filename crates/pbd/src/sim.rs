@@ -124,6 +124,13 @@ pub fn pick_place(args: &PickPlaceOptions, progress: &dyn Progress) -> anyhow::R
         place: place.clone(),
         arm: args.arm.arm(),
     };
+    if let Some(path) = &args.mcap {
+        crate::files::IoPlan::new()
+            .read("--scene", &scene.path)
+            .read("the scene's catalog", &scene.catalog.path)
+            .write("--mcap", path)
+            .check()?;
+    }
     let log = match &args.mcap {
         Some(path) => {
             let mut log = McapLog::create(path)?;

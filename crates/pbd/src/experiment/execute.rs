@@ -82,6 +82,9 @@ fn parse_task(task: &[String]) -> Result<BTreeMap<String, String>> {
         .collect()
 }
 
+/// The files `experiment execute` writes in its output directory.
+pub const OUTPUT_FILES: &[&str] = &["objects.csv", "summary.md"];
+
 /// Runs the experiment: the scenes in parallel on the thread pool, then `objects.csv` and `summary.md`
 /// in the output directory. The same seed gives the same files, whatever the number of threads.
 pub fn run(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> Result<ExecuteExperimentRun> {
@@ -94,6 +97,12 @@ pub fn run(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> Result<E
     }
     // Check the model before minutes of simulation.
     schema::procedural::ProceduralModel::load(&args.model)?;
+    crate::files::IoPlan::new()
+        .read("--model", &args.model)
+        .read("--scene", &base.path)
+        .read("the scene's catalog", &base.catalog.path)
+        .write_in("-o", &args.output, OUTPUT_FILES)
+        .check()?;
     std::fs::create_dir_all(&args.output).with_context(|| format!("cannot create {}", args.output.display()))?;
     let config = ExperimentConfig {
         model: args.model.clone(),

@@ -211,6 +211,9 @@ pub fn summarize(kinds: &[FaultKind], trials: &[FaultTrial]) -> Vec<KindSummary>
         .collect()
 }
 
+/// The files `experiment faults` writes in its output directory.
+pub const OUTPUT_FILES: &[&str] = &["faults.csv", "summary.md", "recovered.svg"];
+
 /// Runs the experiment: every (kind, scene) on the thread pool, then `faults.csv` and `summary.md`
 /// in the output directory; the figure `recovered.svg` is returned in [`FaultsReport::figures`].
 /// The same seed gives the same files, whatever the number of threads. On Ctrl-C the finished
@@ -224,6 +227,11 @@ pub fn run(args: &FaultsOptions, progress: &dyn Progress) -> Result<FaultsReport
     kinds.sort();
     kinds.dedup();
     let base = Scene::open(&args.scene)?;
+    crate::files::IoPlan::new()
+        .read("--scene", &base.path)
+        .read("the scene's catalog", &base.catalog.path)
+        .write_in("-o", &args.output, OUTPUT_FILES)
+        .check()?;
     std::fs::create_dir_all(&args.output)
         .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", args.output.display()))?;
     let library = Library::builtin();

@@ -508,6 +508,24 @@ pub struct Summary {
     pub partial: Option<String>,
 }
 
+/// The files `experiment sorting` writes in its output directory.
+pub const OUTPUT_FILES: &[&str] = &[
+    "summary.md",
+    "success.csv",
+    "success.svg",
+    "p_values.svg",
+    "relevance.csv",
+    "relevance_objects.csv",
+    "roc.csv",
+    "roc.svg",
+    "incremental_pmfs.csv",
+    "incremental_pmfs.svg",
+    "samples.svg",
+    "size_density.svg",
+    "selection.csv",
+    "selection.svg",
+];
+
 /// `pbd experiment sorting`: renders the catalog's features, runs the trials, writes the CSVs and
 /// `summary.md`; the figures are returned in [`Summary::figures`] for the caller to draw.
 pub fn run(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Summary> {
@@ -518,6 +536,15 @@ pub fn run(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Sum
         let bank = super::features::load_bank(path)?;
         return run_on_bank(args, &bank, progress);
     }
+    let mut io = crate::files::IoPlan::new();
+    if let Some(c) = &args.catalog {
+        io.read("--catalog", c);
+    }
+    io.write_in("-o", &args.output, OUTPUT_FILES);
+    if let Some(p) = &args.dump_features {
+        io.write("--dump-features", p);
+    }
+    io.check()?;
     let test = test_bank(args, progress)?;
     let catalog = match &args.catalog {
         Some(p) => Catalog::load(p)?,

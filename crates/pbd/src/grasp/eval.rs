@@ -97,6 +97,18 @@ struct Prepared {
     rejected: [Rejections; 2],
 }
 
+/// The fixed files `grasp eval` writes in its output directory (besides `candidates/`).
+pub const OUTPUT_FILES: &[&str] = &[
+    "corpus.json",
+    "prototypes.json",
+    "summary.json",
+    "summary.md",
+    "fig6_7.svg",
+    "trials.csv",
+    "objects.csv",
+    "sharing.csv",
+];
+
 /// `pbd grasp eval`: the §6.5 experiment. Writes the report files into `output` and returns the
 /// summary; [`super::report::figure`] gives Fig. 6.7 to draw. The same seed gives the same files on
 /// any number of threads.
@@ -129,6 +141,11 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
     );
     config.validate()?;
     let given_model = args.model.as_ref().map(GraspModel::load).transpose()?;
+    let mut io = crate::files::IoPlan::new();
+    if let Some(c) = &args.corpus {
+        io.read("--corpus", c);
+    }
+    io.write_in("-o", &args.output, OUTPUT_FILES).check()?;
     let given_corpus = args.corpus.as_ref().map(Corpus::load).transpose()?;
     if let Some(c) = &given_corpus {
         c.validate()?;
