@@ -21,7 +21,7 @@ pub fn max_input_bytes() -> u64 {
 /// than [`max_input_bytes`] bytes have been read (devices and pipes included, whose size is unknown).
 pub fn read_text(path: &Path) -> std::io::Result<String> {
     let max = max_input_bytes();
-    let file = std::fs::File::open(path)?;
+    let file = open_input(path)?;
     let mut text = String::new();
     file.take(max.saturating_add(1)).read_to_string(&mut text)?;
     if text.len() as u64 > max {
@@ -31,6 +31,23 @@ pub fn read_text(path: &Path) -> std::io::Result<String> {
         ));
     }
     Ok(text)
+}
+
+/// Opens the input file at `path` for reading, refusing a FIFO (a named pipe) with
+/// [`std::io::ErrorKind::InvalidInput`]: opening one blocks until some other process writes to it
+/// (`mkfifo f; pbd doctor f` once waited forever).
+pub fn open_input(path: &Path) -> std::io::Result<std::fs::File> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if std::fs::metadata(path)?.file_type().is_fifo() {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "a FIFO (named pipe), not a file: pbd reads files (write the data to a file first)",
+            ));
+        }
+    }
+    std::fs::File::open(path)
 }
 
 #[cfg(test)]
@@ -43,5 +60,23 @@ mod tests {
         let e = read_text(Path::new("/dev/zero"));
         // /dev/zero is NUL bytes: valid UTF-8, so only the limit stops it.
         assert_eq!(e.unwrap_err().kind(), std::io::ErrorKind::InvalidData);
+    }
+
+    /// A FIFO with no writer is refused at once (opening it would block forever).
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_is_refused_without_blocking() {
+        let dir = std::env::temp_dir().join(format!("bayes-fifo-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("f");
+        let ok = std::process::Command::new("mkfifo").arg(&f).status();
+        if !ok.is_ok_and(|s| s.success()) {
+            eprintln!("skipped: mkfifo is not available");
+            return;
+        }
+        let e = read_text(&f).unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::InvalidInput);
+        assert!(e.to_string().contains("FIFO"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -74,9 +74,18 @@ fn main() -> ExitCode {
             return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
         }
     };
-    let threads = cli
-        .threads
-        .or_else(|| std::env::var("PBD_THREADS").ok().and_then(|s| s.parse().ok()));
+    // PBD_THREADS, when set, must be a count (it was once ignored silently when it was not).
+    let from_env = match std::env::var("PBD_THREADS") {
+        Ok(s) if cli.threads.is_none() && !s.trim().is_empty() => match s.trim().parse::<usize>() {
+            Ok(n) => Some(n),
+            Err(_) => {
+                eprintln!("error: PBD_THREADS={s:?} is not a number of threads (unset it, or give a count such as 2)");
+                return ExitCode::FAILURE;
+            }
+        },
+        _ => None,
+    };
+    let threads = cli.threads.or(from_env);
     if let Some(n) = threads
         && let Err(e) = pbd::parallel::set_threads(n)
     {

@@ -623,3 +623,33 @@ fn inputs_read_through_other_inputs_and_output_directories_are_never_overwritten
     assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Issue 38: a FIFO given as an input is refused at once (opening it blocked forever), and a thread
+/// count that is not a count, or absurd, is an error (`PBD_THREADS=abc` was ignored silently, and
+/// `--threads 1000000` hung).
+#[test]
+fn pipes_and_absurd_thread_counts_are_refused_at_once() {
+    let d = dir("fifo");
+    let f = d.join("f");
+    if std::process::Command::new("mkfifo")
+        .arg(&f)
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        let t0 = std::time::Instant::now();
+        refused(&["doctor", &s(&f)], &["FIFO"]);
+        refused(&["execute", "--model", &s(&f)], &["FIFO"]);
+        assert!(t0.elapsed().as_secs() < 20, "took {:?}", t0.elapsed());
+    } else {
+        eprintln!("skipped the FIFO case: mkfifo is not available");
+    }
+    refused(&["--threads", "1000000", "robot", "info"], &["threads", "limit"]);
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_pbd"))
+        .args(["robot", "info"])
+        .env("PBD_THREADS", "abc")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("PBD_THREADS"), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&d);
+}

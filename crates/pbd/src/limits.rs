@@ -6,6 +6,9 @@ use anyhow::{Result, bail};
 
 /// Trials per number of examples in the sorting experiments.
 pub const MAX_TRIALS: usize = 100_000;
+/// Most worker threads (`--threads`, `PBD_THREADS`): each holds a simulator; a million once hung
+/// spawning them.
+pub const MAX_THREADS: usize = 1_024;
 /// Examples per class in the sorting experiments.
 pub const MAX_EXAMPLES: usize = 100;
 /// Rendered views per presentation.

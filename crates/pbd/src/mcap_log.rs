@@ -1170,7 +1170,7 @@ fn scan(source: Source<'_>, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, F
     match source {
         Source::File(path) => {
             let context = || format!("cannot read MCAP log {}", path.display());
-            let mut file = File::open(path).with_context(context)?;
+            let mut file = bayes::input::open_input(path).with_context(context)?;
             let file_bytes = file.metadata().with_context(context)?.len();
             scan_from(&mut file, file_bytes, &source.name(), visit)
         }

@@ -16,6 +16,7 @@ pub fn set_threads(n: usize) -> Result<()> {
     if n == 0 {
         return Ok(());
     }
+    crate::limits::check_at_most("threads", n, crate::limits::MAX_THREADS)?;
     rayon::ThreadPoolBuilder::new()
         .num_threads(n)
         .build_global()
