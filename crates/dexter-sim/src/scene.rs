@@ -712,14 +712,38 @@ impl Scene {
 /// Largest length or coordinate a scene may hold (m): a room, not a planet.
 pub const MAX_LENGTH: f64 = 100.0;
 
+/// The physically meaningful range of each number of a scene that is not a plain length or
+/// coordinate (checked on load, [`Check::within`]; documented in `assets/README-scenes.md`):
+/// (field, least, most, unit).
+pub const SCENE_RANGES: [(&str, f64, f64, &str); 6] = [
+    ("table.height", 0.1, 2.0, "m"),
+    ("places[].wall_height", 0.0, 0.5, "m"),
+    ("places[].wall_thickness", 0.001, 0.2, "m"),
+    ("camera.rate_hz", 0.1, 1000.0, "Hz"),
+    ("objects[].yaw_deg", -360.0, 360.0, "°"),
+    ("objects[].z above the table", 0.0, 2.0, "m"),
+];
+
+/// The range of `field` in [`SCENE_RANGES`].
+fn scene_range(field: &str) -> (f64, f64, &'static str) {
+    SCENE_RANGES
+        .iter()
+        .find(|r| r.0 == field)
+        .map(|r| (r.1, r.2, r.3))
+        .unwrap_or((f64::NEG_INFINITY, f64::INFINITY, ""))
+}
+
 /// Validates everything in a scene but the objects; normalises the light direction.
 fn validate_setup(c: &Check<'_>, spec: &mut SceneSpec) -> Result<(), SimError> {
     c.version(spec.version)?;
     if spec.name.trim().is_empty() {
         return Err(c.invalid("name", "must not be empty"));
     }
+    if spec.name.chars().any(char::is_control) {
+        return Err(c.invalid("name", "must not hold control characters (NUL, ESC, line breaks …)"));
+    }
     let table = &spec.table;
-    c.length("table.height", table.height)?;
+    c.within("table.height", "table.height", table.height)?;
     c.coordinates("table.center", &table.center)?;
     for (k, s) in table.size.iter().enumerate() {
         c.length(&format!("table.size[{k}]"), *s)?;
@@ -738,10 +762,14 @@ fn validate_setup(c: &Check<'_>, spec: &mut SceneSpec) -> Result<(), SimError> {
         for (k, s) in place.size.iter().enumerate() {
             c.length(&format!("{f}.size[{k}]"), *s).map_err(named)?;
         }
-        c.non_negative(&format!("{f}.wall_height"), place.wall_height)
+        c.within(&format!("{f}.wall_height"), "places[].wall_height", place.wall_height)
             .map_err(named)?;
-        c.positive(&format!("{f}.wall_thickness"), place.wall_thickness)
-            .map_err(named)?;
+        c.within(
+            &format!("{f}.wall_thickness"),
+            "places[].wall_thickness",
+            place.wall_thickness,
+        )
+        .map_err(named)?;
         c.hsv(&format!("{f}.hsv"), &place.hsv).map_err(named)?;
         let rect = place_rect(place);
         if !rect_within(&rect, &bounds) {
@@ -780,7 +808,7 @@ fn validate_setup(c: &Check<'_>, spec: &mut SceneSpec) -> Result<(), SimError> {
             format!("must be in (1, 170) degrees (got {})", camera.hfov_deg),
         ));
     }
-    c.positive("camera.rate_hz", camera.rate_hz)?;
+    c.within("camera.rate_hz", "camera.rate_hz", camera.rate_hz)?;
     c.unit_interval("camera.pixel_noise", camera.pixel_noise)?;
 
     let light = &mut spec.light;
@@ -824,7 +852,8 @@ fn resolve_objects(c: &Check<'_>, spec: &SceneSpec, catalog: &Catalog) -> Result
         })?;
         let named = |e| in_context(e, &o.presentation);
         c.finite_all(&format!("{f}.xy"), &o.xy).map_err(named)?;
-        c.finite(&format!("{f}.yaw_deg"), o.yaw_deg).map_err(named)?;
+        c.within(&format!("{f}.yaw_deg"), "objects[].yaw_deg", o.yaw_deg)
+            .map_err(named)?;
         let shape = &catalog.objects[index].shape;
         let orientation = Rot3::from_axis_angle(&Vec3::z_axis(), o.yaw_deg.to_radians()) * upright;
         let depth = lowest_point_depth(shape, &orientation);
@@ -832,6 +861,10 @@ fn resolve_objects(c: &Check<'_>, spec: &SceneSpec, catalog: &Catalog) -> Result
             None => table.height + depth + REST_CLEARANCE,
             Some(z) => {
                 c.finite(&format!("{f}.z"), z).map_err(named)?;
+                if z > table.height + scene_range("objects[].z above the table").1 {
+                    c.within(&format!("{f}.z"), "objects[].z above the table", z - table.height)
+                        .map_err(named)?;
+                }
                 if z < table.height {
                     return Err(named(c.invalid(
                         format!("{f}.z"),
@@ -1214,21 +1247,23 @@ impl Check<'_> {
         Ok(())
     }
 
+    /// Within the range [`SCENE_RANGES`] gives `key`; `field` names the value in the message.
+    fn within(&self, field: &str, key: &str, v: f64) -> Result<(), SimError> {
+        self.finite(field, v)?;
+        let (lo, hi, unit) = scene_range(key);
+        if (lo..=hi).contains(&v) {
+            Ok(())
+        } else {
+            Err(self.invalid(field, format!("must be in [{lo}, {hi}] {unit} (got {v:e})")))
+        }
+    }
+
     fn positive(&self, field: &str, v: f64) -> Result<(), SimError> {
         self.finite(field, v)?;
         if v > 0.0 {
             Ok(())
         } else {
             Err(self.invalid(field, format!("must be > 0 (got {v})")))
-        }
-    }
-
-    fn non_negative(&self, field: &str, v: f64) -> Result<(), SimError> {
-        self.finite(field, v)?;
-        if v >= 0.0 {
-            Ok(())
-        } else {
-            Err(self.invalid(field, format!("must be ≥ 0 (got {v})")))
         }
     }
 

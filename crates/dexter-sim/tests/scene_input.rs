@@ -760,7 +760,7 @@ fn objects_on_a_bin_and_places_off_the_table_are_rejected() {
         &["bin-left", "extends past the table"],
     );
     let e = scene(&edit(SCENE, "wall_height = 0.06", "wall_height = -0.06")).unwrap_err();
-    assert_invalid(&e, SCENE_FILE, "places[0].wall_height", &["≥ 0"]);
+    assert_invalid(&e, SCENE_FILE, "places[0].wall_height", &["[0, 0.5] m"]);
     let second_bin = "[[places]]\nname = \"bin-b\"\ncenter = [0.55, 0.3]\nsize = [0.2, 0.25]\n\n[[objects]]";
     let e = scene(&edit(SCENE, "[[objects]]", second_bin)).unwrap_err();
     assert_invalid(
@@ -864,4 +864,42 @@ fn toml_errors_are_one_line_with_line_column_and_source() {
     }
     let e = Scene::from_toml_str("version = 1\nseed = \"x\"\n", "s.toml").unwrap_err();
     assert_parse(&e, "s.toml", &["line 2", "seed"]);
+}
+
+/// Issue 38: every number of a scene lies in a physically meaningful range (`SCENE_RANGES`), and
+/// the scene's name holds no control characters — absurd values were accepted (a 1e300 bin wall
+/// then failed inside the physics engine).
+#[test]
+fn absurd_numbers_and_names_are_refused_naming_the_field() {
+    for (from, to, field, words) in [
+        ("height = 0.75", "height = 1e-300", "table.height", "[0.1, 2] m"),
+        (
+            "wall_height = 0.06",
+            "wall_height = 1e300",
+            "places[0].wall_height",
+            "[0, 0.5] m",
+        ),
+        ("rate_hz = 10", "rate_hz = 1e300", "camera.rate_hz", "[0.1, 1000] Hz"),
+        (
+            "xy = [0.5, 0.0]",
+            "xy = [0.5, 0.0]\nyaw_deg = 1e300",
+            "objects[0].yaw_deg",
+            "[-360, 360]",
+        ),
+        (
+            "xy = [0.5, 0.0]",
+            "xy = [0.5, 0.0]\nz = 1e6",
+            "objects[0].z",
+            "[0, 2] m",
+        ),
+        (
+            "name = \"test\"",
+            "name = \"te\\u001bst\"",
+            "name",
+            "control characters",
+        ),
+    ] {
+        let e = scene(&edit(SCENE, from, to)).unwrap_err();
+        assert_invalid(&e, SCENE_FILE, field, &[words]);
+    }
 }
