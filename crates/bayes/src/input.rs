@@ -30,6 +30,11 @@ pub fn read_text(path: &Path) -> std::io::Result<String> {
             format!("larger than the input limit of {max} bytes (set PBD_MAX_INPUT_BYTES to change it)"),
         ));
     }
+    // A UTF-8 byte-order mark (some editors write one) is not part of the text: JSON and TOML
+    // parsers reported it as "expected value at line 1 column 1".
+    if let Some(rest) = text.strip_prefix('\u{feff}') {
+        return Ok(rest.to_string());
+    }
     Ok(text)
 }
 
@@ -60,6 +65,15 @@ mod tests {
         let e = read_text(Path::new("/dev/zero"));
         // /dev/zero is NUL bytes: valid UTF-8, so only the limit stops it.
         assert_eq!(e.unwrap_err().kind(), std::io::ErrorKind::InvalidData);
+    }
+
+    /// A UTF-8 byte-order mark is dropped.
+    #[test]
+    fn a_byte_order_mark_is_not_text() {
+        let f = std::env::temp_dir().join(format!("bayes-bom-{}.json", std::process::id()));
+        std::fs::write(&f, "\u{feff}{\"a\": 1}").unwrap();
+        assert_eq!(read_text(&f).unwrap(), "{\"a\": 1}");
+        let _ = std::fs::remove_file(&f);
     }
 
     /// A FIFO with no writer is refused at once (opening it would block forever).

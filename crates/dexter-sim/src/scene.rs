@@ -378,7 +378,21 @@ pub struct ResolvedObject {
 impl Catalog {
     /// Parses and validates a catalog; `path` is only used in error messages and kept in `self.path`.
     pub fn from_toml_str(text: &str, path: &Path) -> Result<Catalog, SimError> {
-        let mut catalog: Catalog = parse_toml(text, path)?;
+        let mut catalog: Catalog = parse_toml(text, path).map_err(|e| {
+            // A scene given where a catalog belongs: say so, rather than "unknown field `catalog`".
+            let scene_keys = toml::from_str::<toml::Table>(text)
+                .is_ok_and(|t| ["table", "places", "catalog"].iter().any(|k| t.contains_key(*k)));
+            if scene_keys {
+                SimError::Parse {
+                    path: path.to_path_buf(),
+                    message: "this is a scene file (it has `table`, `places` or `catalog`), not an object catalog; a \
+                              scene names its catalog with `catalog = …`"
+                        .into(),
+                }
+            } else {
+                e
+            }
+        })?;
         catalog.path = path.to_path_buf();
         catalog.validate()?;
         Ok(catalog)
@@ -695,6 +709,11 @@ impl Scene {
             return Err(c.invalid(
                 "catalog",
                 format!("must be a catalog file path or `{BUILTIN_HOUSEHOLD}`"),
+            ));
+        } else if let Some(name) = spec.catalog.strip_prefix("builtin:") {
+            return Err(c.invalid(
+                "catalog",
+                format!("no built-in catalog `{name}` (the built-in catalog is `{BUILTIN_HOUSEHOLD}`)"),
             ));
         } else {
             let catalog_path = path.parent().unwrap_or(Path::new("")).join(&spec.catalog);

@@ -903,3 +903,17 @@ fn absurd_numbers_and_names_are_refused_naming_the_field() {
         assert_invalid(&e, SCENE_FILE, field, &[words]);
     }
 }
+
+/// Issue 38: a scene given as a catalog, and an unknown built-in catalog, are named as such.
+#[test]
+fn a_scene_as_a_catalog_and_an_unknown_builtin_catalog_are_named() {
+    let e = Catalog::from_toml_str(SCENE, Path::new("inline/catalog.toml")).unwrap_err();
+    assert_parse(&e, "inline/catalog.toml", &["scene file", "not an object catalog"]);
+    let e = scene(&edit(
+        SCENE,
+        "catalog = \"builtin:household\"",
+        "catalog = \"builtin:nope\"",
+    ))
+    .unwrap_err();
+    assert_invalid(&e, SCENE_FILE, "catalog", &["no built-in catalog `nope`"]);
+}
