@@ -165,6 +165,29 @@ pub struct RobotModel {
     pub urdf: urdf_rs::Robot,
 }
 
+/// Deepest element nesting a URDF may have (a real one nests 4–5 deep).
+pub const MAX_URDF_DEPTH: usize = 64;
+
+/// The deepest element nesting of XML `text`, counted from its tags without parsing it (comments,
+/// processing instructions, declarations and self-closing tags do not nest).
+pub fn xml_depth(text: &str) -> usize {
+    let (mut depth, mut deepest) = (0usize, 0usize);
+    let mut rest = text;
+    while let Some(i) = rest.find('<') {
+        rest = &rest[i + 1..];
+        let end = rest.find('>').unwrap_or(rest.len());
+        let tag = &rest[..end];
+        if tag.starts_with('/') {
+            depth = depth.saturating_sub(1);
+        } else if !(tag.starts_with('!') || tag.starts_with('?') || tag.ends_with('/')) {
+            depth += 1;
+            deepest = deepest.max(depth);
+        }
+        rest = &rest[end.min(rest.len())..];
+    }
+    deepest
+}
+
 impl RobotModel {
     /// Reads and validates a URDF file.
     pub fn from_urdf_file(path: impl AsRef<Path>) -> Result<Self, CbError> {
@@ -182,6 +205,14 @@ impl RobotModel {
     }
 
     fn parse(text: &str, origin: Option<&Path>) -> Result<Self, CbError> {
+        // The XML parser recurses per nested element: 10⁵ of them overflowed the stack (an abort).
+        let depth = xml_depth(text);
+        if depth > MAX_URDF_DEPTH {
+            return Err(CbError::MalformedUrdf {
+                origin: origin.map(Path::to_path_buf),
+                message: format!("elements nested {depth} deep; a URDF nests at most {MAX_URDF_DEPTH}"),
+            });
+        }
         let urdf = urdf_rs::read_from_string(text).map_err(|e| CbError::MalformedUrdf {
             origin: origin.map(Path::to_path_buf),
             message: e.to_string(),

@@ -88,6 +88,17 @@ fn bad_input_is_an_error_not_a_panic() {
         RobotModel::from_urdf_str("not xml at all"),
         Err(CbError::MalformedUrdf { .. })
     ));
+    // 10⁵ nested elements once overflowed the XML parser's stack (an abort, exit 134).
+    let deep = format!(
+        "<robot name=\"r\">{}{}</robot>",
+        "<a>".repeat(100_000),
+        "</a>".repeat(100_000)
+    );
+    match RobotModel::from_urdf_str(&deep) {
+        Err(CbError::MalformedUrdf { message, .. }) => assert!(message.contains("nested"), "{message}"),
+        other => panic!("{other:?}"),
+    }
+    assert!(control_basis::model::xml_depth(common::WAM_URDF) <= 6);
     let nan = common::WAM_URDF.replace(r#"xyz="0.045 0 0.55""#, r#"xyz="NaN 0 0.55""#);
     assert!(matches!(
         RobotModel::from_urdf_str(&nan),
