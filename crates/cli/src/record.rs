@@ -105,15 +105,11 @@ pub struct RecordArgs {
 
 /// Runs `pbd record`.
 pub fn main(a: RecordArgs, out: &mut dyn Write) -> anyhow::Result<()> {
-    for (name, v) in [
+    pbd::record::check_rates(&[
         ("--log-hz", a.log_hz),
         ("--percept-hz", a.percept_hz),
         ("--max-seconds", a.max_seconds),
-    ] {
-        if !(v.is_finite() && v > 0.0) {
-            anyhow::bail!("{name} must be a positive number (got {v})");
-        }
-    }
+    ])?;
     let options = RecordOptions {
         scene: a.scene,
         script: a.script.into(),

@@ -653,3 +653,26 @@ fn pipes_and_absurd_thread_counts_are_refused_at_once() {
     assert!(stderr(&o).contains("PBD_THREADS"), "{}", stderr(&o));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Issue 38: rates, durations and teleop times outside a meaningful range are refused before any
+/// work (`--log-hz 1e-300` and a teleop time of 1e300, or a 10⁹ s gap, were accepted).
+#[test]
+fn absurd_rates_and_teleop_times_are_refused() {
+    let d = dir("rates");
+    let out = s(&d.join("y.mcap"));
+    refused(
+        &["record", "--log-hz", "1e-300", "-o", &out],
+        &["--log-hz", "[0.1, 1000]"],
+    );
+    refused(&["record", "--max-seconds", "1e9", "-o", &out], &["--max-seconds"]);
+    let sample = |t: &str| {
+        format!(r#"{{"t":{t},"hand":"left","position":[0.4,0.3,1.0],"orientation":[1,0,0,0],"flexion":0.0}}"#)
+    };
+    for (second, words) in [("1e300", "outside [0, 3600] s"), ("3000", "a gap of")] {
+        let f = d.join("t.jsonl");
+        std::fs::write(&f, format!("{}\n{}\n", sample("0.0"), sample(second))).unwrap();
+        refused(&["record", "--teleop", &s(&f), "-o", &out], &["line 2", words]);
+    }
+    assert!(!Path::new(&out).exists());
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -79,6 +79,13 @@ impl HandCommand {
     }
 }
 
+/// Latest sample time (s) a teleop stream may hold: an hour (a recording stops at 600 s).
+pub const MAX_STREAM_SECS: f64 = 3600.0;
+
+/// Longest gap (s) between two samples of one hand: a glove streams at tens of hertz, and a gap of
+/// 10⁹ s once ran a recording to its time cap on the last command.
+pub const MAX_SAMPLE_GAP_SECS: f64 = 60.0;
+
 /// A recorded teleoperation stream: samples per hand in time order.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct TeleopStream {
@@ -234,7 +241,27 @@ impl TeleopStream {
                     format!("flexion {} outside [0, {FLEX_CLOSED}] rad", s.flexion),
                 ));
             }
+            if !(0.0..=MAX_STREAM_SECS).contains(&s.t) {
+                return Err(bad(
+                    path,
+                    n.clone(),
+                    format!("time {} s outside [0, {MAX_STREAM_SECS}] s", s.t),
+                ));
+            }
             let k = hand_index(s.hand);
+            if last[k].is_finite() && s.t - last[k] > MAX_SAMPLE_GAP_SECS {
+                return Err(bad(
+                    path,
+                    n.clone(),
+                    format!(
+                        "a gap of {:.3} s after the previous {} hand sample (at {} s): at most {MAX_SAMPLE_GAP_SECS} s \
+                         between a hand's samples",
+                        s.t - last[k],
+                        s.hand,
+                        last[k]
+                    ),
+                ));
+            }
             if s.t < last[k] {
                 return Err(bad(
                     path,

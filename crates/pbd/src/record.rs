@@ -476,20 +476,38 @@ impl DemoSink for Sink<'_> {
     }
 }
 
+/// The range of each rate and duration of a recording: (name, least, most).
+pub const RECORD_RANGES: [(&str, f64, f64); 3] = [
+    ("log_hz", 0.1, 1000.0),
+    ("percept_hz", 0.1, 1000.0),
+    ("max_seconds", 0.1, 3600.0),
+];
+
+/// Checks each (name, value) against [`RECORD_RANGES`] (names may be spelt as options:
+/// `--log-hz`).
+pub fn check_rates(values: &[(&str, f64)]) -> Result<()> {
+    for &(name, v) in values {
+        let key = name.trim_start_matches("--").replace('-', "_");
+        let Some(&(_, lo, hi)) = RECORD_RANGES.iter().find(|r| r.0 == key) else {
+            continue;
+        };
+        if !(v.is_finite() && (lo..=hi).contains(&v)) {
+            bail!("{name} must be in [{lo}, {hi}] (got {v:e})");
+        }
+    }
+    Ok(())
+}
+
 /// `pbd record`: runs the teacher (scripted or a teleop file) in the simulator and records the
 /// demonstration to MCAP. When `progress` asks to stop (Ctrl-C), the file is finished with what was
 /// captured and the report says `interrupted`.
 pub fn record(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordReport> {
     // Config.
-    for (name, v) in [
+    check_rates(&[
         ("log_hz", args.log_hz),
         ("percept_hz", args.percept_hz),
         ("max_seconds", args.max_seconds),
-    ] {
-        if !(v.is_finite() && v > 0.0) {
-            bail!("{name} must be a positive number (got {v})");
-        }
-    }
+    ])?;
     let scene = Scene::open(&args.scene)?;
     let seed = args.seed.unwrap_or(scene.spec.seed);
     let mut sim = dexter_sim::hardware::parked_sim(
