@@ -676,3 +676,31 @@ fn absurd_rates_and_teleop_times_are_refused() {
     assert!(!Path::new(&out).exists());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Issue 38: `experiment execute` stops on the first SIGINT within a control period — the scenes
+/// under way included (it once ran on for more than 30 s and wrote nothing) — and writes the
+/// finished scenes, marked partial.
+#[test]
+fn execute_experiment_stops_on_sigint_promptly() {
+    let d = dir("exec-exp-sigint");
+    let out = d.join("out");
+    let model = repo().join("crates/py/tests/data/sorting-model.json");
+    let o = interrupted_after(
+        &[
+            "experiment",
+            "execute",
+            "--model",
+            &s(&model),
+            "--scenes",
+            "40",
+            "-o",
+            &s(&out),
+        ],
+        4,
+    );
+    assert_eq!(o.status.code(), Some(130), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(md.starts_with("**PARTIAL: interrupted after"), "{md}");
+    assert!(out.join("objects.csv").exists());
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -16,7 +16,7 @@ use schema::Library;
 use serde::{Deserialize, Serialize};
 
 use crate::error::SimError;
-use crate::execute::{Decider, ExecuteReport, MAX_ACTIONS, NoLog, Task, Verdict, execute_scene};
+use crate::execute::{Decider, ExecuteReport, MAX_ACTIONS, NoLog, RunLog, Task, Verdict, execute_scene};
 use crate::scene::{ObjectPlacement, Scene};
 use bayes::rng::{Draw, Generator};
 use rand::Rng as _;
@@ -171,6 +171,19 @@ pub fn run_scene(
     config: &ExperimentConfig,
     i: usize,
 ) -> Result<(Scene, ExecuteReport), SimError> {
+    run_scene_logged(base, base_name, library, config, i, &mut NoLog)
+}
+
+/// [`run_scene`] telling `log` what happens (its [`RunLog::should_stop`] stops the scene: a
+/// signal stops a long experiment within a control period, not at the end of the scene).
+pub fn run_scene_logged(
+    base: &Scene,
+    base_name: &str,
+    library: &Library,
+    config: &ExperimentConfig,
+    i: usize,
+    log: &mut dyn RunLog,
+) -> Result<(Scene, ExecuteReport), SimError> {
     let scene = random_scene(base, config.objects, &mut bayes::rng::stream(config.seed, i as u64))?;
     let seed = bayes::rng::stream(config.seed ^ 0x5EED_0F5C_E4E5, i as u64).next_u64();
     let model = schema::procedural::ProceduralModel::load(&config.model)?;
@@ -181,7 +194,7 @@ pub fn run_scene(
         only_near: None,
         max_actions: MAX_ACTIONS,
     };
-    let report = execute_scene(&scene, &format!("{base_name}#{i}"), &task, seed, &mut NoLog)?;
+    let report = execute_scene(&scene, &format!("{base_name}#{i}"), &task, seed, log)?;
     Ok((scene, report))
 }
 

@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use dexter_sim::experiment::{ExperimentConfig, ObjectRow, Summary, run_scene, summarize};
+use dexter_sim::experiment::{ExperimentConfig, ObjectRow, Summary, run_scene_logged, summarize};
 use dexter_sim::scene::Scene;
 use schema::Library;
 use serde::{Deserialize, Serialize};
@@ -116,9 +116,21 @@ pub fn run(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> Result<E
     progress.phase("execute", Some(args.scenes as u64));
     let indices: Vec<usize> = (0..args.scenes).collect();
     // On Ctrl-C, scenes not yet started are skipped; the finished ones are written, marked partial.
+    // A scene under way when the signal comes stops within a control period (and is not counted).
+    struct Stop<'a>(&'a dyn Progress);
+    impl dexter_sim::execute::RunLog for Stop<'_> {
+        fn should_stop(&mut self) -> bool {
+            self.0.should_stop()
+        }
+    }
     let runs = crate::parallel::map_until_stopped(&indices, progress, |&i| {
-        Ok(run_scene(&base, &args.scene, &library, &config, i)?)
+        match run_scene_logged(&base, &args.scene, &library, &config, i, &mut Stop(progress)) {
+            Ok(run) => Ok(Some(run)),
+            Err(_) if progress.should_stop() => Ok(None),
+            Err(e) => Err(e.into()),
+        }
     })?;
+    let runs: Vec<Option<_>> = runs.into_iter().map(Option::flatten).collect();
     progress.finish();
     let done: Vec<usize> = runs
         .iter()
