@@ -704,3 +704,28 @@ fn execute_experiment_stops_on_sigint_promptly() {
     assert!(out.join("objects.csv").exists());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Issue 38: a model's hyper-parameters beyond meaningful ranges are refused naming the file and
+/// field (`size.mu = 1e308` was accepted; `base` 1e308 and concentrations `[1e308]` gave messages
+/// naming neither).
+#[test]
+fn absurd_model_hyper_parameters_name_the_file_and_field() {
+    let d = dir("model-ranges");
+    let text = std::fs::read_to_string(repo().join("crates/py/tests/data/sorting-model.json")).unwrap();
+    let model: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let cases: [(&str, &str, fn(&mut serde_json::Value)); 3] = [
+        ("mu", "hyper.size.mu", |h| h["size"]["mu"] = 1e308.into()),
+        ("base", "hyper.color.base[0]", |h| h["color"]["base"][0] = 1e308.into()),
+        ("conc", "hyper.color.concentrations[0]", |h| {
+            h["color"]["concentrations"] = serde_json::json!([1e308])
+        }),
+    ];
+    for (name, field, edit) in cases {
+        let mut m = model.clone();
+        edit(&mut m["hyper"]);
+        let f = d.join(format!("bad-{name}.json"));
+        std::fs::write(&f, m.to_string()).unwrap();
+        refused(&["learn", "--explain", &s(&f)], &[&format!("bad-{name}.json"), field]);
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}

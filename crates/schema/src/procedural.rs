@@ -678,6 +678,18 @@ fn default_size_prior() -> NormalInverseGamma {
     NormalInverseGamma::new(DEFAULT_SIZE_MU, 0.05, 2.0, 2.0 * 8.0 * 8.0).expect("constant NIG parameters are valid")
 }
 
+/// Largest concentration a model's grids may hold (α, a): beyond it π is fixed for every purpose,
+/// and 1e308 turned the evidence into NaN.
+pub const MAX_CONCENTRATION: f64 = 1e6;
+
+/// Largest weight of one colour term in the base measure (normalised on use; 1e308 overflowed
+/// the sum).
+pub const MAX_BASE_WEIGHT: f64 = 1e6;
+
+/// Largest magnitude of a size-prior parameter (the size unit is deci-pixels: a million is a
+/// size no camera sees).
+pub const MAX_SIZE_PRIOR: f64 = 1e6;
+
 impl Hyper {
     /// Checks every hyper-parameter; errors name the field.
     pub fn validate(&self) -> Result<(), SchemaError> {
@@ -699,6 +711,15 @@ impl Hyper {
             }
             if let Some(i) = grid.iter().position(|a| !(a.is_finite() && *a > 0.0)) {
                 return bad(&format!("{field}[{i}]"), format!("{} must be finite and > 0", grid[i]));
+            }
+            if let Some(i) = grid.iter().position(|a| *a > MAX_CONCENTRATION) {
+                return bad(
+                    &format!("{field}[{i}]"),
+                    format!(
+                        "{:e} is above {MAX_CONCENTRATION:e} (a concentration that large is a fixed π)",
+                        grid[i]
+                    ),
+                );
             }
         }
         if !(1..=MAX_COLOR_DRAWS).contains(&self.color_draws_per_object) {
@@ -725,6 +746,26 @@ impl Hyper {
                     self.color_base[i], COLOR_TERMS[i]
                 ),
             );
+        }
+        if let Some(i) = self.color_base.iter().position(|p| *p > MAX_BASE_WEIGHT) {
+            return bad(
+                &format!("color.base[{i}]"),
+                format!(
+                    "{:e} is above {MAX_BASE_WEIGHT:e} (the base measure is normalised; give relative weights)",
+                    self.color_base[i]
+                ),
+            );
+        }
+        let sp = &self.size_prior;
+        for (name, v, lo, hi) in [
+            ("size.mu", sp.mu(), -MAX_SIZE_PRIOR, MAX_SIZE_PRIOR),
+            ("size.kappa", sp.kappa(), 0.0, MAX_SIZE_PRIOR),
+            ("size.alpha", sp.alpha(), 0.0, MAX_SIZE_PRIOR),
+            ("size.beta", sp.beta(), 0.0, MAX_SIZE_PRIOR * MAX_SIZE_PRIOR),
+        ] {
+            if !(lo..=hi).contains(&v) {
+                return bad(name, format!("{v:e} must be in [{lo:e}, {hi:e}]"));
+            }
         }
         if !(self.color_chromatic_share.is_finite() && (0.0..=1.0).contains(&self.color_chromatic_share)) {
             return bad(
