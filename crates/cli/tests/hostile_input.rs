@@ -713,7 +713,8 @@ fn absurd_model_hyper_parameters_name_the_file_and_field() {
     let d = dir("model-ranges");
     let text = std::fs::read_to_string(repo().join("crates/py/tests/data/sorting-model.json")).unwrap();
     let model: serde_json::Value = serde_json::from_str(&text).unwrap();
-    let cases: [(&str, &str, fn(&mut serde_json::Value)); 3] = [
+    type Edit = fn(&mut serde_json::Value);
+    let cases: [(&str, &str, Edit); 3] = [
         ("mu", "hyper.size.mu", |h| h["size"]["mu"] = 1e308.into()),
         ("base", "hyper.color.base[0]", |h| h["color"]["base"][0] = 1e308.into()),
         ("conc", "hyper.color.concentrations[0]", |h| {
