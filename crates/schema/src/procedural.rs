@@ -138,14 +138,18 @@ use std::path::Path;
 
 use bayes::bayes_factor::{BayesFactor, log_mixture_marginal, log_place_weights};
 use bayes::dirichlet::{CategoryCounts, SymmetricDirichlet};
-use bayes::special::{ln_gamma, log_sum_exp};
+#[cfg(test)]
+use bayes::special::ln_gamma;
+use bayes::special::log_sum_exp;
 use bayes::univariate::{GaussianStats, NormalInverseGamma, StudentT};
 use serde::{Deserialize, Serialize};
 
 use crate::error::SchemaError;
 use crate::percept::{COLOR_TERMS, SegmentPercept};
+use evidence::GroupEvidence;
 
 pub mod effector;
+mod evidence;
 pub mod explain;
 mod format;
 
@@ -213,9 +217,10 @@ const INPUT: &str = "<input>";
 pub struct Predictor {
     structures: StructurePosterior,
     log_psi: Vec<f64>,
-    z: Vec<Vec<f64>>,
-    /// The background objects' colour normaliser grid (empty: no background objects).
-    z_background: Vec<f64>,
+    /// Each place's colour evidence (P3).
+    z: Vec<GroupEvidence>,
+    /// The background objects' colour evidence (None: no background objects).
+    z_background: Option<GroupEvidence>,
 }
 
 /// The most places a model file may hold: a sorting task with a hundred bins is far beyond any
@@ -819,6 +824,25 @@ impl Hyper {
     /// The colour unit of these hyper-parameters.
     pub(crate) fn color_unit(&self) -> ColorUnit {
         let total: f64 = self.color_base.iter().sum();
+        let mut grid = Vec::with_capacity(self.color_concentrations.len() * self.color_object_concentrations.len());
+        for &alpha in &self.color_concentrations {
+            for &a in &self.color_object_concentrations {
+                grid.push((a, alpha));
+            }
+        }
+        ColorUnit {
+            base: self.color_base.iter().map(|p| p / total).collect(),
+            ln_grid_prior: -(grid.len() as f64).ln(),
+            grid,
+            #[cfg(test)]
+            ln_stirling: self.ln_stirling(),
+        }
+    }
+
+    /// ln s(x, t), unsigned Stirling numbers of the first kind, x, t ≤ D (the full expansion's
+    /// rows, [`ColorUnit::log_z_grid_full`]).
+    #[cfg(test)]
+    fn ln_stirling(&self) -> Vec<Vec<f64>> {
         let d = self.color_draws_per_object as usize;
         // ln s(x, t), unsigned Stirling numbers of the first kind, x, t ≤ D:
         // s(x+1, t) = x·s(x, t) + s(x, t−1), in logs.
@@ -834,22 +858,12 @@ impl Hyper {
                 ln_stirling[x + 1][t] = log_add(grow, ln_stirling[x][t - 1]);
             }
         }
-        let mut grid = Vec::with_capacity(self.color_concentrations.len() * self.color_object_concentrations.len());
-        for &alpha in &self.color_concentrations {
-            for &a in &self.color_object_concentrations {
-                grid.push((a, alpha));
-            }
-        }
-        ColorUnit {
-            base: self.color_base.iter().map(|p| p / total).collect(),
-            ln_grid_prior: -(grid.len() as f64).ln(),
-            grid,
-            ln_stirling,
-        }
+        ln_stirling
     }
 }
 
 /// ln(eˣ + eʸ).
+#[cfg(test)]
 fn log_add(x: f64, y: f64) -> f64 {
     let m = x.max(y);
     if m == f64::NEG_INFINITY {
@@ -860,6 +874,7 @@ fn log_add(x: f64, y: f64) -> f64 {
 
 /// The coefficients (in logs) of the product of two polynomials given by their coefficients in
 /// logs: `out[k] = ln Σ_{i+j=k} exp(a[i] + b[j])`, each sum taken relative to its own largest term.
+#[cfg(test)]
 fn log_convolve(a: &[f64], b: &[f64]) -> Vec<f64> {
     let n = a.len() + b.len() - 1;
     let mut max = vec![f64::NEG_INFINITY; n];
@@ -893,14 +908,27 @@ pub(crate) struct ColorUnit {
     /// ln of the prior weight of each pair (uniform).
     ln_grid_prior: f64,
     /// ln s(x, t) for x, t ≤ D.
+    #[cfg(test)]
     ln_stirling: Vec<Vec<f64>>,
 }
 
 impl ColorUnit {
-    /// ln Z(X; a, α) = ln p(X | a, α) for every (a, α) of the grid: the exact marginal likelihood
+    /// The evidence of the objects X of one place at every (a, α) of the grid
+    /// ([`evidence::GroupEvidence`]: ln Z(X; a, α), eq. (P3), and one object more).
+    pub(crate) fn group(&self, objects: &[&ObjectDraws]) -> GroupEvidence {
+        GroupEvidence::new(&self.base, &self.grid, objects)
+    }
+
+    /// ln Z(X; a, α) = ln p(X | a, α) for every (a, α) of the grid (eq. (P3)).
+    fn log_z_grid(&self, objects: &[&ObjectDraws]) -> Vec<f64> {
+        self.group(objects).ln_z
+    }
+
+    /// [`ColorUnit::log_z_grid`] by the full expansion, O((nD)²): the tests' reference. The exact marginal likelihood
     /// of the objects X of one place (module docs, eq. (P3)). The tables polynomial of each colour
     /// depends on a only, so it is built once per a and weighted for every α.
-    fn log_z_grid(&self, objects: &[&ObjectDraws]) -> Vec<f64> {
+    #[cfg(test)]
+    fn log_z_grid_full(&self, objects: &[&ObjectDraws]) -> Vec<f64> {
         if objects.is_empty() {
             return vec![0.0; self.grid.len()];
         }
@@ -981,27 +1009,43 @@ impl ColorUnit {
         log_sum_exp(&terms)
     }
 
+    /// ln Σᵢ exp(joint[i] + ln p_i(õ)) over the grid, where `ln_p(i)` = ln Z(X ∪ õ) − ln Z(X) ≤ 0 at
+    /// grid point i (a probability of the object's draws). Grid points are taken from the most
+    /// probable down and the rest skipped once their joint weight is e⁴⁰·(grid size) below the best
+    /// term so far: each skipped term is at most e^{joint}, so the sum is exact to 1e-17 relative.
+    fn log_predictive_sum(&self, joint: &[f64], ln_p: impl Fn(usize) -> f64) -> f64 {
+        let mut order: Vec<usize> = (0..joint.len()).collect();
+        order.sort_by(|&x, &y| joint[y].total_cmp(&joint[x]).then(x.cmp(&y)));
+        let margin = 40.0 + (joint.len() as f64).ln();
+        let mut terms = Vec::with_capacity(joint.len());
+        let mut best = f64::NEG_INFINITY;
+        for i in order {
+            if joint[i] < best - margin || joint[i] == f64::NEG_INFINITY {
+                break;
+            }
+            let t = joint[i] + ln_p(i);
+            best = best.max(t);
+            terms.push(t);
+        }
+        log_sum_exp(&terms)
+    }
+
     /// The posterior-predictive pmf (5.18) over the bins given one place's objects: the
     /// probability that a new object's draw has colour l, E[π_l | X] = Σ_a p(a | X)
     /// Z(X ∪ {l}; a) / Z(X; a).
     pub(crate) fn predictive(&self, objects: &[ObjectDraws]) -> Vec<f64> {
         let refs: Vec<&ObjectDraws> = objects.iter().collect();
-        let z = self.log_z_grid(&refs);
-        let ev = self.log_evidence(std::slice::from_ref(&z));
+        let group = self.group(&refs);
+        let z = &group.ln_z;
+        let joint: Vec<f64> = z.iter().map(|&zi| self.ln_grid_prior + zi).collect();
+        let ev = log_sum_exp(&joint);
         let mut p: Vec<f64> = (0..self.base.len())
             .map(|l| {
                 if self.base[l] <= 0.0 {
                     return 0.0;
                 }
                 let one = vec![(l, 1u64)];
-                let mut with = refs.clone();
-                with.push(&one);
-                let terms: Vec<f64> = self
-                    .log_z_grid(&with)
-                    .iter()
-                    .map(|&zw| self.ln_grid_prior + zw)
-                    .collect();
-                (log_sum_exp(&terms) - ev).exp()
+                (self.log_predictive_sum(&joint, |i| group.ln_z_with(i, &one) - z[i]) - ev).exp()
             })
             .collect();
         let s: f64 = p.iter().sum();
@@ -1011,33 +1055,18 @@ impl ColorUnit {
         p
     }
 
-    /// ln p(õ | X_k) for each group k, where all groups share a (eq. (P5)): `groups[k]` are the
-    /// objects of group k and `z[k]` their ln Z grid.
-    fn log_scores(&self, groups: &[Vec<&ObjectDraws>], z: &[Vec<f64>], draws: &ObjectDraws) -> Vec<f64> {
+    /// ln p(õ | X_k) for each group k, where all groups share a (eq. (P5)).
+    fn log_scores(&self, groups: &[&GroupEvidence], draws: &ObjectDraws) -> Vec<f64> {
         if draws.is_empty() {
             return vec![0.0; groups.len()];
         }
-        let ev = self.log_evidence(z);
-        let joint: Vec<f64> = self
-            .grid
-            .iter()
-            .enumerate()
-            .map(|(i, _)| self.ln_grid_prior + z.iter().map(|g| g[i]).sum::<f64>())
+        let joint: Vec<f64> = (0..self.grid.len())
+            .map(|i| self.ln_grid_prior + groups.iter().map(|g| g.ln_z[i]).sum::<f64>())
             .collect();
+        let ev = log_sum_exp(&joint);
         groups
             .iter()
-            .enumerate()
-            .map(|(k, objs)| {
-                let mut with = objs.clone();
-                with.push(draws);
-                let terms: Vec<f64> = self
-                    .log_z_grid(&with)
-                    .iter()
-                    .enumerate()
-                    .map(|(i, &zw)| joint[i] + zw - z[k][i])
-                    .collect();
-                log_sum_exp(&terms) - ev
-            })
+            .map(|g| self.log_predictive_sum(&joint, |i| g.ln_z_with(i, draws) - g.ln_z[i]) - ev)
             .collect()
     }
 
@@ -1047,7 +1076,7 @@ impl ColorUnit {
             return 0.0;
         }
         let z = self.log_z_grid(&[draws]);
-        self.log_evidence(&[z])
+        self.log_evidence(std::slice::from_ref(&z))
     }
 }
 
@@ -1537,19 +1566,17 @@ impl ProceduralModel {
     fn feature_scores(
         &self,
         f: &Features,
-        z: &[Vec<f64>],
-        z_background: &[f64],
+        z: &[GroupEvidence],
+        z_background: Option<&GroupEvidence>,
     ) -> Result<(Vec<f64>, f64, Vec<f64>, f64), SchemaError> {
         let unit = self.hyper.color_unit();
         let draws = self.hyper.draws(f);
         let size = f.deci_pixels();
-        let groups: Vec<Vec<&ObjectDraws>> = self.places.values().map(|p| p.objects.iter().collect()).collect();
-        let color_k = unit.log_scores(&groups, z, &draws);
-        let color_bg = if self.background.objects.is_empty() {
-            unit.log_background(&draws)
-        } else {
-            let group: Vec<&ObjectDraws> = self.background.objects.iter().collect();
-            unit.log_scores(&[group], &[z_background.to_vec()], &draws)[0]
+        let groups: Vec<&GroupEvidence> = z.iter().collect();
+        let color_k = unit.log_scores(&groups, &draws);
+        let color_bg = match z_background {
+            None => unit.log_background(&draws),
+            Some(g) => unit.log_scores(&[g], &draws)[0],
         };
         let size_k = self
             .places
@@ -1582,12 +1609,12 @@ impl ProceduralModel {
         let z = self
             .places
             .values()
-            .map(|p| unit.log_z_grid(&p.objects.iter().collect::<Vec<_>>()))
+            .map(|p| unit.group(&p.objects.iter().collect::<Vec<_>>()))
             .collect();
         let z_background = if self.background.objects.is_empty() {
-            Vec::new()
+            None
         } else {
-            unit.log_z_grid(&self.background.objects.iter().collect::<Vec<_>>())
+            Some(unit.group(&self.background.objects.iter().collect::<Vec<_>>()))
         };
         Ok(Predictor {
             structures: self.structure_posterior()?,
@@ -1622,7 +1649,7 @@ impl ProceduralModel {
                 "no colour terms and no pixels: nothing to predict from",
             ));
         }
-        let (color_k, color_bg, size_k, size_bg) = self.feature_scores(features, z, z_background)?;
+        let (color_k, color_bg, size_k, size_bg) = self.feature_scores(features, z, z_background.as_ref())?;
         let k = log_psi.len();
         // Joint log weights over (structure, place).
         let mut log_place = vec![Vec::with_capacity(structures.structures.len()); k];
@@ -1730,6 +1757,71 @@ mod tests {
             },
             reference: place.into(),
         }
+    }
+
+    /// Random objects for the evidence tests: 1–4 colours each, `d` draws shared out at random.
+    fn random_objects(rng: &mut impl rand::RngExt, n: usize, d: u64, colours: usize) -> Vec<ObjectDraws> {
+        (0..n)
+            .map(|_| {
+                let k = rng.random_range(1..=4usize);
+                let mut counts = vec![0u64; colours];
+                // Objects of a place share colours: favour the first three.
+                for _ in 0..d {
+                    let l = if rng.random_bool(0.7) {
+                        rng.random_range(0..3)
+                    } else {
+                        rng.random_range(0..colours)
+                    };
+                    if counts.iter().filter(|&&c| c > 0).count() < k || counts[l] > 0 {
+                        counts[l] += 1;
+                    } else {
+                        let first = counts.iter().position(|&c| c > 0).unwrap_or(0);
+                        counts[first] += 1;
+                    }
+                }
+                counts
+                    .iter()
+                    .enumerate()
+                    .filter(|c| *c.1 > 0)
+                    .map(|(l, &c)| (l, c))
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn fast_evidence_matches_the_full_expansion() {
+        let mut rng = bayes::rng::seeded(17);
+        let mut worst: f64 = 0.0;
+        for (d, n_max) in [(30u32, 40usize), (7, 60), (1, 30), (60, 12)] {
+            let hyper = Hyper {
+                color_draws_per_object: d,
+                ..Hyper::default()
+            };
+            let unit = hyper.color_unit();
+            for n in [1usize, 2, 3, 7, n_max] {
+                let objects = random_objects(&mut rng, n, u64::from(d), COLORS);
+                let refs: Vec<&ObjectDraws> = objects.iter().collect();
+                let fast = unit.log_z_grid(&refs);
+                let full = unit.log_z_grid_full(&refs);
+                let group = unit.group(&refs);
+                let probe = random_objects(&mut rng, 1, u64::from(d), COLORS).remove(0);
+                let mut with = refs.clone();
+                with.push(&probe);
+                let full_with = unit.log_z_grid_full(&with);
+                for i in 0..full.len() {
+                    for (x, y) in [(fast[i], full[i]), (group.ln_z_with(i, &probe), full_with[i])] {
+                        let err = (x - y).abs() / y.abs().max(1.0);
+                        worst = worst.max(err);
+                        assert!(
+                            err < 1e-9,
+                            "D {d}, n {n}, grid {i}: {x} against the full expansion's {y}"
+                        );
+                    }
+                }
+            }
+        }
+        eprintln!("worst relative difference {worst:e}");
     }
 
     const BLACK: u8 = 0;
