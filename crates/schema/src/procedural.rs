@@ -44,7 +44,8 @@
 //!         Q = ⊛ₗ qₗ,  qₗ(Tₗ) = [zᵀˡ] Πᵢ (Σₜ s(xᵢₗ,t) aᵗ zᵗ) · Γ(αmₗ+Tₗ)/Γ(αmₗ)
 //!   ```
 //!
-//!   — exact, a product of polynomials (in logs) per colour convolved across colours, O((nD)²).
+//!   — exact, a product of polynomials per colour convolved across colours; expanded in full it
+//!   costs O((nD)²), and the module `procedural/evidence.rs` takes the same sum where it has mass, in time linear in n.
 //!   The evidence of objects X_1..X_K split over K places sharing a is
 //!   `(P4)  Σ_a p(a) Πₖ Z(X_k; a)`, and the predictive of a new object õ in place k is
 //!   `(P5)  p(õ | k, D) = Σ_a p(a) Πⱼ Z(X_j; a) · Z(X_k ∪ õ; a)/Z(X_k; a)  /  Σ_a p(a) Πⱼ Z(X_j; a)`,

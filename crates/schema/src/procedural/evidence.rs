@@ -16,10 +16,11 @@
 //!   factorials and Γ(α)/Γ(α+T) all peak at the same tables, so every sequence is computed in
 //!   plain floating point around its peak and cut where it has fallen [`PMF_TRIM`] (pmf) or
 //!   [`WEIGHTED_TRIM`] (weighted sequence) nats below it. The pmf is cut deeper because the rising
-//!   factorials, log-convex, lift its tails by at most 70 % of their fall (the variance of a table
-//!   count is at most 70 % of its mean beyond the first table of each object); past the cuts the
-//!   terms are below e⁻⁴⁰ of the peak. The tests compare with the full expansion
-//!   (`tests::fast_evidence_matches_the_full_expansion`): equal to 1e-9 relative.
+//!   factorials, log-convex, lift its tails by at most the ratio of the table count's variance to
+//!   its mean — Σpⱼ(1−pⱼ)/(1+Σpⱼ) per object, at most 0.60 for D = 30 and 0.74 for D = 200 — so at
+//!   the pmf's cut the weighted sequence has fallen at least 65 nats. The tests compare with the
+//!   full expansion (`tests::fast_evidence_matches_the_full_expansion`, D = 1, 7, 30, 60, up to 60
+//!   objects): equal to 1e-9 relative (seen: 5e-14).
 //!
 //! One object more (a prediction (P5), the pmf (5.18)) changes only the colours it shows: their
 //! pmfs take its factors (O(width·D)), and the colours are combined again.
