@@ -605,6 +605,33 @@ fn inputs_read_through_other_inputs_and_output_directories_are_never_overwritten
             ],
             "refusing to overwrite an input",
         ),
+        // Every input of `learn` and `grasp generate`, including the library and the scene's catalog.
+        (
+            vec![
+                "learn".into(),
+                s(&d.join("demo.infer.json")),
+                "--library".into(),
+                s(&scene),
+                "-o".into(),
+                s(&scene),
+            ],
+            "--library",
+        ),
+        (
+            vec![
+                "grasp".into(),
+                "generate".into(),
+                "--model".into(),
+                s(&model),
+                "--object".into(),
+                "jif".into(),
+                "--scene".into(),
+                s(&scene),
+                "--mcap".into(),
+                s(&catalog),
+            ],
+            "the scene's catalog",
+        ),
         // A device node is never replaced by a regular file.
         (
             vec!["sim".into(), "pick-place".into(), "--mcap".into(), "/dev/null".into()],

@@ -138,21 +138,17 @@ impl IoPlan {
     }
 }
 
-/// Refuses to run when an output would overwrite one of the inputs.
+/// Refuses to run when an output would overwrite one of the inputs: an [`IoPlan`] of unnamed
+/// inputs and outputs, checked.
 pub fn refuse_inputs_as_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
-    for o in outputs {
-        refuse_special(o)?;
-        for i in inputs {
-            if same_target(i, o) {
-                bail!(
-                    "output {} is the input {}: refusing to overwrite an input (choose another output)",
-                    o.display(),
-                    i.display()
-                );
-            }
-        }
+    let mut plan = IoPlan::new();
+    for i in inputs {
+        plan.read("input", i);
     }
-    Ok(())
+    for o in outputs {
+        plan.write("output", o);
+    }
+    plan.check()
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same directory and a rename, so that a

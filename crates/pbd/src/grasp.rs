@@ -343,7 +343,7 @@ pub fn record(args: &GraspRecordOptions, progress: &dyn Progress) -> Result<Reco
             args.output.display()
         );
     }
-    corpus.save(&args.output)?;
+    crate::files::write_atomic(&args.output, corpus.to_json_string()?.as_bytes())?;
     let summary = RecordSummary {
         corpus: args.output.display().to_string(),
         objects: corpus.objects.len(),
@@ -448,7 +448,10 @@ pub fn learn(args: &GraspLearnOptions, progress: &dyn Progress) -> Result<ModelS
         args.seed,
     );
     config.validate()?;
-    crate::files::refuse_inputs_as_outputs(&[args.corpus.as_path()], &[args.output.as_path()])?;
+    crate::files::IoPlan::new()
+        .read("--corpus", &args.corpus)
+        .write("-o", &args.output)
+        .check()?;
     crate::files::check_writable(&args.output)?;
     progress.phase("learn", None);
     progress.message(&format!(
@@ -458,9 +461,7 @@ pub fn learn(args: &GraspLearnOptions, progress: &dyn Progress) -> Result<ModelS
     ));
     let model = GraspModel::learn(&corpus, &config)?;
     progress.finish();
-    model
-        .save(&args.output)
-        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    crate::files::write_atomic(&args.output, model.to_json_string()?.as_bytes())?;
     Ok(model_summary(&model, &args.output))
 }
 
@@ -525,7 +526,6 @@ pub struct GenerateReport {
 /// `pbd grasp generate`: perceive a presented object and propose ranked, collision-free pre-grasps
 /// from its appearance (6.28).
 pub fn generate(args: &GenerateOptions) -> Result<GenerateReport> {
-    let model = GraspModel::load(&args.model)?;
     let presenter = Presenter::new(&args.present)?;
     presenter.check(&args.object)?;
     if args.n == 0 {
@@ -533,9 +533,15 @@ pub fn generate(args: &GenerateOptions) -> Result<GenerateReport> {
     }
     crate::limits::check_at_most("n", args.n, grasp_topics::MAX_GENERATE)?;
     if let Some(out) = &args.mcap {
-        crate::files::refuse_inputs_as_outputs(&[args.model.as_path()], &[out.as_path()])?;
+        crate::files::IoPlan::new()
+            .read("--model", &args.model)
+            .read("--scene", &presenter.base.path)
+            .read("the scene's catalog", &presenter.base.catalog.path)
+            .write("--mcap", out)
+            .check()?;
         crate::files::check_writable(out)?;
     }
+    let model = GraspModel::load(&args.model)?;
     let (scene, settings) = presenter.scene(&args.object, args.seed)?;
     let percept = match grasp_trial::perceive(&scene, &settings)? {
         Ok(p) => p,

@@ -173,13 +173,17 @@ pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport
         bail!("no demonstrations given (pass *.infer.json or *.mcap files)");
     }
     let output = args.output.clone();
-    let inputs: Vec<&Path> = args
-        .demos
-        .iter()
-        .map(PathBuf::as_path)
-        .chain(args.update.as_deref())
-        .collect();
-    crate::files::refuse_inputs_as_outputs(&inputs, &[output.as_path()])?;
+    let mut io = crate::files::IoPlan::new();
+    for d in &args.demos {
+        io.read("a demonstration", d);
+    }
+    if let Some(u) = &args.update {
+        io.read("--update", u);
+    }
+    if let Some(l) = &args.library {
+        io.read("--library", l);
+    }
+    io.write("-o", &output).check()?;
     // A demonstration given twice would count twice.
     for (i, a) in args.demos.iter().enumerate() {
         if let Some(b) = args.demos[..i].iter().find(|b| crate::files::same_file(a, b)) {
@@ -269,7 +273,7 @@ pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport
         }
     };
     model.set_schema(schema);
-    model.save(&output)?;
+    crate::files::write_atomic(&output, model.to_json().as_bytes())?;
     let explanation = model.explain()?;
     Ok(LearnReport {
         output: output.display().to_string(),

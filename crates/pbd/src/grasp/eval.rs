@@ -190,7 +190,7 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
                     bail!("no demonstrated grasp held on the training presentations");
                 }
                 let p = args.output.join("corpus.json");
-                corpus.save(&p)?;
+                crate::files::write_atomic(&p, corpus.to_json_string()?.as_bytes())?;
                 files.push(path_str(&p));
                 corpus
             }
@@ -199,7 +199,7 @@ pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
         let m = GraspModel::learn(&corpus, &config)?;
         progress.finish();
         let p = args.output.join("prototypes.json");
-        m.save(&p)?;
+        crate::files::write_atomic(&p, m.to_json_string()?.as_bytes())?;
         files.push(path_str(&p));
         m
     };
