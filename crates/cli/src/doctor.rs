@@ -1,4 +1,4 @@
-//! `pbd doctor`: check an MCAP file, and repair one that was cut short.
+//! `pbd doctor`: check an MCAP file, and repair one that was cut short, malformed or inconsistent.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -28,7 +28,7 @@ pub fn main(a: DoctorArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         anyhow::bail!(
             "{} is {}; `pbd doctor {} --repair NEW.mcap` writes a complete copy of everything readable",
             report.file,
-            if report.complete { "damaged" } else { "cut short" },
+            report.what_is_wrong(),
             report.file
         );
     }

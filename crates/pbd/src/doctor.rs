@@ -1,6 +1,6 @@
-//! `pbd doctor`: report on an MCAP file — complete or cut short, channels and message counts,
-//! inconsistencies — and repair one that was cut short by rewriting what it holds into a new,
-//! complete file.
+//! `pbd doctor`: report on an MCAP file — complete, cut short, malformed (no header first, two
+//! recordings concatenated) or inconsistent (chunk times that are not those of their messages),
+//! channels and message counts — and repair one by rewriting what it holds into a new, complete file.
 
 use std::fmt;
 use std::path::Path;
@@ -17,9 +17,14 @@ pub struct DoctorReport {
     pub file: String,
     /// Its size (bytes).
     pub bytes: u64,
-    /// The file ends with a valid footer and summary.
+    /// One complete recording: it begins with a header, ends with a valid footer and summary with
+    /// nothing after it, and its chunk headers, chunk indexes and statistics agree with its messages.
     pub complete: bool,
-    /// Why it is not complete.
+    /// `complete`, `cut short` (the writer did not finish), `malformed` (no header first, or bytes
+    /// after the end: two recordings concatenated) or `inconsistent` (chunk times or counts that
+    /// disagree with the messages; see `issues`).
+    pub verdict: String,
+    /// Why it is not complete, with the byte offset where that applies.
     pub problem: Option<String>,
     /// Messages readable.
     pub messages: u64,
@@ -45,9 +50,17 @@ pub fn doctor(file: &Path, repair_to: Option<&Path>) -> Result<DoctorReport> {
         crate::files::refuse_inputs_as_outputs(&[file], &[out])?;
     }
     let s = read_summary(file)?;
-    let (complete, problem) = match &s.status {
-        FileStatus::Complete => (true, None),
-        FileStatus::Recovered { reason, .. } => (false, Some(reason.clone())),
+    let (verdict, problem) = match &s.status {
+        FileStatus::Complete if s.issues.is_empty() => ("complete", None),
+        FileStatus::Complete => (
+            "inconsistent",
+            Some(match s.issues.len() {
+                1 => s.issues[0].clone(),
+                n => format!("{} ({n} disagreements in all, listed under issues)", s.issues[0]),
+            }),
+        ),
+        FileStatus::Recovered { reason, .. } => ("cut short", Some(reason.clone())),
+        FileStatus::Malformed { reason } => ("malformed", Some(reason.clone())),
     };
     let repaired = match repair_to {
         Some(path) => Some((path.display().to_string(), repair(file, path)?)),
@@ -56,7 +69,8 @@ pub fn doctor(file: &Path, repair_to: Option<&Path>) -> Result<DoctorReport> {
     Ok(DoctorReport {
         file: file.display().to_string(),
         bytes: s.file_bytes,
-        complete,
+        complete: problem.is_none(),
+        verdict: verdict.to_owned(),
         problem,
         messages: s.message_count,
         duration_secs: s.duration_secs(),
@@ -74,9 +88,19 @@ pub fn doctor(file: &Path, repair_to: Option<&Path>) -> Result<DoctorReport> {
 }
 
 impl DoctorReport {
-    /// The file needs a repair: cut short or with damaged chunks, and no repaired copy was written.
+    /// The file needs a repair: not complete or with damaged chunks, and no repaired copy was written.
     pub fn needs_repair(&self) -> bool {
         (!self.complete || !self.skipped_chunks.is_empty()) && self.repaired.is_none()
+    }
+
+    /// What is wrong, for a message: the verdict and the problem (`damaged` for a full-length file
+    /// with damaged chunks).
+    pub fn what_is_wrong(&self) -> String {
+        match (&self.problem, self.skipped_chunks.first()) {
+            (Some(p), _) => format!("{}: {p}", self.verdict),
+            (None, Some(c)) => format!("damaged: {c}"),
+            (None, None) => self.verdict.clone(),
+        }
     }
 }
 
@@ -90,14 +114,17 @@ impl fmt::Display for DoctorReport {
             match (report.complete, report.skipped_chunks.is_empty()) {
                 (true, true) => "complete".to_string(),
                 (true, false) => format!("full length, {} DAMAGED part(s) skipped", report.skipped_chunks.len()),
-                (false, _) => "CUT SHORT".to_string(),
+                (false, _) => report.verdict.to_uppercase(),
             },
             report.bytes as f64 / 1e6,
             report.messages,
             report.duration_secs
         )?;
         if let Some(p) = &report.problem {
-            writeln!(out, "  problem     {p}; everything before it is readable")?;
+            match report.verdict.as_str() {
+                "cut short" => writeln!(out, "  problem     {p}; everything before it is readable")?,
+                _ => writeln!(out, "  problem     {p}")?,
+            }
         }
         for (topic, schema, n) in &report.channels {
             writeln!(out, "  {topic:<28} {schema:<28} {n:>8}")?;

@@ -983,7 +983,8 @@ pub struct Summary {
     pub attachments: Vec<String>,
     /// Metadata record names, in file order.
     pub metadata: Vec<String>,
-    /// Disagreements between what was read and the file's own statistics record.
+    /// Disagreements between what was read and the file's own records: chunk headers whose times are
+    /// not those of their messages, chunk indexes and a statistics record that disagree with them.
     pub issues: Vec<String>,
     /// Damaged chunks that were skipped (their CRC or compression failed); everything else was read.
     pub skipped_chunks: Vec<String>,
@@ -1017,6 +1018,13 @@ pub enum FileStatus {
         /// Messages recovered.
         messages: u64,
         /// What stopped the reader.
+        reason: String,
+    },
+    /// Not one well-formed recording: its first record is not a header, or bytes follow its end
+    /// magic (two recordings concatenated, data appended). Everything up to the end magic was read;
+    /// [`read_recording`] refuses such a file, [`read_summary`] reports it.
+    Malformed {
+        /// What is wrong, with the byte offset.
         reason: String,
     },
 }
@@ -1087,7 +1095,7 @@ fn summarise(source: Source<'_>) -> Result<Summary> {
         skipped_chunks: Vec::new(),
     };
     let mut stats = None;
-    let (file_bytes, status, skipped) = scan(source, &mut |record| match record {
+    let scanned = scan(source, &mut |record| match record {
         Record::Schema { header, .. } => {
             schemas.insert(header.id, header.name);
         }
@@ -1128,9 +1136,10 @@ fn summarise(source: Source<'_>) -> Result<Summary> {
         Record::Statistics(s) => stats = Some(s),
         _ => {}
     })?;
-    summary.file_bytes = file_bytes;
-    summary.skipped_chunks = skipped;
-    summary.status = match status {
+    summary.file_bytes = scanned.file_bytes;
+    summary.skipped_chunks = scanned.skipped;
+    summary.issues = scanned.issues;
+    summary.status = match scanned.status {
         FileStatus::Recovered { reason, .. } => FileStatus::Recovered {
             messages: summary.message_count,
             reason,
@@ -1161,12 +1170,27 @@ fn summarise(source: Source<'_>) -> Result<Summary> {
     Ok(summary)
 }
 
+/// What [`scan`] found besides the records it handed on.
+#[derive(Debug)]
+struct Scanned {
+    /// File size (bytes).
+    file_bytes: u64,
+    /// How the file ended (`Recovered` carries 0 messages; callers count their own).
+    status: FileStatus,
+    /// Damaged chunks, skipped.
+    skipped: Vec<String>,
+    /// Disagreements between chunk headers, the messages inside the chunks, the chunk indexes and
+    /// the statistics record (a seeking reader trusts these and would miss or misplace messages).
+    issues: Vec<String>,
+}
+
 /// Reads every record of the MCAP file at `path` in file order and hands each to `visit`. Chunks are
-/// checked one by one (decompression and CRC): a damaged chunk is skipped and described in the third
-/// return value, and reading goes on with the next one. Returns the file size, how the file ended
-/// (`Recovered` carries 0 messages; callers count their own) and the skipped chunks. Errors: the file
-/// cannot be read, or not one record could be parsed (not MCAP).
-fn scan(source: Source<'_>, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, FileStatus, Vec<String>)> {
+/// checked one by one (decompression and CRC): a damaged chunk is skipped and described in
+/// [`Scanned::skipped`], and reading goes on with the next one. A file whose first record is not a
+/// header, or with bytes after its end magic (two recordings concatenated), is
+/// [`FileStatus::Malformed`]. Errors: the file cannot be read, or not one record could be parsed
+/// (not MCAP).
+fn scan(source: Source<'_>, visit: &mut dyn FnMut(Record<'_>)) -> Result<Scanned> {
     match source {
         Source::File(path) => {
             let context = || format!("cannot read MCAP log {}", path.display());
@@ -1183,12 +1207,26 @@ fn scan(source: Source<'_>, visit: &mut dyn FnMut(Record<'_>)) -> Result<(u64, F
     }
 }
 
+/// A log time (ns) as seconds, exactly.
+fn secs(ns: u64) -> String {
+    format!("{}.{:09} s", ns / 1_000_000_000, ns % 1_000_000_000)
+}
+
+/// A chunk as read: where it starts, the times its header declares, and the log times of the
+/// messages found inside (`None`: no messages, or the chunk was damaged).
+struct ChunkSeen {
+    number: usize,
+    declared: (u64, u64),
+    actual: Option<(u64, u64)>,
+    damaged: bool,
+}
+
 fn scan_from<R: Read + std::io::Seek>(
     file: &mut R,
     file_bytes: u64,
     name: &str,
     visit: &mut dyn FnMut(Record<'_>),
-) -> Result<(u64, FileStatus, Vec<String>)> {
+) -> Result<Scanned> {
     let context = || format!("cannot read MCAP log {name}");
     // Chunks are handed to us whole, so that one bad chunk costs its own messages only; the data
     // section CRC would fail for any bad chunk, so the chunks' own CRCs are the check.
@@ -1200,33 +1238,68 @@ fn scan_from<R: Read + std::io::Seek>(
         .with_record_length_limit(READ_RECORD_LIMIT.min(usize::try_from(file_bytes).unwrap_or(usize::MAX)));
     let mut reader = LinearReader::new_with_options(options);
     let mut records_read = 0_u64;
-    let mut chunks = 0_usize;
+    // Bytes handed to the reader so far. It asks for exactly the bytes it needs next, so this is
+    // the offset just past the record it yields (and past the end magic once it is done).
+    let mut position = 0_u64;
+    // The opcode of the first record, right after the 8-byte magic.
+    let mut first_opcode = None;
+    let mut chunks: BTreeMap<u64, ChunkSeen> = BTreeMap::new();
+    let mut chunk_indexes = Vec::new();
+    let mut stats = None;
+    // Log times of the messages outside chunks.
+    let mut loose: Option<(u64, u64)> = None;
     let mut skipped = Vec::new();
     let mut stop = None;
     while let Some(event) = reader.next_event() {
-        let record = match event {
+        let (record, offset) = match event {
             Ok(LinearReadEvent::ReadRequest(need)) => {
-                let n = file.read(reader.insert(need)).with_context(context)?;
+                let buf = reader.insert(need);
+                let n = file.read(buf).with_context(context)?;
+                if position <= 8 && position + n as u64 > 8 {
+                    first_opcode = Some(buf[(8 - position) as usize]);
+                }
+                position += n as u64;
                 reader.notify_read(n);
                 continue;
             }
-            Ok(LinearReadEvent::Record { opcode, data }) => parse_record(opcode, data),
-            Err(e) => Err(e),
+            Ok(LinearReadEvent::Record { opcode, data }) => {
+                // The opcode (1) and length (8) come before the body.
+                let offset = position.saturating_sub(9 + data.len() as u64);
+                (parse_record(opcode, data), offset)
+            }
+            Err(e) => (Err(e), position),
         };
         match record {
             Ok(Record::Chunk { header, data }) => {
-                chunks += 1;
                 records_read += 1;
-                if let Err(why) = visit_chunk(&header, &data, visit) {
-                    skipped.push(format!(
-                        "chunk {chunks} (messages logged {:.3}–{:.3} s): {why}; skipped",
-                        header.message_start_time as f64 * 1e-9,
-                        header.message_end_time as f64 * 1e-9
-                    ));
+                let number = chunks.len() + 1;
+                let mut seen = ChunkSeen {
+                    number,
+                    declared: (header.message_start_time, header.message_end_time),
+                    actual: None,
+                    damaged: false,
+                };
+                match visit_chunk(&header, &data, visit) {
+                    Ok(times) => seen.actual = times,
+                    Err(why) => {
+                        seen.damaged = true;
+                        skipped.push(format!(
+                            "chunk {number} at offset {offset} (messages logged {:.3}–{:.3} s): {why}; skipped",
+                            header.message_start_time as f64 * 1e-9,
+                            header.message_end_time as f64 * 1e-9
+                        ));
+                    }
                 }
+                chunks.insert(offset, seen);
             }
             Ok(record) => {
                 records_read += 1;
+                match &record {
+                    Record::Message { header, .. } => loose = Some(widen(loose, header.log_time)),
+                    Record::ChunkIndex(i) => chunk_indexes.push(i.clone()),
+                    Record::Statistics(s) => stats = Some(s.clone()),
+                    _ => {}
+                }
                 visit(record);
             }
             Err(e) => {
@@ -1235,43 +1308,141 @@ fn scan_from<R: Read + std::io::Seek>(
             }
         }
     }
+    let not_a_header = first_opcode
+        .filter(|&op| op != mcap::records::op::HEADER)
+        .map(|op| format!("the first record, at offset 8, has opcode {op:#04x} where a header record (0x01) must be"));
     if records_read == 0
         && let Some(e) = &stop
     {
-        return Err(anyhow::anyhow!("{}", describe(e))).with_context(|| format!("{name} is not an MCAP file"));
+        let why = match &not_a_header {
+            Some(header) => format!("{header} ({})", describe(e)),
+            None => describe(e),
+        };
+        return Err(anyhow::anyhow!("{why}")).with_context(|| format!("{name} is not an MCAP file"));
     }
-    // A complete file ends with the magic right after its footer: bytes after it are not MCAP
-    // (an append, a concatenation) and are reported, never read.
-    if stop.is_none() && file_bytes >= 8 {
+    // A complete file ends with the magic right after its footer: bytes after it are not part of
+    // the recording (an append, a second recording) and make the file malformed; they are never read.
+    let mut malformed: Vec<String> = not_a_header.into_iter().collect();
+    if stop.is_none() && position < file_bytes {
         use std::io::SeekFrom;
-        let mut tail = [0u8; 8];
-        file.seek(SeekFrom::End(-8)).with_context(context)?;
-        file.read_exact(&mut tail).with_context(context)?;
-        if tail != *mcap::MAGIC {
-            skipped.push(format!(
-                "data after the footer: the file does not end with the MCAP magic ({} bytes in all); the trailing bytes were ignored",
-                file_bytes
+        let mut next = [0u8; 8];
+        file.seek(SeekFrom::Start(position)).with_context(context)?;
+        let n = file.read(&mut next).with_context(context)?;
+        let guess = if next[..n] == mcap::MAGIC[..] {
+            "two recordings concatenated?"
+        } else {
+            "data appended by another tool?"
+        };
+        malformed.push(format!(
+            "{} bytes after the end of the recording at offset {position} (after the footer and its end magic): {guess}",
+            file_bytes - position
+        ));
+    }
+    let issues = chunk_time_issues(&chunks, &chunk_indexes, stats.as_ref(), loose);
+    let truncated = stop.map(|e| match e {
+        // Also reported at a record boundary: the reader wants a footer.
+        mcap::McapError::UnexpectedEof => "the file ends before its footer (the writer did not finish)".to_owned(),
+        // The length limit is the file size: the last record was cut short.
+        mcap::McapError::RecordTooLarge { len, .. } if len > file_bytes => {
+            format!("the file ends before its footer (a record of {len} bytes runs past its end)")
+        }
+        e => describe(&e),
+    });
+    let status = match (malformed.is_empty(), truncated) {
+        (true, None) => FileStatus::Complete,
+        (true, Some(reason)) => FileStatus::Recovered { messages: 0, reason },
+        (false, truncated) => FileStatus::Malformed {
+            reason: malformed.into_iter().chain(truncated).collect::<Vec<_>>().join("; "),
+        },
+    };
+    Ok(Scanned {
+        file_bytes,
+        status,
+        skipped,
+        issues,
+    })
+}
+
+/// Chunk times that disagree: a chunk header's [start, end] with the log times of the messages
+/// inside it, a chunk index with the chunk it points at, the statistics record with the messages
+/// of the file (`loose`: those outside chunks). Damaged chunks are not judged.
+fn chunk_time_issues(
+    chunks: &BTreeMap<u64, ChunkSeen>,
+    indexes: &[mcap::records::ChunkIndex],
+    stats: Option<&mcap::records::Statistics>,
+    loose: Option<(u64, u64)>,
+) -> Vec<String> {
+    let mut issues = Vec::new();
+    for (offset, c) in chunks {
+        if let Some((first, last)) = c.actual
+            && c.declared != (first, last)
+        {
+            issues.push(format!(
+                "chunk {} at offset {offset} declares messages logged {}–{}, its messages are logged {}–{}",
+                c.number,
+                secs(c.declared.0),
+                secs(c.declared.1),
+                secs(first),
+                secs(last)
             ));
         }
     }
-    let status = match stop {
-        None => FileStatus::Complete,
-        Some(e) => FileStatus::Recovered {
-            messages: 0,
-            reason: match e {
-                // Also reported at a record boundary: the reader wants a footer.
-                mcap::McapError::UnexpectedEof => {
-                    "the file ends before its footer (the writer did not finish)".to_owned()
-                }
-                // The length limit is the file size: the last record was cut short.
-                mcap::McapError::RecordTooLarge { len, .. } if len > file_bytes => {
-                    format!("the file ends before its footer (a record of {len} bytes runs past its end)")
-                }
-                e => describe(&e),
-            },
-        },
-    };
-    Ok((file_bytes, status, skipped))
+    for (i, index) in indexes.iter().enumerate() {
+        let offset = index.chunk_start_offset;
+        match chunks.get(&offset) {
+            None => issues.push(format!(
+                "chunk index {} points at offset {offset}, where no chunk begins",
+                i + 1
+            )),
+            Some(c) if !c.damaged && (index.message_start_time, index.message_end_time) != c.declared => {
+                issues.push(format!(
+                    "chunk index {} says chunk {} at offset {offset} holds messages logged {}–{}, its header says {}–{}",
+                    i + 1,
+                    c.number,
+                    secs(index.message_start_time),
+                    secs(index.message_end_time),
+                    secs(c.declared.0),
+                    secs(c.declared.1)
+                ));
+            }
+            Some(_) => {}
+        }
+    }
+    if !indexes.is_empty() && indexes.len() != chunks.len() {
+        issues.push(format!(
+            "the summary indexes {} chunks, the file holds {}",
+            indexes.len(),
+            chunks.len()
+        ));
+    }
+    if let Some(stats) = stats
+        && chunks.values().all(|c| !c.damaged)
+    {
+        if stats.chunk_count as usize != chunks.len() {
+            issues.push(format!(
+                "the statistics record counts {} chunks, the file holds {}",
+                stats.chunk_count,
+                chunks.len()
+            ));
+        }
+        let actual = chunks
+            .values()
+            .filter_map(|c| c.actual)
+            .chain(loose)
+            .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
+        if let Some((first, last)) = actual
+            && (stats.message_start_time, stats.message_end_time) != (first, last)
+        {
+            issues.push(format!(
+                "the statistics record says messages are logged {}–{}, the file holds messages logged {}–{}",
+                secs(stats.message_start_time),
+                secs(stats.message_end_time),
+                secs(first),
+                secs(last)
+            ));
+        }
+    }
+    issues
 }
 
 /// `mcap::parse_record` after [`check_lengths`]: the crate reserves a string's or a byte array's
@@ -1435,12 +1606,12 @@ fn check_lengths(opcode: u8, body: &[u8]) -> std::result::Result<(), String> {
 }
 
 /// Decompresses one chunk, checks its CRC and hands its records to `visit`; nothing is visited when
-/// the chunk is damaged.
+/// the chunk is damaged. Returns the log times of the first and last message inside (`None`: none).
 fn visit_chunk(
     header: &mcap::records::ChunkHeader,
     data: &[u8],
     visit: &mut dyn FnMut(Record<'_>),
-) -> std::result::Result<(), String> {
+) -> std::result::Result<Option<(u64, u64)>, String> {
     let size = usize::try_from(header.uncompressed_size)
         .ok()
         .filter(|&n| n <= READ_RECORD_LIMIT)
@@ -1494,10 +1665,19 @@ fn visit_chunk(
         records.push(parse_record(opcode, body).map_err(|e| describe(&e))?);
         rest = &rest[9 + len..];
     }
+    let mut times = None;
     for r in records {
+        if let Record::Message { header, .. } = &r {
+            times = Some(widen(times, header.log_time));
+        }
         visit(r);
     }
-    Ok(())
+    Ok(times)
+}
+
+/// `range` widened to hold `t`.
+fn widen(range: Option<(u64, u64)>, t: u64) -> (u64, u64) {
+    range.map_or((t, t), |(a, b)| (a.min(t), b.max(t)))
 }
 
 /// Rewrites every readable record of `path` (schemas, channels, messages, attachments, metadata) into
@@ -1619,7 +1799,7 @@ fn record_of(source: Source<'_>, topics: &[&str]) -> Result<Recording> {
     let mut wanted: HashMap<u16, String> = HashMap::new();
     let mut schemas: HashMap<u16, (String, String)> = HashMap::new();
     let mut rec = Recording::default();
-    let (_, status, skipped) = scan(source, &mut |record| match record {
+    let scanned = scan(source, &mut |record| match record {
         Record::Schema { header, .. } => {
             schemas.insert(header.id, (header.name, header.encoding));
         }
@@ -1658,9 +1838,12 @@ fn record_of(source: Source<'_>, topics: &[&str]) -> Result<Recording> {
         }
         _ => {}
     })?;
+    if let FileStatus::Malformed { reason } = &scanned.status {
+        anyhow::bail!("{}: {reason}; `pbd doctor` says more", source.name());
+    }
     let count = rec.messages.len() as u64;
-    rec.skipped_chunks = skipped;
-    rec.status = Some(match status {
+    rec.skipped_chunks = scanned.skipped;
+    rec.status = Some(match scanned.status {
         FileStatus::Recovered { reason, .. } => FileStatus::Recovered {
             messages: count,
             reason,

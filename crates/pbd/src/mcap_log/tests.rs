@@ -680,7 +680,7 @@ fn throughput() {
 }
 
 /// Channels pbd did not write (protobuf messages, a ROS 2 schema) are skipped with a note, never
-/// JSON-parsed; bytes after the footer are reported.
+/// JSON-parsed; bytes after the footer make the file malformed.
 #[test]
 fn foreign_channels_are_skipped_and_trailing_bytes_reported() {
     let tmp = TempFile::new("foreign");
@@ -727,10 +727,21 @@ fn foreign_channels_are_skipped_and_trailing_bytes_reported() {
     bytes.extend_from_slice(b"trailing garbage");
     std::fs::write(&tmp.0, &bytes).unwrap();
     let s = read_summary(&tmp.0).unwrap();
+    let FileStatus::Malformed { reason } = &s.status else {
+        panic!("{:?}", s.status)
+    };
     assert!(
-        s.skipped_chunks.iter().any(|c| c.contains("after the footer")),
-        "{:?}",
-        s.skipped_chunks
+        reason.contains(&format!(
+            "16 bytes after the end of the recording at offset {}",
+            bytes.len() - 16
+        )) && reason.contains("after the footer"),
+        "{reason}"
+    );
+    // Refused by the readers of recordings, naming the file.
+    let e = format!("{:#}", read_recording(&tmp.0, &[]).unwrap_err());
+    assert!(
+        e.contains(&tmp.0.display().to_string()) && e.contains("after the end"),
+        "{e}"
     );
 }
 
