@@ -1,9 +1,15 @@
 //! Reading an input file whole, with a size limit: shared plumbing of every pbd reader (robot models,
 //! scenes, libraries, models, corpora), so that `--scene /dev/zero` or a mistyped multi-gigabyte path
-//! is an error after a bounded read, never an exhausted memory.
+//! is an error after a bounded read, never an exhausted memory. Also the one check of JSON inputs
+//! for a key given twice in an object ([`check_json_keys`]): parsers keep one of the two silently.
 
+use std::cell::RefCell;
+use std::collections::HashSet;
+use std::fmt;
 use std::io::Read;
 use std::path::Path;
+
+use serde::de::{DeserializeSeed, Deserializer, MapAccess, SeqAccess, Visitor};
 
 /// The default limit on one input file: 256 MiB.
 pub const DEFAULT_MAX_INPUT_BYTES: u64 = 256 << 20;
@@ -55,9 +61,188 @@ pub fn open_input(path: &Path) -> std::io::Result<std::fs::File> {
     std::fs::File::open(path)
 }
 
+/// A key given twice in one JSON object (see [`check_json_keys`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DuplicateKey {
+    /// The key's path from the top of the document, as errors name fields: `places`,
+    /// `hyper.color.terms`, `objects[2].name`.
+    pub path: String,
+    /// Line (1-based) of the second occurrence.
+    pub line: usize,
+    /// Column (1-based) just after the second occurrence of the key.
+    pub column: usize,
+}
+
+impl fmt::Display for DuplicateKey {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "duplicate key `{}` (second at line {} column {}): a JSON object may give each key only once",
+            self.path, self.line, self.column
+        )
+    }
+}
+
+impl std::error::Error for DuplicateKey {}
+
+/// Checks JSON text (one document: a file, or one line of a JSON-lines file) for an object that
+/// gives a key twice, at any depth. JSON parsers accept such a document and keep one of the values
+/// silently (a map the last, a struct sometimes the first), so a model with two `"places"` keys once
+/// loaded as if the first were not there. Every pbd reader of JSON calls this before parsing; text
+/// that is not JSON at all passes (the reader's own parser reports where it goes wrong).
+pub fn check_json_keys(text: &str) -> Result<(), DuplicateKey> {
+    let found = RefCell::new(None);
+    let mut de = serde_json::Deserializer::from_str(text);
+    let walk = Walk {
+        at: &Segment::Root,
+        found: &found,
+    };
+    match walk.deserialize(&mut de) {
+        Err(e) => match found.into_inner() {
+            Some(path) => Err(DuplicateKey {
+                path,
+                line: e.line(),
+                column: e.column(),
+            }),
+            None => Ok(()),
+        },
+        Ok(()) => Ok(()),
+    }
+}
+
+/// Where a value is in a JSON document: a linked list from the value up to the root, turned into a
+/// path only when a duplicate is found (most documents have none).
+enum Segment<'a> {
+    Root,
+    Key(&'a Segment<'a>, &'a str),
+    Index(&'a Segment<'a>, usize),
+}
+
+impl Segment<'_> {
+    fn path(&self) -> String {
+        match self {
+            Segment::Root => String::new(),
+            Segment::Key(parent, key) => match **parent {
+                Segment::Root => (*key).to_string(),
+                _ => format!("{}.{key}", parent.path()),
+            },
+            Segment::Index(parent, i) => format!("{}[{i}]", parent.path()),
+        }
+    }
+}
+
+/// Visits every value of a document, remembering the keys of each object.
+struct Walk<'a> {
+    at: &'a Segment<'a>,
+    found: &'a RefCell<Option<String>>,
+}
+
+impl<'de> DeserializeSeed<'de> for Walk<'_> {
+    type Value = ();
+
+    fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+        d.deserialize_any(self)
+    }
+}
+
+impl<'de> Visitor<'de> for Walk<'_> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("any JSON value")
+    }
+
+    fn visit_bool<E>(self, _: bool) -> Result<(), E> {
+        Ok(())
+    }
+
+    fn visit_i64<E>(self, _: i64) -> Result<(), E> {
+        Ok(())
+    }
+
+    fn visit_u64<E>(self, _: u64) -> Result<(), E> {
+        Ok(())
+    }
+
+    fn visit_i128<E>(self, _: i128) -> Result<(), E> {
+        Ok(())
+    }
+
+    fn visit_u128<E>(self, _: u128) -> Result<(), E> {
+        Ok(())
+    }
+
+    fn visit_f64<E>(self, _: f64) -> Result<(), E> {
+        Ok(())
+    }
+
+    fn visit_str<E>(self, _: &str) -> Result<(), E> {
+        Ok(())
+    }
+
+    fn visit_unit<E>(self) -> Result<(), E> {
+        Ok(())
+    }
+
+    fn visit_none<E>(self) -> Result<(), E> {
+        Ok(())
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+        let mut i = 0;
+        loop {
+            let at = Segment::Index(self.at, i);
+            let walk = Walk {
+                at: &at,
+                found: self.found,
+            };
+            if seq.next_element_seed(walk)?.is_none() {
+                return Ok(());
+            }
+            i += 1;
+        }
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<(), A::Error> {
+        let mut seen = HashSet::new();
+        while let Some(key) = map.next_key::<String>()? {
+            let at = Segment::Key(self.at, &key);
+            if seen.contains(&key) {
+                *self.found.borrow_mut() = Some(at.path());
+                return Err(serde::de::Error::custom("duplicate key"));
+            }
+            map.next_value_seed(Walk {
+                at: &at,
+                found: self.found,
+            })?;
+            seen.insert(key);
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A key given twice is found at any depth and named by its path; distinct keys, the same key
+    /// in sibling objects and text that is not JSON pass.
+    #[test]
+    fn duplicate_keys_are_found_at_any_depth() {
+        let top = check_json_keys("{\"places\": [], \"a\": 1,\n \"places\": [1]}").unwrap_err();
+        assert_eq!(top.path, "places");
+        assert_eq!(top.line, 2);
+        let deep = check_json_keys(r#"{"o": [{"n": 1}, {"n": 2, "m": {"x": 1, "x": 2}}]}"#).unwrap_err();
+        assert_eq!(deep.path, "o[1].m.x");
+        assert!(deep.to_string().contains("duplicate key `o[1].m.x`"), "{deep}");
+        assert_eq!(
+            check_json_keys(r#"{"a": {"n": 1}, "b": {"n": 1}, "c": [{"n": 1}, {"n": 2}]}"#),
+            Ok(())
+        );
+        assert_eq!(check_json_keys(r#"[1, 2.5, -3, true, null, "s", 1e400]"#), Ok(()));
+        assert_eq!(check_json_keys("{not json"), Ok(()));
+        assert_eq!(check_json_keys(r#"{"a\u0062": 1, "ab": 2}"#).unwrap_err().path, "ab");
+    }
 
     #[test]
     fn an_endless_device_stops_at_the_limit() {

@@ -191,6 +191,16 @@ impl TeleopStream {
             if line.trim().is_empty() {
                 continue;
             }
+            if let Err(dup) = bayes::input::check_json_keys(line) {
+                return Err(bad(
+                    path,
+                    i + 1,
+                    format!(
+                        "duplicate key `{}` (second at column {}): a JSON object may give each key only once",
+                        dup.path, dup.column
+                    ),
+                ));
+            }
             let s: HandCommand =
                 serde_json::from_str(line).map_err(|e| bad(path, i + 1, format!("not a teleop sample: {e}")))?;
             samples.push(s);

@@ -273,6 +273,9 @@ impl Corpus {
 
     /// Parses and validates a corpus from JSON text.
     pub fn from_json_str(text: &str) -> Result<Self> {
+        if let Err(dup) = bayes::input::check_json_keys(text) {
+            return Err(invalid(dup.path.clone(), dup.to_string()));
+        }
         let raw: RawCorpus = serde_json::from_str(text).map_err(|source| GraspError::Json {
             what: "grasp corpus",
             source,

@@ -761,6 +761,9 @@ impl GraspModel {
 
     /// Parses and validates a model from JSON.
     pub fn from_json_str(text: &str) -> Result<Self> {
+        if let Err(dup) = bayes::input::check_json_keys(text) {
+            return Err(invalid(dup.path.clone(), dup.to_string()));
+        }
         let m: Self = serde_json::from_str(text).map_err(|source| GraspError::Json {
             what: "grasp model",
             source,

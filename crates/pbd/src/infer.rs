@@ -82,6 +82,9 @@ pub struct InferFile {
 impl InferFile {
     /// Parses and validates an inference file (`pbd infer`'s output); `origin` names it in errors.
     pub fn from_json(text: &str, origin: &str) -> Result<InferFile> {
+        if let Err(dup) = bayes::input::check_json_keys(text) {
+            bail!("{origin}: {dup}");
+        }
         let file: InferFile = serde_json::from_str(text)
             .with_context(|| format!("{origin} is not an inference file (from `pbd infer`)"))?;
         if file.format != INFER_FORMAT || file.version != INFER_VERSION {

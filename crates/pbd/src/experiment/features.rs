@@ -141,6 +141,9 @@ pub fn render_bank(
 /// Reads a feature bank written by `pbd experiment sorting --dump-features FILE`.
 pub fn load_bank(path: &std::path::Path) -> anyhow::Result<FeatureBank> {
     let text = bayes::input::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
+    if let Err(dup) = bayes::input::check_json_keys(&text) {
+        bail!("{}: {dup}", path.display());
+    }
     let bank: FeatureBank =
         serde_json::from_str(&text).with_context(|| format!("{} is not a feature bank", path.display()))?;
     if bank.presentations.len() != bank.features.len() || bank.features.iter().any(Vec::is_empty) {

@@ -191,6 +191,9 @@ impl ProceduralModel {
             field: field.to_string(),
             message,
         };
+        if let Err(dup) = bayes::input::check_json_keys(text) {
+            return Err(invalid(&dup.path, dup.to_string()));
+        }
         let v: Value = serde_json::from_str(text).map_err(|e| parse(e.to_string()))?;
         let Value::Object(obj) = &v else {
             return Err(parse("a procedural model must be a JSON object".into()));
