@@ -149,6 +149,19 @@ pub struct RecordReport {
     pub messages: u64,
     /// Bytes written.
     pub bytes: u64,
+    /// The teleop file written by `--save-teleop` and how many hand commands it holds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub saved_teleop: Option<SavedTeleop>,
+}
+
+/// The copy of the hand commands written by `--save-teleop`.
+#[derive(Debug, Clone, Serialize)]
+pub struct SavedTeleop {
+    /// The file.
+    pub path: String,
+    /// Hand commands in it (0: none was sent, the interrupted run stopped first, and no file was
+    /// written).
+    pub samples: usize,
 }
 
 /// Objects' true positions, for evaluation.
@@ -520,6 +533,17 @@ pub fn record(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordRep
     let (source, task_list, source_name) = match &args.teleop {
         Some(path) => {
             let stream = TeleopStream::load(path)?;
+            // A stream that begins after the end of the recording replays nothing: the run would
+            // only watch the parked robot (and `--save-teleop` would have nothing to copy).
+            let first = stream.samples.iter().map(|s| s.t).fold(f64::INFINITY, f64::min);
+            if first > args.max_seconds {
+                bail!(
+                    "{}: its first sample is at t = {first} s, after the end of the recording \
+                     (--max-seconds {}): nothing would be replayed",
+                    path.display(),
+                    args.max_seconds
+                );
+            }
             (
                 TeleopSource::Replay(Replay::new(stream)),
                 Vec::new(),
@@ -649,20 +673,37 @@ pub fn record(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordRep
     }
     let stats = log.finish()?;
     let wall_time = wall.elapsed().as_secs_f64();
+    let mut saved_teleop = None;
     if let Some(path) = teleop_log {
-        // Rebuild the stream from the recording we just wrote (all that was commanded).
+        // Rebuild the stream from the recording we just wrote: every hand command sent, the
+        // scripted teacher's or the replayed file's (a sample of `--teleop` that a later one
+        // replaced within the same control period was never sent, and is not copied): replaying
+        // the copy drives the same run.
         let rec = crate::mcap_log::read_recording(&args.output, &[TOPIC_TELEOP])?;
         let samples = rec
             .topic(TOPIC_TELEOP)
             .map(|(_, d)| serde_json::from_slice::<HandCommand>(d))
             .collect::<Result<Vec<_>, _>>()?;
-        let stream = TeleopStream { samples };
-        let text = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")) {
-            stream.to_csv()
+        let n = samples.len();
+        if n == 0 {
+            // An empty file is not a teleop stream (it would not read back): say so, write nothing.
+            progress.warn(&format!(
+                "--save-teleop {}: not written: no hand command was sent before the recording stopped",
+                path.display()
+            ));
         } else {
-            stream.to_jsonl()
-        };
-        crate::files::write_atomic(&path, text.as_bytes())?;
+            let stream = TeleopStream { samples };
+            let text = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")) {
+                stream.to_csv()
+            } else {
+                stream.to_jsonl()
+            };
+            crate::files::write_atomic(&path, text.as_bytes())?;
+        }
+        saved_teleop = Some(SavedTeleop {
+            path: path.display().to_string(),
+            samples: n,
+        });
     }
     let report = RecordReport {
         output: args.output.display().to_string(),
@@ -678,6 +719,7 @@ pub fn record(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordRep
         wall_time,
         messages: stats.messages,
         bytes: stats.bytes,
+        saved_teleop,
     };
     Ok(report)
 }
@@ -714,6 +756,16 @@ impl fmt::Display for RecordReport {
             report.demo.percepts,
             report.output
         )?;
+        match &report.saved_teleop {
+            Some(SavedTeleop { path, samples: 0 }) => {
+                writeln!(out, "  teleop    {path} NOT written: no hand command was sent")?
+            }
+            Some(SavedTeleop { path, samples }) => writeln!(
+                out,
+                "  teleop    {path} ({samples} hand commands: those that drove the run; `--teleop {path}` replays it)"
+            )?,
+            None => {}
+        }
 
         Ok(())
     }
