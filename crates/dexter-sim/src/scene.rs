@@ -476,6 +476,7 @@ impl Catalog {
         if self.objects.is_empty() {
             return Err(c.invalid("objects", "a catalog needs at least one object"));
         }
+        c.count("objects", self.objects.len(), MAX_CATALOG_OBJECTS, "a catalog")?;
         // Presentation names so far, with the field that defined each.
         let mut names: Vec<(&str, String)> = Vec::new();
         for (i, object) in self.objects.iter().enumerate() {
@@ -698,6 +699,7 @@ impl Scene {
         let spec: SceneSpec = parse_toml(text, path)?;
         let c = Check { path };
         c.version(spec.version)?;
+        c.count("objects", spec.objects.len(), MAX_SCENE_OBJECTS, "a scene")?;
         let catalog = if spec.catalog == BUILTIN_HOUSEHOLD || (builtin && spec.catalog == SHIPPED_CATALOG) {
             Catalog::builtin_household()?
         } else if builtin {
@@ -731,6 +733,16 @@ impl Scene {
 /// Largest length or coordinate a scene may hold (m): a room, not a planet.
 pub const MAX_LENGTH: f64 = 100.0;
 
+/// Most objects a scene may place. A tabletop within Dexter's reach holds a few dozen at most (the
+/// shipped scenes 1 to 7), while cost grows with the count: with 64, `pbd sim pick-place` takes
+/// about 1 s and `pbd execute` about 10 s; 1,000 took 11 s for one pick and 10,000 ran past 30 s.
+/// Checked on load, before the catalog is read ([`Scene::load`], [`Scene::new`]).
+pub const MAX_SCENE_OBJECTS: usize = 64;
+
+/// Most objects a catalog may hold (the shipped ones hold 43 and 70): names are checked for
+/// duplicates pairwise, and 10,000 objects already took a second to load.
+pub const MAX_CATALOG_OBJECTS: usize = 1_000;
+
 /// The physically meaningful range of each number of a scene that is not a plain length or
 /// coordinate (checked on load, [`Check::within`]; documented in `assets/README-scenes.md`):
 /// (field, least, most, unit).
@@ -755,6 +767,7 @@ fn scene_range(field: &str) -> (f64, f64, &'static str) {
 /// Validates everything in a scene but the objects; normalises the light direction.
 fn validate_setup(c: &Check<'_>, spec: &mut SceneSpec) -> Result<(), SimError> {
     c.version(spec.version)?;
+    c.count("objects", spec.objects.len(), MAX_SCENE_OBJECTS, "a scene")?;
     if spec.name.trim().is_empty() {
         return Err(c.invalid("name", "must not be empty"));
     }
@@ -1264,6 +1277,18 @@ impl Check<'_> {
             }
         }
         Ok(())
+    }
+
+    /// At most `max` entries in the array `field` of `what` (a scene, a catalog).
+    fn count(&self, field: &str, n: usize, max: usize, what: &str) -> Result<(), SimError> {
+        if n <= max {
+            Ok(())
+        } else {
+            Err(self.invalid(
+                field,
+                format!("{n} entries; {what} may hold at most {max} (a limit on the cost of a run)"),
+            ))
+        }
     }
 
     /// Within the range [`SCENE_RANGES`] gives `key`; `field` names the value in the message.
