@@ -55,6 +55,15 @@ impl Place {
     }
 }
 
+/// How far beyond the table's edge a seen centre may lie and still be on the table (m): the
+/// measured footprint's error.
+pub const TABLE_EDGE_MARGIN: f64 = 0.02;
+
+/// The highest a seen thing's centre may be above the table and still stand on it (m): half the
+/// tallest thing a tabletop holds (a 0.8 m post), with room for the measured height's error.
+pub const MAX_OBJECT_CENTRE_HEIGHT: f64 = 0.45;
+
+
 /// What the robot is told about its workspace: the table and its places — never objects.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Workspace {
@@ -69,6 +78,16 @@ pub struct Workspace {
 }
 
 impl Workspace {
+    /// Whether a seen thing stands on the table: its centre over the table top (within
+    /// [`TABLE_EDGE_MARGIN`], for the measured footprint) and no higher above it than
+    /// [`MAX_OBJECT_CENTRE_HEIGHT`]. Anything else — a part of the robot's own body that its
+    /// self-mask missed, seen beside the table or in the air — is nothing to act on.
+    pub fn stands_on_table(&self, centroid: [f64; 3]) -> bool {
+        (centroid[0] - self.table_center[0]).abs() <= self.table_size[0] / 2.0 + TABLE_EDGE_MARGIN
+            && (centroid[1] - self.table_center[1]).abs() <= self.table_size[1] / 2.0 + TABLE_EDGE_MARGIN
+            && centroid[2] - self.table_z <= MAX_OBJECT_CENTRE_HEIGHT
+    }
+
     /// Where the head looks to scan the table: two rows of four points across its width.
     pub fn scan_points(&self) -> Vec<Vec3> {
         let mut out = Vec::new();
@@ -362,6 +381,9 @@ pub struct RobotPlant<'a> {
     target: Option<(Option<u32>, SeenObject)>,
     /// The target's colour terms when a reach last found it seen (what a search looks for).
     target_colors: Vec<(u8, f64)>,
+    /// Tracks of the other objects the task decided on ([`RobotPlant::set_other_objects`]): never
+    /// taken for a lost target.
+    others: Vec<u32>,
     plan: Option<GraspPlan>,
     /// The first track id not yet given when the grasp was planned (tracks from then on are new).
     plan_next_id: u32,
@@ -441,6 +463,7 @@ impl<'a> RobotPlant<'a> {
             hand,
             target: None,
             target_colors: Vec::new(),
+            others: Vec::new(),
             plan: None,
             grasp_palm: None,
             held: None,
@@ -855,6 +878,13 @@ impl<'a> RobotPlant<'a> {
         t.holding() && t.load >= MIN_LOAD
     }
 
+    /// The tracks of the other objects the task decided on (acted on or left alone): a search for
+    /// a lost target never takes one of them (a sugar box 40 cm away that looks like the red can
+    /// that fell off the table is the sugar box).
+    pub fn set_other_objects(&mut self, ids: Vec<u32>) {
+        self.others = ids;
+    }
+
     /// Opens and retreats every hand that touches something it does not hold (a touch a schema
     /// ended on): the next segment's monitors must not see that touch as theirs.
     pub fn let_go_of_touches(&mut self) -> Result<(), RobotError> {
@@ -1095,8 +1125,8 @@ impl<'a> RobotPlant<'a> {
     /// object the robot can reach may rest.
     fn on_table(&self, c: &Vec3) -> bool {
         let ws = self.workspace;
-        (c.x - ws.table_center[0]).abs() <= ws.table_size[0] / 2.0 + 0.02
-            && (c.y - ws.table_center[1]).abs() <= ws.table_size[1] / 2.0 + 0.02
+        (c.x - ws.table_center[0]).abs() <= ws.table_size[0] / 2.0 + TABLE_EDGE_MARGIN
+            && (c.y - ws.table_center[1]).abs() <= ws.table_size[1] / 2.0 + TABLE_EDGE_MARGIN
             && c.z > ws.table_z - 0.05
     }
 
@@ -1124,7 +1154,7 @@ impl<'a> RobotPlant<'a> {
         let near = self.percepts.last().and_then(|p| {
             p.segments
                 .iter()
-                .filter(|s| s.seen && self.may_be_target(s))
+                .filter(|s| s.seen && self.may_be_target(s) && !self.others.contains(&s.id))
                 .map(|s| ((Vec3::from(s.centroid) - at).xy().norm(), s))
                 .filter(|(d, _)| *d < TARGET_GATE)
                 .min_by(|a, b| a.0.total_cmp(&b.0))
@@ -1189,7 +1219,11 @@ impl<'a> RobotPlant<'a> {
             let Some(p) = self.percepts.last() else {
                 continue;
             };
-            for s in p.segments.iter().filter(|s| s.seen && self.may_be_target(s)) {
+            for s in p
+                .segments
+                .iter()
+                .filter(|s| s.seen && self.may_be_target(s) && !self.others.contains(&s.id))
+            {
                 let c = Vec3::from(s.centroid);
                 let d = (c - last).xy().norm();
                 let on_table = c.z > table_z && c.z < table_z + 0.4;

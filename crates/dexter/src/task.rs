@@ -182,8 +182,8 @@ pub fn decide(
 }
 
 /// The robot looks over the table ([`Workspace::scan_points`], [`SCAN_LOOK_SECS`] each; the
-/// tracker gathers what is there) and returns its tracked segments outside the places: what it
-/// decides on before a task.
+/// tracker gathers what is there) and returns its tracked segments that stand on the table
+/// ([`Workspace::stands_on_table`]) outside the places: what it decides on before a task.
 pub fn look_over_table(plant: &mut RobotPlant<'_>) -> Result<Vec<SegmentPercept>, RobotError> {
     let ws = plant.workspace();
     for at in ws.scan_points() {
@@ -194,7 +194,10 @@ pub fn look_over_table(plant: &mut RobotPlant<'_>) -> Result<Vec<SegmentPercept>
         .map(|p| {
             p.segments
                 .iter()
-                .filter(|s| !ws.places.iter().any(|pl| pl.contains([s.centroid[0], s.centroid[1]])))
+                .filter(|s| {
+                    ws.stands_on_table(s.centroid)
+                        && !ws.places.iter().any(|pl| pl.contains([s.centroid[0], s.centroid[1]]))
+                })
                 .cloned()
                 .collect()
         })
@@ -337,7 +340,9 @@ pub fn run_task(
         Decider::Model(model) => decide(model, &place_names, &seen, has_place(task.library, &schema))?,
     };
     let mut runs = Vec::with_capacity(decisions.len());
+    let decided: Vec<u32> = decisions.iter().map(|d| d.segment).collect();
     for d in decisions {
+        plant.set_other_objects(decided.iter().copied().filter(|&id| id != d.segment).collect());
         sink.begin(&*plant.hw, &d);
         let taken = run_one(plant, task, &schema, &d, sink)?;
         let run = SegmentRun { decision: d, taken };
@@ -345,6 +350,7 @@ pub fn run_task(
         plant.let_go_of_touches()?;
         runs.push(run);
     }
+    plant.set_other_objects(Vec::new());
     Ok(runs)
 }
 
