@@ -63,7 +63,6 @@ pub const TABLE_EDGE_MARGIN: f64 = 0.02;
 /// tallest thing a tabletop holds (a 0.8 m post), with room for the measured height's error.
 pub const MAX_OBJECT_CENTRE_HEIGHT: f64 = 0.45;
 
-
 /// What the robot is told about its workspace: the table and its places — never objects.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Workspace {
