@@ -57,6 +57,10 @@ pub struct ReachControl {
     /// a grasp and the carry to a place take a way around them ([`crate::route`]). Set by whoever
     /// binds the reach (the executive, from what it sees).
     pub avoid: Vec<crate::route::Obstacle>,
+    /// Where the ways around [`ReachControl::avoid`] may pass, as (min x, min y), (max x, max y)
+    /// (m, world): the table top. A way round a tall thing over the robot's own body had the carried
+    /// object knocked from the hand. `None`: anywhere.
+    pub way_region: Option<[[f64; 2]; 2]>,
 }
 
 impl ReachControl {
@@ -95,6 +99,7 @@ impl ReachControl {
             speed: 0.0,
             active: false,
             avoid: Vec::new(),
+            way_region: None,
         };
         let pose = rc.tool_pose(hw);
         rc.goal = pose;

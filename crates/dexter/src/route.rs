@@ -116,14 +116,29 @@ const CORNER_SLACK: f64 = 1e-3;
 /// to pass through after `from` (ending with `to`); `None` if there is none. A straight way gives
 /// `[to]`.
 pub fn route(from: [f64; 2], to: [f64; 2], obstacles: &[Obstacle], clearance: f64) -> Option<Vec<[f64; 2]>> {
+    route_within(from, to, obstacles, clearance, None)
+}
+
+/// [`route`] with the points passed through (not `from` or `to`) inside `region`, (min x, min y),
+/// (max x, max y) when given: over the table, not over the robot's body beside it. A region that is
+/// convex keeps every segment between two such points inside it.
+pub fn route_within(
+    from: [f64; 2],
+    to: [f64; 2],
+    obstacles: &[Obstacle],
+    clearance: f64,
+    region: Option<[[f64; 2]; 2]>,
+) -> Option<Vec<[f64; 2]>> {
     if !(from.iter().chain(&to).all(|x| x.is_finite()) && clearance.is_finite()) {
         return None;
     }
-    // Nodes: from, to, then the grown corners that lie outside every grown rectangle.
+    let inside = |c: [f64; 2]| region.is_none_or(|[lo, hi]| (0..2).all(|i| c[i] >= lo[i] && c[i] <= hi[i]));
+    // Nodes: from, to, then the grown corners that lie outside every grown rectangle (and in the
+    // region).
     let mut nodes = vec![from, to];
     for o in obstacles {
         for c in o.corners(clearance + CORNER_SLACK) {
-            if !obstacles.iter().any(|p| p.contains(c, clearance)) {
+            if inside(c) && !obstacles.iter().any(|p| p.contains(c, clearance)) {
                 nodes.push(c);
             }
         }
@@ -248,6 +263,25 @@ mod tests {
         assert!((c - 0.12).abs() < 2e-3, "{c}");
         assert_eq!(clearance_of([0.7, -0.3], [0.7, 0.1], &[post()], 0.08), 0.08);
         assert_eq!(clearance_of([0.4, -0.1], [0.7, -0.1], &[post()], 0.3), 0.0);
+    }
+
+    #[test]
+    fn ways_keep_to_the_region() {
+        // The post across the way: the nearer way round passes x < 0.3, off the table.
+        let post = Obstacle {
+            center: [0.45, 0.0],
+            major_axis: [1.0, 0.0],
+            half: [0.1, 0.04],
+        };
+        let free = route([0.45, 0.3], [0.45, -0.3], &[post], 0.1).unwrap();
+        assert!(free.iter().any(|p| p[0] < 0.3), "{free:?}");
+        let table = [[0.3, -0.7], [0.9, 0.7]];
+        let kept = route_within([0.45, 0.3], [0.45, -0.3], &[post], 0.1, Some(table)).unwrap();
+        assert!(kept.iter().all(|p| p[0] >= 0.3), "{kept:?}");
+        assert!(clear_of([0.45, 0.3], kept[0], &[post], 0.1 - 1e-6));
+        // No way inside: none.
+        let narrow = [[0.3, -0.7], [0.6, 0.7]];
+        assert!(route_within([0.45, 0.3], [0.45, -0.3], &[post], 0.1, Some(narrow)).is_none());
     }
 
     #[test]
