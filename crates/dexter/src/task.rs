@@ -340,8 +340,7 @@ pub fn run_task(
         Decider::Model(model) => decide(model, &place_names, &seen, has_place(task.library, &schema))?,
     };
     let mut runs = Vec::with_capacity(decisions.len());
-    let decided: Vec<(u32, [f64; 3], bool)> =
-        decisions.iter().map(|d| (d.segment, d.at, d.place.is_err())).collect();
+    let decided: Vec<(u32, [f64; 3], bool)> = decisions.iter().map(|d| (d.segment, d.at, d.place.is_err())).collect();
     for d in decisions {
         plant.set_other_objects(decided.iter().copied().filter(|o| o.0 != d.segment).collect());
         sink.begin(&*plant.hw, &d);
