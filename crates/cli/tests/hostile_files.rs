@@ -22,13 +22,7 @@ fn s(p: &Path) -> String {
 /// Runs `pbd args`: exit code 1 (never a panic's 101 or an abort), stderr naming every needle, and
 /// none of `unwritten` exists afterwards.
 fn refused(args: &[&str], needles: &[&str], unwritten: &[&Path]) {
-    let o = pbd(args);
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
-    assert!(!e.contains("panicked"), "{args:?}: {e}");
-    for n in needles {
-        assert!(e.contains(n), "{args:?}: expected {n:?} in: {e}");
-    }
+    common::refused(args, needles);
     for f in unwritten {
         assert!(!f.exists(), "{args:?}: {} was written", f.display());
     }

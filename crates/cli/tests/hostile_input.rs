@@ -5,23 +5,12 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{pbd, repo, stderr};
+use common::{pbd, refused, repo, stderr};
 
 fn dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("pbd-hostile-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d
-}
-
-/// Runs `pbd args`: exit code 1 (never a panic's 101 or an abort), stderr naming every needle.
-fn refused(args: &[&str], needles: &[&str]) {
-    let o = pbd(args);
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
-    assert!(!e.contains("panicked"), "{args:?}: {e}");
-    for n in needles {
-        assert!(e.contains(n), "{args:?}: expected {n:?} in: {e}");
-    }
 }
 
 /// Runs `pbd args`, sends SIGINT after `seconds`, and returns its output once it exited; the exit

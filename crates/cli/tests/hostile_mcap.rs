@@ -8,7 +8,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use common::{pbd, stderr, stdout};
+use common::{pbd, refused, stderr, stdout};
 use serde_json::Value;
 
 fn dir(name: &str) -> PathBuf {
@@ -93,17 +93,6 @@ fn doctor_flags(file: &Path, verdict: &str, needles: &[&str]) -> Value {
     assert_eq!(d["complete"], false, "{d:#}");
     assert_eq!(d["verdict"], verdict, "{d:#}");
     d
-}
-
-/// `pbd args` exits 1 with stderr naming every needle.
-fn refused(args: &[&str], needles: &[&str]) {
-    let o = pbd(args);
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
-    assert!(!e.contains("panicked"), "{args:?}: {e}");
-    for n in needles {
-        assert!(e.contains(n), "{args:?}: expected {n:?} in: {e}");
-    }
 }
 
 /// The control: a genuine recording is complete, one cut short is cut short (and read by `infer`).

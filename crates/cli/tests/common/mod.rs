@@ -26,3 +26,15 @@ pub fn stdout(o: &Output) -> String {
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
+
+/// Runs `pbd args` and checks it was refused: exit code 1 (never a panic's 101 or an abort), and
+/// stderr naming every needle.
+pub fn refused(args: &[&str], needles: &[&str]) {
+    let o = pbd(args);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+    assert!(!e.contains("panicked"), "{args:?}: {e}");
+    for n in needles {
+        assert!(e.contains(n), "{args:?}: expected {n:?} in: {e}");
+    }
+}
