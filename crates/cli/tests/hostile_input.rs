@@ -655,10 +655,10 @@ fn pipes_and_absurd_thread_counts_are_refused_at_once() {
         .status()
         .is_ok_and(|s| s.success())
     {
-        let t0 = std::time::Instant::now();
+        // Refused by name, so never opened (opening a FIFO with no writer blocks: the command
+        // would not return at all). No timed assertion: figures come from benchmarks.
         refused(&["doctor", &s(&f)], &["FIFO"]);
         refused(&["execute", "--model", &s(&f)], &["FIFO"]);
-        assert!(t0.elapsed().as_secs() < 20, "took {:?}", t0.elapsed());
     } else {
         eprintln!("skipped the FIFO case: mkfifo is not available");
     }

@@ -553,23 +553,46 @@ impl<'a> RobotPlant<'a> {
     /// The tall things seen on the table, which a palm goes around rather than over
     /// ([`ReachControl::avoid`]): segments measured standing from their edges, and segments whose
     /// coarse centroid lies higher than [`TALL_THING`] above the table (not within
-    /// [`CARRIED_CLEARANCE`] of a palm: a hand seen merged with what it holds) — but none whose
-    /// footprint centre lies within [`HELD_UNDER_PALM`] of a palm.
+    /// [`CARRIED_CLEARANCE`] of a holding hand's palm: a hand seen merged with what it holds) — but
+    /// none whose footprint centre lies within [`HELD_UNDER_PALM`] of a holding hand's palm.
     fn tall_things(&mut self) -> Vec<crate::route::Obstacle> {
         let table_z = self.workspace.table_z;
         let Some(p) = self.percepts.last() else {
             return Vec::new();
         };
+        // Only a hand that holds something can be seen merged with it: an empty hand stopped
+        // beside a post (the arm it blocked) must not hide the post (development seed 2, blocked
+        // arm, scene 11: the right palm 14 cm from the post's coarse centroid, no tall thing kept,
+        // and the carry went into the post).
+        let holding = Arm::BOTH.map(|a| self.touch(a).holding());
         let palms: Vec<Vec3> = self
             .reach
             .iter_mut()
-            .map(|r| r.tool_pose(self.hw).translation.vector)
+            .zip(holding)
+            .filter(|(_, h)| *h)
+            .map(|(r, _)| r.tool_pose(self.hw).translation.vector)
+            .collect();
+        // Tall things measured from their edges: a coarse segment overlapping one is the same
+        // thing seen again, cut (its centroid 7–10 cm nearer the head; development seed 1, blocked
+        // arm, scene 2: kept as a second post, it moved the handoff spot where the grasp failed).
+        let standing: Vec<&schema::SeenExtent> = p
+            .segments
+            .iter()
+            .filter_map(|s| s.extent.as_ref())
+            .filter(|e| e.model == "standing")
             .collect();
         p.segments
             .iter()
             .filter(|s| self.above_table(s))
             .filter_map(|s| {
                 let e = s.extent.as_ref()?;
+                if e.model == "coarse"
+                    && standing.iter().any(|t| {
+                        (e.center[0] - t.center[0]).hypot(e.center[1] - t.center[1]) < e.half_major + t.half_major
+                    })
+                {
+                    return None;
+                }
                 // Right under a palm: what the hand holds.
                 if palms
                     .iter()
