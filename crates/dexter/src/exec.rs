@@ -28,7 +28,7 @@ use crate::error::RobotError;
 use crate::eyes::Eyes;
 use crate::skills::{
     GraspPlan, Held, MIN_LOAD, Observer, SeenObject, TouchState, approach_grasp, close_grasp, finger_arc,
-    hand_fingertips, idle, lift_and_weigh, lower_until_supported, park_pose, plan_top_grasp, reachable,
+    hand_fingertips, idle, lift_and_weigh, lower_until_supported, park_pose, plan_top_grasp_among, reachable,
     release_and_retreat, run_until, stow_pose, touch_object, transport_over,
 };
 use crate::watch::Watcher;
@@ -286,6 +286,37 @@ const SEEN_RADIUS: f64 = 0.05;
 /// more above the table).
 const TALL_THING: f64 = 0.25;
 
+/// The horizontal distance (m) from table point `p` to the walls of `place` (0 on a wall).
+fn wall_distance(place: &Place, p: [f64; 2]) -> f64 {
+    // Distance to the rectangle of half size `h` about the place's centre, inside or out.
+    let rect = |h: [f64; 2]| {
+        let d = [
+            (p[0] - place.center[0]).abs() - h[0],
+            (p[1] - place.center[1]).abs() - h[1],
+        ];
+        if d[0] > 0.0 || d[1] > 0.0 {
+            d[0].max(0.0).hypot(d[1].max(0.0))
+        } else {
+            -d[0].max(d[1])
+        }
+    };
+    let inner = [place.size[0] / 2.0, place.size[1] / 2.0];
+    let outer = [inner[0] + place.wall_thickness, inner[1] + place.wall_thickness];
+    let inside_inner = (p[0] - place.center[0]).abs() < inner[0] && (p[1] - place.center[1]).abs() < inner[1];
+    let inside_outer = (p[0] - place.center[0]).abs() <= outer[0] && (p[1] - place.center[1]).abs() <= outer[1];
+    if inside_inner {
+        rect(inner)
+    } else if inside_outer {
+        0.0
+    } else {
+        rect(outer)
+    }
+}
+
+/// How far (m) above the grasp pose the reach of a task that only touches stops
+/// ([`RobotPlant::set_touch_task`]).
+const PRE_TOUCH_HEIGHT: f64 = 0.04;
+
 /// A segment as the handoff planner sees it: centre (x, y), horizontal radius (its measured half
 /// length, or [`SEEN_RADIUS`]) and height (measured, or 0), m.
 #[derive(Debug, Clone, Copy)]
@@ -404,6 +435,8 @@ pub struct RobotPlant<'a> {
     /// The other objects the task decided on, (track, where it was decided on, left alone)
     /// ([`RobotPlant::set_other_objects`]): never taken for a lost target.
     others: Vec<(u32, [f64; 3], bool)>,
+    /// The task touches its object without grasping it ([`RobotPlant::set_touch_task`]).
+    touch_task: bool,
     plan: Option<GraspPlan>,
     /// The first track id not yet given when the grasp was planned (tracks from then on are new).
     plan_next_id: u32,
@@ -487,6 +520,7 @@ impl<'a> RobotPlant<'a> {
             target: None,
             target_colors: Vec::new(),
             others: Vec::new(),
+            touch_task: false,
             plan: None,
             grasp_palm: None,
             held: None,
@@ -933,6 +967,14 @@ impl<'a> RobotPlant<'a> {
     /// renamed meanwhile).
     pub fn set_other_objects(&mut self, others: Vec<(u32, [f64; 3], bool)>) {
         self.others = others;
+    }
+
+    /// Whether the task touches its object without grasping it (Reach-And-Touch): its reach then
+    /// stops [`PRE_TOUCH_HEIGHT`] above the grasp pose, clear of the object, and the Touch descends
+    /// from there until a fingertip meets it. A reach all the way down to the grasp pose pressed
+    /// the fingers into a block's top (68–86 N), so the monitors saw a touch before the Touch ran.
+    pub fn set_touch_task(&mut self, touch: bool) {
+        self.touch_task = touch;
     }
 
     /// Whether seen segment `s` is one of the other objects ([`RobotPlant::set_other_objects`]).
@@ -1445,7 +1487,34 @@ impl SchemaPlant for RobotPlant<'_> {
                 self.grasp_palm = None;
                 let arc = finger_arc(self.hw.model(), arm)?;
                 let current = self.reach[k].tool_pose(self.hw);
-                let plan = plan_top_grasp(&arc, &seen, table_z, &current);
+                // A touch's fingers come down clear of the places' walls and of the other things
+                // seen: a fingertip landing there would be a touch of the wrong thing.
+                let others: Vec<([f64; 2], f64)> = self
+                    .seen_objects(None)
+                    .into_iter()
+                    .filter(|o| {
+                        (o.extent.center[0] - seen.extent.center[0]).hypot(o.extent.center[1] - seen.extent.center[1])
+                            > MERGE_RADIUS
+                    })
+                    .map(|o| (o.extent.center, o.radius()))
+                    .collect();
+                let places = &self.workspace.places;
+                let room = |p: [f64; 2]| {
+                    let walls = places.iter().map(|w| wall_distance(w, p)).fold(f64::INFINITY, f64::min);
+                    others
+                        .iter()
+                        .map(|(c, r)| (p[0] - c[0]).hypot(p[1] - c[1]) - r)
+                        .fold(walls, f64::min)
+                };
+                // (For touches only: for grasps the choice changed how two pinned fault scenes
+                // recovered, development seed 1, bump 6 and blocked arm 8.)
+                let mut plan =
+                    plan_top_grasp_among(&arc, &seen, table_z, &current, self.touch_task.then_some(&room as _));
+                if self.touch_task {
+                    // Stop clear of the object: the Touch makes the contact.
+                    plan.grasp.translation.vector.z += PRE_TOUCH_HEIGHT + plan.guard;
+                    plan.guard = 0.0;
+                }
                 if debug_exec() {
                     eprintln!("  reach target id {id:?}: {seen:?}");
                 }
@@ -1674,7 +1743,15 @@ impl SchemaPlant for RobotPlant<'_> {
                     self.back_off(arm)?;
                     ActionOutcome::Failed(Failure::new(FailureCause::Moved, why))
                 } else {
-                    match self.with_observer(|hw, reach, hand, obs| touch_object(hw, &mut reach[k], &hand[k], obs))? {
+                    // From the pre-touch pose, down to the grasp pose the reach stopped above.
+                    let down = self.plan.filter(|_| self.touch_task).map(|p| {
+                        let mut g = p.grasp;
+                        g.translation.vector.z -= PRE_TOUCH_HEIGHT;
+                        g
+                    });
+                    match self.with_observer(|hw, reach, hand, obs| {
+                        touch_object(hw, &mut reach[k], &hand[k], down.as_ref(), obs)
+                    })? {
                         Ok(()) => ActionOutcome::Converged,
                         // The hand stays at the object, open again: the next touch tries from there.
                         Err(why) => ActionOutcome::Failed(why),

@@ -307,16 +307,73 @@ pub fn plan_top_grasp_geometry(
     table_z: f64,
     current: &Iso3,
 ) -> GraspPlan {
+    plan_top_grasp_clear_of(arc, half_along, center, bottom, top, table_z, current, None)
+}
+
+/// Directions whose half width is within this (m) of the narrowest are equally good to close
+/// across ([`plan_top_grasp_clear_of`]): a cube's two sides, any direction of a can.
+const AXIS_TIE: f64 = 0.003;
+
+/// How far (m) apart, across the closing direction, the BarrettHand's two side-by-side fingertips
+/// (F1, F2) stand in a pre-shape: about 5 cm.
+const FINGER_PAIR_HALF_SPACING: f64 = 0.025;
+
+/// [`plan_top_grasp_geometry`], choosing among equally narrow closing directions the one whose
+/// pre-shaped fingertips keep farthest from everything else, `room(p)` being the free distance
+/// (m) around table point `p` (`None`: the first narrowest). A touch on a block 10 cm from a bin's
+/// wall had a fingertip land on the wall's top (development: `any_schema`, Reach-And-Touch in
+/// `sorting-new`); turned 90°, the fingers fall clear on both sides.
+#[allow(clippy::too_many_arguments)]
+pub fn plan_top_grasp_clear_of(
+    arc: &[(f64, f64, f64)],
+    half_along: &dyn Fn(Vec3) -> f64,
+    center: [f64; 2],
+    bottom: f64,
+    top: f64,
+    table_z: f64,
+    current: &Iso3,
+    room: Option<&dyn Fn([f64; 2]) -> f64>,
+) -> GraspPlan {
     const TIP_RADIUS: f64 = 0.01;
     // The narrower horizontal axis: test a few directions in the object's footprint.
-    let mut best = (f64::INFINITY, Vec3::x());
-    for k in 0..36 {
+    let widths: [(f64, Vec3); 36] = std::array::from_fn(|k| {
         let a = std::f64::consts::PI * k as f64 / 36.0;
         let d = Vec3::new(a.cos(), a.sin(), 0.0);
-        let w = half_along(d);
+        (half_along(d), d)
+    });
+    let mut best = (f64::INFINITY, Vec3::x());
+    for &(w, d) in &widths {
         if w < best.0 - 1e-9 {
             best = (w, d);
         }
+    }
+    if let Some(room) = room {
+        // Where the pre-shaped fingertips come down, on either side (the hand may turn 180°).
+        let clearance = |w: f64, d: Vec3| {
+            let lateral = w + TIP_RADIUS + 0.025;
+            let n = [-d.y, d.x];
+            let mut least = f64::INFINITY;
+            for side in [-1.0, 1.0] {
+                for pair in [-1.0, 0.0, 1.0] {
+                    let p = [
+                        center[0] + side * lateral * d.x + pair * FINGER_PAIR_HALF_SPACING * n[0],
+                        center[1] + side * lateral * d.y + pair * FINGER_PAIR_HALF_SPACING * n[1],
+                    ];
+                    least = least.min(room(p));
+                }
+            }
+            least
+        };
+        let mut chosen = (clearance(best.0, best.1), best);
+        for &(w, d) in &widths {
+            if w <= best.0 + AXIS_TIE {
+                let c = clearance(w, d);
+                if c > chosen.0 + 1e-9 {
+                    chosen = (c, (w, d));
+                }
+            }
+        }
+        best = chosen.1;
     }
     let (half_width, axis) = best;
     let height = top - bottom;
@@ -363,15 +420,36 @@ const COARSE_HEIGHT_FLOOR: f64 = 0.4;
 /// Plans a top-down grasp of a seen object resting on the table at `table_z` (its footprint's
 /// principal axes and measured height; §6.2.1), for a hand at orientation `current`.
 pub fn plan_top_grasp(arc: &[(f64, f64, f64)], seen: &SeenObject, table_z: f64, current: &Iso3) -> GraspPlan {
+    plan_top_grasp_among(arc, seen, table_z, current, None)
+}
+
+/// [`plan_top_grasp`] with the fingers kept clear of what is around (`room`, as in
+/// [`plan_top_grasp_clear_of`]).
+pub fn plan_top_grasp_among(
+    arc: &[(f64, f64, f64)],
+    seen: &SeenObject,
+    table_z: f64,
+    current: &Iso3,
+    room: Option<&dyn Fn([f64; 2]) -> f64>,
+) -> GraspPlan {
     let e = &seen.extent;
     // Among equally narrow directions (a disc), the fingers close across the major axis.
     let half =
         |d: Vec3| e.half_extent_along([d.x, d.y]) + TIE_BIAS * (d.x * e.major_axis[0] + d.y * e.major_axis[1]).abs();
-    let plan = plan_top_grasp_geometry(arc, &half, e.center, table_z, table_z + e.height, table_z, current);
+    let plan = plan_top_grasp_clear_of(
+        arc,
+        &half,
+        e.center,
+        table_z,
+        table_z + e.height,
+        table_z,
+        current,
+        room,
+    );
     if e.model != "coarse" {
         return plan;
     }
-    let low = plan_top_grasp_geometry(
+    let low = plan_top_grasp_clear_of(
         arc,
         &half,
         e.center,
@@ -379,6 +457,7 @@ pub fn plan_top_grasp(arc: &[(f64, f64, f64)], seen: &SeenObject, table_z: f64, 
         table_z + COARSE_HEIGHT_FLOOR * e.height,
         table_z,
         current,
+        room,
     );
     GraspPlan {
         guard: (plan.grasp.translation.z - low.grasp.translation.z).max(0.0),
@@ -795,6 +874,14 @@ fn go_around(
     }
 }
 
+/// How fast (m/s) the palm descends to touch ([`touch_object`]): a fingertip meeting the object
+/// stops it within a few millimetres.
+const TOUCH_DESCENT_SPEED: f64 = 0.03;
+
+/// How far (m) below where a fingertip met the object the palm's reference stays after a touch's
+/// descent.
+const TOUCH_DESCENT_PRESS: f64 = 0.003;
+
 /// How fast (rad/s) the fingers close to touch ([`touch_object`]): slow enough that the first
 /// finger to meet the object stops on it before the others arrive.
 const TOUCH_FLEX_SPEED: f64 = 0.4;
@@ -802,20 +889,42 @@ const TOUCH_FLEX_SPEED: f64 = 0.4;
 /// the finger rests on the object with a light force.
 const TOUCH_PRESS: f64 = 0.10;
 
-/// Touch (the Reach-And-Touch schema's last action): from the reach's grasp pose, close the fingers
-/// slowly until a fingertip meets the object, and hold them there — contact without an opposing
-/// grasp, the Touch predicate. Fingers that met it from both sides (a squeeze) open again until one
-/// side lets go. Fails if no fingertip met anything by the time the hand is closed.
+/// Touch (the Reach-And-Touch schema's last action): from where the reach stopped — clear above the
+/// object, `down` the grasp pose to descend to (slowly, [`TOUCH_DESCENT_SPEED`]; a fingertip that
+/// meets the object's top on the way ends the touch there) — or from the grasp pose, close the
+/// fingers slowly until a fingertip meets the object, and hold them there: contact without an
+/// opposing grasp, the Touch predicate.
+/// Fingers that met it from both sides (a squeeze) open again until one side lets go. Fails if no
+/// fingertip met anything by the time the hand is closed.
 pub fn touch_object(
     hw: &mut dyn Hardware,
     reach: &mut ReachControl,
     hand: &HandControl,
+    down: Option<&Iso3>,
     obs: &mut Observer<'_>,
 ) -> Result<(), Failure> {
     let arm = reach.arm();
     obs.activity = "touch";
     let mut buf = Vec::new();
     let dt = 1.0 / CONTROL_HZ;
+    if let Some(goal) = down {
+        let speed = reach.max_speed;
+        reach.max_speed = TOUCH_DESCENT_SPEED;
+        reach.set_goal(hw, *goal);
+        let met = run_until(hw, reach, obs, 4.0, |h, r| {
+            TouchState::of(&hand_fingertips(h, arm, &mut buf)).loaded > 0 || r.at_goal(h, 0.004, 0.03)
+        });
+        reach.max_speed = speed;
+        // Stop where the fingertip met it, the reference a little below so that it keeps resting
+        // on the object with a light force (the fingertip touching at the end is the goal).
+        let mut here = reach.tool_pose(hw);
+        here.translation.vector.z -= TOUCH_DESCENT_PRESS;
+        reach.set_goal(hw, here);
+        idle(hw, obs, 0.2);
+        if met && TouchState::of(&hand_fingertips(hw, arm, &mut buf)).loaded > 0 {
+            return Ok(());
+        }
+    }
     let start = hand.flexion(hw);
     let mut flex = start.iter().copied().fold(f64::INFINITY, f64::min);
     let met = run_until(hw, reach, obs, 4.0, |h, _| {

@@ -303,6 +303,7 @@ pub fn run_task(
         action: task.schema.to_string(),
         message,
     })?;
+    plant.set_touch_task(touches_without_grasp(task.library, &schema));
     let ws: &Workspace = plant.workspace();
     let mut seen = look_over_table(plant)?;
     if let Some(p) = task.only_near {
@@ -352,6 +353,15 @@ pub fn run_task(
     }
     plant.set_other_objects(Vec::new());
     Ok(runs)
+}
+
+/// Whether `schema` touches its object without grasping it: one of its actions binds to
+/// [`Skill::Touch`] and none to [`Skill::Grasp`] (its reach stops clear of the object, and the
+/// Touch makes the contact: [`RobotPlant::set_touch_task`]).
+pub fn touches_without_grasp(library: &Library, schema: &schema::Schema) -> bool {
+    let skills = SkillMap::new(library);
+    let has = |k: Skill| schema.actions.iter().any(|&a| skills.at(a) == Some(k));
+    has(Skill::Touch) && !has(Skill::Grasp)
 }
 
 /// Whether `schema` puts its object somewhere: one of its actions binds to [`Skill::Place`].
