@@ -351,3 +351,43 @@ fn many_tiny_states_hand_over_to_log_space_and_come_back() {
         assert!((a - b).abs() <= 1e-12);
     }
 }
+
+/// A left-to-right band of 8 states (its kernel is a band) whose first state falls e^-1200 behind
+/// — far below any fixed floor — and then wins: the extended-range pass keeps it, as the log-space
+/// recursion does; flushing loses it.
+#[test]
+fn a_band_state_far_below_the_floor_that_regains_is_not_lost() {
+    let n = 8;
+    let mut trans = vec![0.0; n * n];
+    for i in 0..n {
+        if i + 1 < n {
+            trans[i * n + i] = 0.999;
+            trans[i * n + i + 1] = 0.001;
+        } else {
+            trans[i * n + i] = 1.0;
+        }
+    }
+    let mut start = vec![0.0; n];
+    start[0] = 0.5;
+    start[3] = 0.5;
+    let hmm = Hmm::from_probabilities(&start, &trans).unwrap();
+    let mut log_e = Vec::new();
+    for t in 0..900 {
+        for j in 0..n {
+            // First 300 steps: state 0 explains the data e^4 times worse than the rest; then e^4
+            // times better for 600 steps.
+            let worse = if t < 300 { j == 0 } else { j != 0 };
+            log_e.push(if worse { -4.0 } else { 0.0 });
+        }
+    }
+    let exact = hmm.forward_exact(&log_e).unwrap();
+    let lin: Vec<f64> = log_e.iter().map(|l| l.exp()).collect();
+    let got = hmm.forward_linear(&lin).unwrap();
+    assert!(scaled_diff(got, exact) <= 1e-12, "{got} vs {exact}");
+    let flushed = hmm.forward_scaled(&lin).unwrap();
+    assert!(
+        (flushed.log_likelihood - exact).abs() > 100.0,
+        "{} vs {exact}",
+        flushed.log_likelihood
+    );
+}

@@ -13,7 +13,7 @@
 //! | entry point | input | arithmetic | exact? |
 //! | --- | --- | --- | --- |
 //! | [`Hmm::forward`], [`Hmm::forward_backward`] | log emissions | one `exp` per lattice entry, then the scaled linear recursion | yes (below) |
-//! | [`Hmm::forward_linear`], [`ScaledFilter`], [`forward_shared`], [`forward_shared_linear`] | linear emissions (or shared columns) | scaled linear recursion, no `exp`/`ln` per element | yes |
+//! | [`Hmm::forward_linear`], [`ScaledFilter`], [`forward_shared`], [`forward_shared_linear`] | linear emissions (or shared columns) | scaled linear recursion, no `exp`/`ln` per element (`forward_linear` over a band: extended-range arithmetic, below) | yes |
 //! | [`Hmm::forward_scaled`] | linear emissions | the same recursion with hmmlearn's flushing, and a worst-case bound | to its bound |
 //! | [`Hmm::forward_exact`], [`ForwardFilter`], [`Hmm::viterbi`] | log emissions | log space (Viterbi: max-plus, no transcendental at all) | yes |
 //!
@@ -25,6 +25,13 @@
 //! recursion), so the exact entry points agree with the log-space recursion to rounding (the
 //! tests check 1e-12 against it and against hmmlearn). A step linear arithmetic cannot represent
 //! at all (c_t < 1e-280) reruns in log space.
+//!
+//! Over a band (a left-to-right model), most states fall below any fixed floor in a long sequence
+//! and the scaled pass would spend an `exp` per tiny state and step. [`Hmm::forward_linear`] runs
+//! such models in extended-range arithmetic instead: each α_t,j is its own mantissa and binary
+//! exponent, a state's incoming terms are aligned to the largest by a power of two (built from its
+//! bits), and nothing is lost that a double could hold — exact, with no transcendental per element
+//! (N = 16, T = 100 000: 13.8 ms, was 77 ms; `cargo bench -p bayes --bench hmm`).
 //!
 //! ## The log-space recursion
 //! Probabilities are carried as normalised *filtered* posteriors `p(z_t | o_1..t)` (both as logs
@@ -244,11 +251,17 @@ impl Hmm {
     /// = p(o_t | z_t = j) (finite, ≥ 0; densities may exceed 1). The scaled forward pass with no
     /// `exp` or `ln` per element while every state stays above 1e-280 of the filtered
     /// distribution; states below that are carried exactly in log space (module docs of
-    /// `hmm::scaled`), so the result is the exact one. A step linear arithmetic cannot represent
+    /// `hmm::scaled`), so the result is the exact one. A band of diagonals (a left-to-right model)
+    /// runs in extended-range arithmetic, exact without any log (module docs). A step linear arithmetic cannot represent
     /// at all (c_t < 1e-280) reruns the log-space recursion.
     /// Errors: T = 0, a length not a multiple of n, a negative, NaN or infinite entry.
     pub fn forward_linear(&self, emissions: &[f64]) -> Result<f64> {
         self.check_linear_emissions(emissions)?;
+        if self.linear_ok && matches!(self.kernel, Kernel::Banded { .. }) {
+            // A band (left-to-right schemas): most states fall below any fixed floor over a long
+            // sequence, where the scaled pass would carry them in log space one `exp` at a time.
+            return Ok(self.forward_banded_extended(emissions, &mut scaled::ExtendedScratch::default()));
+        }
         if self.linear_ok {
             let mut s = Scaled::new(self, Tiny::Track);
             for e in emissions.chunks_exact(self.n) {

@@ -646,3 +646,141 @@ impl Scaled {
         self.tiny.clear();
     }
 }
+
+/// A positive double as (mantissa in [0.5, 1), binary exponent): `x = m · 2^k`. Zero is (0, 0).
+/// Subnormal inputs are scaled into the normal range first.
+#[inline]
+fn split(x: f64) -> (f64, i64) {
+    if x == 0.0 {
+        return (0.0, 0);
+    }
+    let (x, bias) = if x < f64::MIN_POSITIVE {
+        (x * TWO_POW_64, -64)
+    } else {
+        (x, 0)
+    };
+    let bits = x.to_bits();
+    let e = ((bits >> 52) & 0x7ff) as i64 - 1022;
+    let m = f64::from_bits((bits & !(0x7ffu64 << 52)) | (1022u64 << 52));
+    (m, e + bias)
+}
+
+/// 2⁶⁴.
+const TWO_POW_64: f64 = 18_446_744_073_709_551_616.0;
+
+/// 2^d for −1022 ≤ d ≤ 0; 0 below (a term that far below the largest cannot change a double sum).
+#[inline]
+fn pow2_down(d: i64) -> f64 {
+    if d < -1022 {
+        0.0
+    } else {
+        f64::from_bits(((1023 + d) as u64) << 52)
+    }
+}
+
+impl Hmm {
+    /// log p(o_1..T) over a band of diagonals in extended-range arithmetic: every α_t,j is kept as
+    /// its own mantissa and binary exponent, so no state is ever lost below the floating-point
+    /// range (the exactness of the log-space recursion) and no `exp` or `ln` is taken per element
+    /// (the speed of the scaled pass). Each step sums a state's incoming terms aligned to the
+    /// largest one's exponent by a power of two; a term more than 2¹⁰²² below it is dropped —
+    /// it could not change the sum's double. Relative rounding per step is that of a double
+    /// multiply-add, as in the other paths. `emissions` are linear and checked; the model is
+    /// `linear_ok` (its non-zero probabilities ≥ 1e-20, so no aligned sum is subnormal) and its
+    /// kernel is [`Kernel::Banded`]. Returns `-inf` for an impossible sequence.
+    pub(crate) fn forward_banded_extended(&self, emissions: &[f64], scratch: &mut ExtendedScratch) -> f64 {
+        let Kernel::Banded { offsets, diags } = &self.kernel else {
+            unreachable!("forward_banded_extended on a kernel that is not a band")
+        };
+        let n = self.n;
+        scratch.resize(n);
+        let ExtendedScratch { m, k, top, sum } = scratch;
+        for j in 0..n {
+            let (me, ke) = split(emissions[j]);
+            let (ms, ks) = split(self.start_lin[j]);
+            let (mm, km) = split(ms * me);
+            m[j] = mm;
+            k[j] = if mm == 0.0 { ZERO_EXP } else { ks + ke + km };
+        }
+        // Each diagonal's destinations a..b (its sources are a − o..b − o).
+        let range = |o: isize| {
+            let a = o.max(0) as usize;
+            let b = (n as isize + o.min(0)) as usize;
+            (a, b, (a as isize - o) as usize)
+        };
+        for e in emissions.chunks_exact(n).skip(1) {
+            // The largest exponent among each state's incoming terms (a zero transition or a zero
+            // α is no term: its exponent reads ZERO_EXP).
+            top.fill(ZERO_EXP);
+            for (&o, diag) in offsets.iter().zip(diags.chunks_exact(n)) {
+                let (a, b, src) = range(o);
+                for ((t, &d), &ki) in top[a..b].iter_mut().zip(&diag[a..b]).zip(&k[src..src + b - a]) {
+                    *t = (*t).max(if d > 0.0 { ki } else { ZERO_EXP });
+                }
+            }
+            sum.fill(0.0);
+            for (&o, diag) in offsets.iter().zip(diags.chunks_exact(n)) {
+                let (a, b, src) = range(o);
+                let len = b - a;
+                for (((s, &d), (&mi, &ki)), &t) in sum[a..b]
+                    .iter_mut()
+                    .zip(&diag[a..b])
+                    .zip(m[src..src + len].iter().zip(&k[src..src + len]))
+                    .zip(&top[a..b])
+                {
+                    *s += mi * d * pow2_down(ki - t);
+                }
+            }
+            let mut any = false;
+            for (((mj, kj), (&sj, &tj)), &ej) in m.iter_mut().zip(k.iter_mut()).zip(sum.iter().zip(top.iter())).zip(e) {
+                // An aligned sum is at least half the smallest non-zero transition (≥ 1e-20): times
+                // an emission above 1e-250 it stays a normal double, and one split suffices.
+                let (ms, ks) = if ej >= 1e-250 {
+                    split(sj * ej)
+                } else {
+                    let (me, ke) = split(ej);
+                    let (ms, ks) = split(sj * me);
+                    (ms, ks + ke)
+                };
+                *mj = ms;
+                *kj = if ms == 0.0 { ZERO_EXP } else { tj + ks };
+                any |= ms != 0.0;
+            }
+            if !any {
+                return f64::NEG_INFINITY;
+            }
+        }
+        let Some(top) = k.iter().copied().filter(|&x| x != ZERO_EXP).max() else {
+            return f64::NEG_INFINITY;
+        };
+        let sum: f64 = m.iter().zip(k.iter()).map(|(&m, &k)| m * pow2_down(k - top)).sum();
+        sum.ln() + top as f64 * std::f64::consts::LN_2
+    }
+}
+
+/// The exponent of a zero α (or of no term): far below every real one, so that it never is the
+/// largest and its power of two is 0.
+const ZERO_EXP: i64 = i64::MIN / 4;
+
+/// Working vectors of [`Hmm::forward_banded_extended`] (mantissas and exponents of α, and per state the
+/// largest incoming exponent and the aligned sum).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ExtendedScratch {
+    m: Vec<f64>,
+    k: Vec<i64>,
+    top: Vec<i64>,
+    sum: Vec<f64>,
+}
+
+impl ExtendedScratch {
+    fn resize(&mut self, n: usize) {
+        for v in [&mut self.m, &mut self.sum] {
+            v.clear();
+            v.resize(n, 0.0);
+        }
+        for v in [&mut self.k, &mut self.top] {
+            v.clear();
+            v.resize(n, 0);
+        }
+    }
+}
