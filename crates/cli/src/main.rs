@@ -33,6 +33,11 @@ struct Cli {
     /// Results do not depend on it.
     #[arg(long, global = true, value_name = "N")]
     threads: Option<usize>,
+    /// Diagnostics on stderr: -v each action and its outcome, -vv what the robot saw and planned
+    /// after each, -vvv every stereo blob. `RUST_LOG` (e.g. `RUST_LOG=dexter::exec=debug`) overrides
+    /// it. A run that writes an MCAP file keeps its actions (or what `RUST_LOG` asks for) in `/log`.
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    verbose: u8,
     #[command(subcommand)]
     command: Command,
 }
@@ -85,6 +90,12 @@ fn main() -> ExitCode {
         },
         _ => None,
     };
+    let rust_log = std::env::var("RUST_LOG").is_ok_and(|v| !v.trim().is_empty());
+    progress::DIAGNOSTICS.store(cli.verbose > 0 || rust_log, std::sync::atomic::Ordering::Relaxed);
+    if let Err(e) = pbd::logging::init(cli.verbose) {
+        eprintln!("error: cannot install the diagnostics subscriber: {e}");
+        return ExitCode::FAILURE;
+    }
     let threads = cli.threads.or(from_env);
     if let Some(n) = threads
         && let Err(e) = pbd::parallel::set_threads(n)

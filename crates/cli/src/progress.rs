@@ -11,6 +11,9 @@ use pbd::Progress;
 /// The stop flag the signal handlers set (shared by every [`Bars`] of the process).
 static STOP: std::sync::OnceLock<Arc<AtomicBool>> = std::sync::OnceLock::new();
 
+/// Set when diagnostics go to stderr (`-v`, `RUST_LOG`): bars would tear their lines, so none is drawn.
+pub static DIAGNOSTICS: AtomicBool = AtomicBool::new(false);
+
 /// Whether Ctrl-C or SIGTERM asked the run to stop.
 pub fn interrupted() -> bool {
     STOP.get().is_some_and(|s| s.load(Ordering::SeqCst))
@@ -49,7 +52,7 @@ impl Bars {
             }
         }
         Ok(Bars {
-            visible: !quiet && std::io::stderr().is_terminal(),
+            visible: !quiet && std::io::stderr().is_terminal() && !DIAGNOSTICS.load(Ordering::Relaxed),
             bar: Mutex::new(None),
             stop,
         })

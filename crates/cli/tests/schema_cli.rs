@@ -251,6 +251,20 @@ fn a_right_arm_demonstration_is_executed_with_the_left_arm_where_the_object_need
     for s in states {
         assert!(s["timestamp"]["sec"].is_u64(), "{s}");
     }
+    // Each action is a span of the executive's diagnostics, kept in `/log` with its outcome (and
+    // nothing on stderr without -v).
+    let actions: Vec<&Value> = by_topic["/log"]
+        .iter()
+        .filter(|l| l["name"] == "schema::executive" && l["message"].as_str().unwrap().starts_with("action{"))
+        .collect();
+    assert_eq!(actions.len(), states.len() - 1, "{actions:#?}");
+    let first = actions[0]["message"].as_str().unwrap();
+    assert!(
+        first.starts_with("action{action=reach_object state=idle arm=left object=") && first.ends_with("Converged"),
+        "{first}"
+    );
+    assert!(actions.iter().all(|l| l["level"] == 2), "{actions:#?}");
+    assert!(!stderr(&o).contains("action{"), "{}", stderr(&o));
 }
 
 #[test]

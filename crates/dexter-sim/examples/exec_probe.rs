@@ -1,8 +1,8 @@
 //! One scene of the execute experiment, for debugging: `cargo run --release -p dexter-sim --example
 //! exec_probe -- <model.json> <seed> <index> [objects]` prints the report, and (with
 //! `PBD_DEBUG_TRUTH=1`) every object's true position at each change of the robot's activity. Set
-//! `PBD_DEBUG_EXEC=1` to see the monitors after every action, `PBD_DEBUG_BLOBS=1` for every stereo
-//! blob.
+//! `RUST_LOG=schema=info,dexter::exec=debug` to see each action and the monitors after it,
+//! `dexter::watch=trace` for every stereo blob.
 
 use dexter_sim::execute::{Decider, MAX_ACTIONS, RunLog, Task, execute_scene};
 use dexter_sim::experiment::random_scene;
@@ -47,6 +47,11 @@ impl RunLog for Truth {
 }
 
 fn main() {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
+        .with_writer(std::io::stderr)
+        .without_time()
+        .init();
     let args: Vec<String> = std::env::args().collect();
     let model = args.get(1).cloned().unwrap_or("pbd-demo/model.json".into());
     let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);

@@ -350,7 +350,11 @@ impl Fault {
     /// After the physics steps: evaluates the trigger from the world's truth and applies the fault.
     pub fn after_advance(&mut self, sim: &mut DexterSim) {
         let t = sim.time();
-        if debug_truth() && ((t * 1000.0).round() as u64).is_multiple_of(truth_period_ms()) {
+        // The truth every half second of simulated time, for debugging recoveries
+        // (`RUST_LOG=dexter_sim::truth=trace`): the world's, never the robot's.
+        if tracing::enabled!(target: "dexter_sim::truth", tracing::Level::TRACE)
+            && ((t * 1000.0).round() as u64).is_multiple_of(TRUTH_PERIOD_MS)
+        {
             let o = sim.object_state(self.spec.object);
             let p = o.pose.translation.vector;
             let palm = |k: usize| sim.link_pose(self.palms[k]).translation.vector;
@@ -364,8 +368,9 @@ impl Fault {
                         .unwrap_or_default()
                 })
                 .collect();
-            eprintln!(
-                "TRUTH t={t:.2} object at ({:.3}, {:.3}, {:.3}) palms ({:.3}, {:.3}, {:.3}) ({:.3}, {:.3}, {:.3}) tips z {}",
+            tracing::trace!(
+                target: "dexter_sim::truth",
+                "t={t:.2} object at ({:.3}, {:.3}, {:.3}) palms ({:.3}, {:.3}, {:.3}) ({:.3}, {:.3}, {:.3}) tips z {}",
                 p.x,
                 p.y,
                 p.z,
@@ -846,25 +851,8 @@ pub fn fault_trial(
     })
 }
 
-/// The period (ms) of `PBD_DEBUG_TRUTH`: its value when it is a number of milliseconds, else 500.
-fn truth_period_ms() -> u64 {
-    static MS: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
-    *MS.get_or_init(|| {
-        std::env::var("PBD_DEBUG_TRUTH")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .filter(|&ms| ms > 0)
-            .unwrap_or(500)
-    })
-}
-
-/// Whether `PBD_DEBUG_TRUTH` is set: a fault then prints the object's true position every half
-/// second of simulated time (or every `PBD_DEBUG_TRUTH` ms) to standard error, for debugging
-/// recoveries (read once).
-fn debug_truth() -> bool {
-    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *ON.get_or_init(|| std::env::var_os("PBD_DEBUG_TRUTH").is_some())
-}
+/// The period (ms of simulated time) of the truth trace.
+const TRUTH_PERIOD_MS: u64 = 500;
 
 #[cfg(test)]
 mod tests {

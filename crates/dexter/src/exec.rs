@@ -709,9 +709,7 @@ impl<'a> RobotPlant<'a> {
         // Objects come from the table: an empty place fills from its end away from the table's middle.
         let from = Some(self.workspace.table_center);
         let spot = free_spot(place.center, place.size, held.radius, &others, from);
-        if debug_exec() {
-            eprintln!("  place spot {spot:?} in {} among {others:?}", place.name);
-        }
+        tracing::debug!("place spot {spot:?} in {} among {others:?}", place.name);
         Ok(spot)
     }
 
@@ -759,9 +757,7 @@ impl<'a> RobotPlant<'a> {
             let p = body.pose(self.hw, &format!("{}/shoulder_pitch_link", a.prefix()))?;
             shoulders.push([p.translation.x, p.translation.y]);
         }
-        if debug_exec() {
-            eprintln!("  shoulders {shoulders:?}, tall things {tall:?}");
-        }
+        tracing::debug!("shoulders {shoulders:?}, tall things {tall:?}");
         let ws = self.workspace;
         let table_z = ws.table_z;
         // Other segments, as seen.
@@ -870,14 +866,12 @@ impl<'a> RobotPlant<'a> {
                     _ => b.1.0.total_cmp(&a.1.0),
                 })
         });
-        if debug_exec() {
+        if tracing::enabled!(tracing::Level::DEBUG) {
             let blocked = candidates.iter().filter(|c| c.2.1).count();
             let forearms = candidates.iter().filter(|c| c.2.0 < FOREARM_CLEARANCE).count();
-            eprintln!("  {forearms} handoff candidates with a forearm on a tall thing");
-            eprintln!(
-                "  handoff candidates {} ({blocked} with a seen thing on the way), things seen {:?}",
+            tracing::debug!(
+                "handoff candidates {} ({forearms} with a forearm on a tall thing, {blocked} with a seen thing on the way), things seen {sized:?}",
                 candidates.len(),
-                sized
             );
         }
         // Whether a seen thing stands between a head camera and the top of the object put down on
@@ -911,12 +905,10 @@ impl<'a> RobotPlant<'a> {
                     continue;
                 }
                 if arms_reaching(self.hw, table_z, &Vec3::new(c[0], c[1], table_z))?.len() == 2 {
-                    if debug_exec() {
-                        eprintln!(
-                            "  handoff spot {c:?}{}",
-                            if must_see { "" } else { " (hidden from the head)" }
-                        );
-                    }
+                    tracing::debug!(
+                        "handoff spot {c:?}{}",
+                        if must_see { "" } else { " (hidden from the head)" }
+                    );
                     self.handoff = c;
                     return Ok(Some(c));
                 }
@@ -1515,9 +1507,7 @@ impl SchemaPlant for RobotPlant<'_> {
                     plan.grasp.translation.vector.z += PRE_TOUCH_HEIGHT + plan.guard;
                     plan.guard = 0.0;
                 }
-                if debug_exec() {
-                    eprintln!("  reach target id {id:?}: {seen:?}");
-                }
+                tracing::debug!("reach target id {id:?}: {seen:?}");
                 self.plan_next_id = self
                     .percepts
                     .last()
@@ -1661,14 +1651,14 @@ impl SchemaPlant for RobotPlant<'_> {
                     .filter(|o| distance_to_segment(o.extent.center, from, target) < held.radius + o.radius() + 0.03)
                     .map(|o| o.extent.height.min(MAX_OBSTACLE_HEIGHT))
                     .fold(wall, f64::max);
-                if debug_exec() && clear > wall {
-                    eprintln!("  carrying over objects up to {clear:.3} m high");
+                if clear > wall {
+                    tracing::debug!("carrying over objects up to {clear:.3} m high");
                 }
                 self.watcher
                     .look_at(self.hw, &Vec3::new(target[0], target[1], table_z + 0.05))?;
                 self.reach[k].avoid = self.tall_things();
-                if debug_exec() && !self.reach[k].avoid.is_empty() {
-                    eprintln!("  carrying round {:?}", self.reach[k].avoid);
+                if !self.reach[k].avoid.is_empty() {
+                    tracing::debug!("carrying round {:?}", self.reach[k].avoid);
                 }
                 let transfer = binding.transfer;
                 let r = self.with_observer(|hw, reach, hand, obs| {
@@ -1793,49 +1783,53 @@ impl SchemaPlant for RobotPlant<'_> {
                 }
             }
         }
-        if debug_exec()
+        // What the monitors saw after the action (`RUST_LOG=dexter::exec=debug`).
+        if tracing::enabled!(tracing::Level::DEBUG)
             && let Some(p) = self.percepts.last()
         {
-            eprintln!("after {action} ({outcome:?}): x = {:?}", self.last_x);
+            tracing::debug!("after {action} ({outcome:?}): x = {:?}", self.last_x);
             if let (Ok(pan), Ok(tilt)) = (
                 self.hw.dof_index("head/pan_joint"),
                 self.hw.dof_index("head/tilt_joint"),
             ) {
                 let q = self.hw.joint_positions();
-                eprintln!(
-                    "  head pan {:.3} tilt {:.3} (looking at {:?})",
-                    q[pan], q[tilt], self.watcher.gaze_point
+                tracing::debug!(
+                    "head pan {:.3} tilt {:.3} (looking at {:?})",
+                    q[pan],
+                    q[tilt],
+                    self.watcher.gaze_point
                 );
             }
             if let Some(plan) = &self.plan {
-                eprintln!(
-                    "  plan grasp at {:?} width {:.3}",
+                tracing::debug!(
+                    "plan grasp at {:?} width {:.3}",
                     plan.grasp.translation.vector.as_slice(),
                     plan.width
                 );
             }
             for h in &p.hands {
-                eprintln!(
-                    "  hand {} palm {:?} speed {:.3} load {:.2} flex {:.2} forces {:.2?}",
-                    h.arm, h.palm, h.palm_speed, h.load, h.flexion, h.finger_force
+                tracing::debug!(
+                    "hand {} palm {:?} speed {:.3} load {:.2} flex {:.2} forces {:.2?}",
+                    h.arm,
+                    h.palm,
+                    h.palm_speed,
+                    h.load,
+                    h.flexion,
+                    h.finger_force
                 );
             }
             for sg in &p.segments {
-                eprintln!(
-                    "  segment {} at {:?} seen {} extent {:?}",
-                    sg.id, sg.centroid, sg.seen, sg.extent
+                tracing::debug!(
+                    "segment {} at {:?} seen {} extent {:?}",
+                    sg.id,
+                    sg.centroid,
+                    sg.seen,
+                    sg.extent
                 );
             }
         }
         Ok(outcome)
     }
-}
-
-/// Whether `PBD_DEBUG_EXEC` is set: the executive then prints what its monitors saw after each
-/// action, its reach targets and handoff spots to standard error (read once).
-fn debug_exec() -> bool {
-    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *ON.get_or_init(|| std::env::var_os("PBD_DEBUG_EXEC").is_some())
 }
 
 /// Descents to the grasp pose by one arm that stop short before ψ binds another arm.

@@ -847,14 +847,12 @@ fn go_around(
     let palm = reach.tool_pose(hw).translation.vector;
     let g = goal.translation.vector;
     let way = crate::route::route_within([palm.x, palm.y], [g.x, g.y], &reach.avoid, clearance, reach.way_region);
-    if std::env::var_os("PBD_DEBUG_EXEC").is_some() {
-        eprintln!(
-            "  way from {:?} to {:?} round {:?}: {way:?}",
-            [palm.x, palm.y],
-            [g.x, g.y],
-            reach.avoid
-        );
-    }
+    tracing::debug!(
+        "way from {:?} to {:?} round {:?}: {way:?}",
+        [palm.x, palm.y],
+        [g.x, g.y],
+        reach.avoid
+    );
     let Some(way) = way else {
         return;
     };

@@ -288,12 +288,10 @@ impl Tracker {
                     })
                     .unwrap_or(seen[i].centroid)
             });
-            if debug_blobs() {
-                eprintln!(
+            tracing::trace!(
                     "ASSOC t={t:.2} seg {i} -> track {} near_palm {} cut {} moved {} px {px:.0}/{:.0} whole {} doubt {}",
                     self.tracks[j].id, near_palm[j], cut[i], moved, self.whole_pixels[j], self.whole[j], self.doubt[j]
                 );
-            }
             if carried_ids.contains(&id) {
                 // A carried object is seen merged with the hand that holds it (its centroid and
                 // height pulled towards the hand): it stays where its palm moved it, with what it
@@ -367,12 +365,10 @@ impl Tracker {
                     .iter()
                     .any(|tr| dist(&s.centroid, &tr.centroid) < CUT_GATE || inside(i, tr));
             if !used_s[i] && !carried_piece && !cut_piece {
-                if debug_blobs() {
-                    eprintln!(
+                tracing::trace!(
                         "NEW t={t:.2} track {} at {:?} pixels {:?} cut {}",
                         self.next_id, s.centroid, s.pixels, cut[i]
                     );
-                }
                 self.whole_pixels.push(pixels(&s));
                 self.whole.push(!cut[i]);
                 self.doubt.push(0);
@@ -412,12 +408,10 @@ impl Tracker {
                         self.doubt[old] = self.doubt[new];
                         self.latest[old] = self.latest[new].take();
                     }
-                    if debug_blobs() {
-                        eprintln!(
+                    tracing::trace!(
                             "MERGE t={t:.2} track {} into {}",
                             self.tracks[new].id, self.tracks[old].id
                         );
-                    }
                     keep[new] = false;
                 } else if keep[a]
                     && keep[b]
@@ -427,9 +421,7 @@ impl Tracker {
                 {
                     // A track only ever seen cut, beside one seen whole: the same object.
                     let drop = if self.whole[a] { b } else { a };
-                    if debug_blobs() {
-                        eprintln!("MERGE t={t:.2} cut track {} into a whole one", self.tracks[drop].id);
-                    }
+                    tracing::trace!("MERGE t={t:.2} cut track {} into a whole one", self.tracks[drop].id);
                     keep[drop] = false;
                 }
             }
@@ -444,12 +436,10 @@ impl Tracker {
                 self.last_seen[j] += t - self.last_t.unwrap_or(t);
             }
             if t - self.last_seen[j] > FORGET_SECS && !carried.contains(&self.tracks[j].id) && !hidden {
-                if debug_blobs() {
-                    eprintln!(
+                tracing::trace!(
                         "FORGET t={t:.2} track {} at {:?}",
                         self.tracks[j].id, self.tracks[j].centroid
                     );
-                }
                 *k = false;
             }
         }
@@ -505,13 +495,6 @@ fn project(cam: &crate::vision::Camera, p: &Vec3) -> Option<(f64, f64)> {
 /// The colour term with the largest share.
 fn dominant_term(colors: &[(u8, f64)]) -> Option<u8> {
     colors.iter().max_by(|a, b| a.1.total_cmp(&b.1)).map(|c| c.0)
-}
-
-/// Whether `PBD_DEBUG_BLOBS` is set: the watcher then prints every stereo blob and every track it
-/// forgets to standard error (read once).
-fn debug_blobs() -> bool {
-    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *ON.get_or_init(|| std::env::var_os("PBD_DEBUG_BLOBS").is_some())
 }
 
 /// Keeps the elements of `v` whose entry in `keep` is true (the tracker's per-track vectors).
@@ -749,9 +732,7 @@ impl Watcher {
         match t.latest[j].take() {
             Some(c) if (c[2] - track.centroid[2]).abs() < MOVED_DZ => {
                 let (dx, dy) = (c[0] - track.centroid[0], c[1] - track.centroid[1]);
-                if debug_blobs() {
-                    eprintln!("ACCEPT track {id}: moved by ({dx:.3}, {dy:.3})");
-                }
+                tracing::trace!("ACCEPT track {id}: moved by ({dx:.3}, {dy:.3})");
                 track.centroid[0] += dx;
                 track.centroid[1] += dy;
                 if let Some(e) = track.extent.as_mut() {
@@ -872,14 +853,12 @@ impl Watcher {
         let mut mono = Vec::new();
         let mut gaze_candidates = Vec::new();
         for b in blobs {
-            if debug_blobs() {
-                eprintln!(
+            tracing::trace!(
                     "BLOB t={t:.2} centroid {:?} left {:?} right {:?}",
                     b.centroid.map(|c| [c.x, c.y, c.z]),
                     b.left.map(|s| (s.features.pixel_count, s.features.centroid)),
                     b.right.map(|s| (s.features.pixel_count, s.features.centroid))
                 );
-            }
             // A stereo pair whose centroid lies below the table top matched two different things
             // (or one whole and one cut view): only its single views count.
             let centroid = b.centroid.filter(|c| c.z > table_z - BELOW_TABLE);

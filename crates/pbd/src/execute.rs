@@ -78,6 +78,8 @@ pub struct McapRunLog<'a> {
     next_log: f64,
     error: Option<anyhow::Error>,
     progress: &'a dyn Progress,
+    /// The run's diagnostics, written to `/log` at the simulated time they happened.
+    capture: Option<crate::logging::Capture>,
 }
 
 impl std::fmt::Debug for McapRunLog<'_> {
@@ -93,12 +95,35 @@ impl std::fmt::Debug for McapRunLog<'_> {
 impl<'a> McapRunLog<'a> {
     /// A log to `log` (or none: progress only) of a run on a simulator with `header`.
     pub fn new(log: Option<McapLog>, header: dexter_sim::snapshot::SnapshotHeader, progress: &'a dyn Progress) -> Self {
+        let capture = log.is_some().then(crate::logging::Capture::begin);
         McapRunLog {
             log,
             header,
             next_log: 0.0,
             error: None,
             progress,
+            capture,
+        }
+    }
+
+    /// Writes the diagnostics kept since the last call to `/log`, at time `t`.
+    fn write_diagnostics(&mut self, t: f64) {
+        let (Some(capture), Some(log)) = (self.capture.as_ref(), self.log.as_mut()) else {
+            return;
+        };
+        let records = capture.drain();
+        for r in &records {
+            let w = log.log_record(
+                t,
+                crate::logging::log_level(r.level),
+                &r.target,
+                &r.message,
+                r.file.unwrap_or(""),
+                r.line.unwrap_or(0),
+            );
+            if let Err(e) = w {
+                self.error.get_or_insert(e);
+            }
         }
     }
 
@@ -111,6 +136,8 @@ impl<'a> McapRunLog<'a> {
     /// Finishes the log; the first write error, if any.
     pub fn finish(mut self) -> Result<()> {
         self.progress.finish();
+        self.write_diagnostics(self.next_log);
+        self.capture = None;
         if let Some(e) = self.error.take() {
             return Err(e.context("writing the MCAP log"));
         }
@@ -123,6 +150,7 @@ impl<'a> McapRunLog<'a> {
 
 impl RunLog for McapRunLog<'_> {
     fn world(&mut self, sim: &DexterSim, activity: &str) {
+        self.write_diagnostics(sim.time());
         if sim.time() + 1e-9 >= self.next_log {
             self.next_log += 1.0 / 30.0;
             if let Some(log) = self.log.as_mut() {

@@ -68,6 +68,7 @@ pub mod infer;
 pub mod learn;
 pub mod limits;
 pub mod live;
+pub mod logging;
 pub mod mcap_log;
 pub mod parallel;
 pub mod progress;

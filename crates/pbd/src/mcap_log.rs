@@ -650,14 +650,28 @@ impl McapLog {
 
     /// Logs a text event on `/log` (node name `pbd`).
     pub fn log_text(&mut self, time_secs: f64, level: LogLevel, message: &str) -> Result<()> {
+        self.log_record(time_secs, level, "pbd", message, "", 0)
+    }
+
+    /// Logs a diagnostic on `/log`: its source (`name`, e.g. the module `dexter::exec`), and the
+    /// file and line that emitted it (empty and 0 when unknown).
+    pub fn log_record(
+        &mut self,
+        time_secs: f64,
+        level: LogLevel,
+        name: &str,
+        message: &str,
+        file: &str,
+        line: u32,
+    ) -> Result<()> {
         let log_time = time_ns(time_secs);
         let msg = messages::Log {
             timestamp: Time::from_ns(log_time),
             level: level as u8,
             message,
-            name: "pbd",
-            file: "",
-            line: 0,
+            name,
+            file,
+            line,
         };
         encode(&mut self.json, &msg)?;
         self.write_buffer(self.channels.log, log_time)

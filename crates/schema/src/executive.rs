@@ -250,9 +250,16 @@ pub fn execute<P: SchemaPlant>(
             }
         }
         if best.2 != state {
+            tracing::debug!(
+                schema = %schema.name,
+                from = %schema.states[state].name,
+                to = %schema.states[best.2].name,
+                "state change"
+            );
             state = best.2;
             entered_by = best.3.clone();
             if let Some(c) = &best.3 {
+                tracing::info!(schema = %schema.name, state = %schema.states[state].name, "contingency `{c}` taken");
                 contingencies.push(c.clone());
             }
         }
@@ -299,7 +306,27 @@ pub fn execute<P: SchemaPlant>(
             binding: Some(&binding),
             contingency: entered_by.as_deref(),
         });
-        let outcome = plant.run(action, &binding).map_err(plant_error)?;
+        // Each action is a span (`RUST_LOG=schema=info`; the MCAP's `/log` holds them), so that what
+        // the plant reports while running it reads in its context.
+        let span = tracing::info_span!(
+            "action",
+            action = %action,
+            state = %schema.states[state].name,
+            arm = %binding.arm.as_deref().unwrap_or(""),
+            object = %binding.object.as_deref().unwrap_or(""),
+            place = %binding.place.as_deref().unwrap_or(""),
+            transfer = binding.transfer,
+        );
+        let outcome = span.in_scope(|| {
+            let outcome = plant.run(action, &binding);
+            match &outcome {
+                Ok(ActionOutcome::Failed(why)) => tracing::warn!("failed: {why}"),
+                Ok(o) => tracing::info!("{o:?}"),
+                Err(e) => tracing::error!("the plant failed: {e}"),
+            }
+            outcome
+        });
+        let outcome = outcome.map_err(plant_error)?;
         if let ActionOutcome::Failed(why) = &outcome {
             policy.failed(schema, &schema.states[state].name, action, &binding, why);
         }

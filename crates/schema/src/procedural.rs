@@ -1822,7 +1822,7 @@ mod tests {
                 }
             }
         }
-        eprintln!("worst relative difference {worst:e}");
+        println!("worst relative difference {worst:e}");
     }
 
     const BLACK: u8 = 0;
