@@ -527,10 +527,13 @@ fn help_mentions(help: &str, flag: &str) -> bool {
     })
 }
 
+/// Runs `pbd WORDS --help`: (success, help text).
+type AskHelp = Box<dyn Fn(&[String]) -> (bool, String)>;
+
 /// `pbd WORDS --help` as (success, help text), asked once per subcommand path.
 struct Helper {
     cache: BTreeMap<Vec<String>, (bool, String)>,
-    run: Box<dyn Fn(&[String]) -> (bool, String)>,
+    run: AskHelp,
 }
 
 impl std::fmt::Debug for Helper {

@@ -289,9 +289,15 @@ impl Tracker {
                     .unwrap_or(seen[i].centroid)
             });
             tracing::trace!(
-                    "ASSOC t={t:.2} seg {i} -> track {} near_palm {} cut {} moved {} px {px:.0}/{:.0} whole {} doubt {}",
-                    self.tracks[j].id, near_palm[j], cut[i], moved, self.whole_pixels[j], self.whole[j], self.doubt[j]
-                );
+                "ASSOC t={t:.2} seg {i} -> track {} near_palm {} cut {} moved {} px {px:.0}/{:.0} whole {} doubt {}",
+                self.tracks[j].id,
+                near_palm[j],
+                cut[i],
+                moved,
+                self.whole_pixels[j],
+                self.whole[j],
+                self.doubt[j]
+            );
             if carried_ids.contains(&id) {
                 // A carried object is seen merged with the hand that holds it (its centroid and
                 // height pulled towards the hand): it stays where its palm moved it, with what it
@@ -366,9 +372,12 @@ impl Tracker {
                     .any(|tr| dist(&s.centroid, &tr.centroid) < CUT_GATE || inside(i, tr));
             if !used_s[i] && !carried_piece && !cut_piece {
                 tracing::trace!(
-                        "NEW t={t:.2} track {} at {:?} pixels {:?} cut {}",
-                        self.next_id, s.centroid, s.pixels, cut[i]
-                    );
+                    "NEW t={t:.2} track {} at {:?} pixels {:?} cut {}",
+                    self.next_id,
+                    s.centroid,
+                    s.pixels,
+                    cut[i]
+                );
                 self.whole_pixels.push(pixels(&s));
                 self.whole.push(!cut[i]);
                 self.doubt.push(0);
@@ -409,9 +418,10 @@ impl Tracker {
                         self.latest[old] = self.latest[new].take();
                     }
                     tracing::trace!(
-                            "MERGE t={t:.2} track {} into {}",
-                            self.tracks[new].id, self.tracks[old].id
-                        );
+                        "MERGE t={t:.2} track {} into {}",
+                        self.tracks[new].id,
+                        self.tracks[old].id
+                    );
                     keep[new] = false;
                 } else if keep[a]
                     && keep[b]
@@ -437,9 +447,10 @@ impl Tracker {
             }
             if t - self.last_seen[j] > FORGET_SECS && !carried.contains(&self.tracks[j].id) && !hidden {
                 tracing::trace!(
-                        "FORGET t={t:.2} track {} at {:?}",
-                        self.tracks[j].id, self.tracks[j].centroid
-                    );
+                    "FORGET t={t:.2} track {} at {:?}",
+                    self.tracks[j].id,
+                    self.tracks[j].centroid
+                );
                 *k = false;
             }
         }
@@ -854,11 +865,11 @@ impl Watcher {
         let mut gaze_candidates = Vec::new();
         for b in blobs {
             tracing::trace!(
-                    "BLOB t={t:.2} centroid {:?} left {:?} right {:?}",
-                    b.centroid.map(|c| [c.x, c.y, c.z]),
-                    b.left.map(|s| (s.features.pixel_count, s.features.centroid)),
-                    b.right.map(|s| (s.features.pixel_count, s.features.centroid))
-                );
+                "BLOB t={t:.2} centroid {:?} left {:?} right {:?}",
+                b.centroid.map(|c| [c.x, c.y, c.z]),
+                b.left.map(|s| (s.features.pixel_count, s.features.centroid)),
+                b.right.map(|s| (s.features.pixel_count, s.features.centroid))
+            );
             // A stereo pair whose centroid lies below the table top matched two different things
             // (or one whole and one cut view): only its single views count.
             let centroid = b.centroid.filter(|c| c.z > table_z - BELOW_TABLE);

@@ -133,7 +133,8 @@ impl<S: Subscriber + for<'a> LookupSpan<'a>> Layer<S> for McapLayer {
         let mut fields = Fields::default();
         attrs.record(&mut fields);
         if let Some(span) = ctx.span(id) {
-            span.extensions_mut().insert(SpanFields(fields.rest.trim_start().to_owned()));
+            span.extensions_mut()
+                .insert(SpanFields(fields.rest.trim_start().to_owned()));
         }
     }
 
@@ -244,7 +245,10 @@ mod tests {
         let got = capture.drain();
         assert_eq!(got.len(), 1, "{got:?}");
         assert_eq!(got[0].level, Level::INFO);
-        assert_eq!(got[0].message, "action{action=reach_object arm=left}: converged distance=0.02");
+        assert_eq!(
+            got[0].message,
+            "action{action=reach_object arm=left}: converged distance=0.02"
+        );
         assert!(got[0].target.ends_with("logging::tests"), "{}", got[0].target);
         assert!(capture.drain().is_empty());
         drop(capture);
