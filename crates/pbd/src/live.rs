@@ -10,26 +10,24 @@
 //! - **Off unless asked**: nothing listens until [`LiveView::start`]. The CLI binds `127.0.0.1`
 //!   (this machine only) unless `--bind` says otherwise.
 //! - **Late joiners see the world**: the robot and the scene are written once per run (`/robot`,
-//!   `/scene`); the live view keeps the last message of each and a thread sends it again
-//!   [`LATCHED_HZ`] times per second of wall-clock time, so a client that connects in the middle
-//!   of a run (or between its steps) draws the robot and the table at once.
+//!   `/scene`); the live view keeps the last message of each and sends it to each client once, when
+//!   it subscribes to the topic, so a client that connects in the middle of a run (or between its
+//!   steps) draws the robot and the table at once — and nothing is sent twice (the 3D panel keeps
+//!   scene entities until they are replaced).
 //! - **Time**: messages carry the simulated time (ns from the start of the run) as their log
 //!   time, as in the file.
 //! - One view may serve several logs in turn (`pbd demo`: the demonstration, then the
 //!   execution): channels are shared by topic.
 
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::sync::{Arc, Mutex, OnceLock, Weak};
 
 use anyhow::{Context as _, Result};
+use foxglove::websocket::{ChannelView, Client, ServerListener};
 use foxglove::{ChannelBuilder, Context, PartialMetadata, RawChannel, Schema, WebSocketServer, WebSocketServerHandle};
 
-/// How often the latched topics (`/robot`, `/scene`) are sent again (per second of wall-clock time),
-/// by a thread of the live view, whether or not the run is logging at that moment.
-pub const LATCHED_HZ: f64 = 40.0;
-
-/// Topics whose last message is sent again to clients (see the module documentation).
+/// Topics whose last message each client receives when it subscribes (see the module
+/// documentation).
 const LATCHED: [&str; 2] = [crate::mcap_log::TOPIC_ROBOT, crate::mcap_log::TOPIC_SCENE];
 
 /// Messages queued per client; a viewer slower than the run loses the oldest beyond this.
@@ -58,13 +56,20 @@ struct Inner {
     last_time: u64,
 }
 
-impl Inner {
-    /// Sends the latched messages again, stamped with the latest log time.
-    fn resend_latched(&self) {
-        for (topic, msg) in &self.latched {
-            if let Some(c) = self.channels.get(topic) {
-                c.log_with_meta(msg, PartialMetadata::with_log_time(self.last_time));
-            }
+/// Sends a latched topic's last message to a client that subscribes to it (only to that client).
+struct Latch {
+    inner: OnceLock<Weak<Mutex<Inner>>>,
+}
+
+impl ServerListener for Latch {
+    fn on_subscribe(&self, client: Client, channel: ChannelView) {
+        let (Some(inner), Some(sink)) = (self.inner.get().and_then(Weak::upgrade), client.sink_id()) else {
+            return;
+        };
+        let inner = inner.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let topic = channel.topic();
+        if let (Some(msg), Some(c)) = (inner.latched.get(topic), inner.channels.get(topic)) {
+            c.log_with_meta_to_sink(msg, PartialMetadata::with_log_time(inner.last_time), Some(sink));
         }
     }
 }
@@ -102,10 +107,12 @@ impl LiveView {
             .with_context(|| format!("--bind `{bind}`: expected HOST:PORT, e.g. {DEFAULT_BIND}"))?;
         anyhow::ensure!(!host.is_empty(), "--bind `{bind}`: no host; e.g. {DEFAULT_BIND}");
         let context = Context::new();
+        let latch = Arc::new(Latch { inner: OnceLock::new() });
         let server = WebSocketServer::new()
             .name("pbd")
             .bind(host, port)
             .message_backlog_size(MESSAGE_BACKLOG)
+            .listener(latch.clone())
             .context(&context)
             .start_blocking()
             .with_context(|| format!("cannot start the live view on {bind}"))?;
@@ -117,24 +124,7 @@ impl LiveView {
             latched: HashMap::new(),
             last_time: 0,
         }));
-        // Re-sends the latched topics until the last clone of the view is dropped.
-        let weak = Arc::downgrade(&inner);
-        std::thread::Builder::new()
-            .name("pbd-live-latched".into())
-            .spawn(move || {
-                let period = Duration::from_secs_f64(1.0 / LATCHED_HZ);
-                let mut next = Instant::now() + period;
-                while let Some(inner) = weak.upgrade() {
-                    inner
-                        .lock()
-                        .unwrap_or_else(std::sync::PoisonError::into_inner)
-                        .resend_latched();
-                    drop(inner);
-                    std::thread::sleep(next.saturating_duration_since(Instant::now()));
-                    next += period;
-                }
-            })
-            .context("live view: cannot start its thread")?;
+        let _ = latch.inner.set(Arc::downgrade(&inner));
         Ok(Self {
             inner,
             port,
