@@ -371,7 +371,7 @@ fn record_generate_and_a_reduced_eval_in_the_sim() {
     let rec = pbd::mcap_log::read_recording(dir.join("candidates/tomato_soup.mcap"), &[]).expect("candidates mcap");
     let drawn: Vec<Value> = rec
         .topic(pbd::mcap_log::TOPIC_GRASP_CANDIDATES)
-        .map(|(_, b)| serde_json::from_slice(b).expect("json"))
+        .map(|(_, b)| pbd::mcap_log::message_json("foxglove.SceneUpdate", "protobuf", b).expect("a scene update"))
         .collect();
     assert_eq!(drawn.len(), 1);
     let ids: Vec<&str> = drawn[0]["entities"]

@@ -1,7 +1,7 @@
 //! # Live view: a run streamed to Foxglove over its WebSocket protocol while it happens
 //!
 //! A [`LiveView`] is a Foxglove WebSocket server (the `foxglove` SDK, protocol
-//! `foxglove.sdk.v1`, the successor of `foxglove.websocket.v1`) that carries the same channels, schemas and JSON messages as the MCAP
+//! `foxglove.sdk.v1`, the successor of `foxglove.websocket.v1`) that carries the same channels, schemas and messages (Protobuf for Foxglove's schemas, JSON for pbd's own) as the MCAP
 //! log: every [`McapLog`](crate::mcap_log::McapLog) it is attached to with
 //! [`McapLog::stream_to`](crate::mcap_log::McapLog::stream_to) sends each message both to the file
 //! and to the connected clients. Writing the file does not change. In Foxglove: *Open connection →
@@ -166,14 +166,21 @@ impl LiveView {
     }
 
     /// Declares a channel (once per topic; later declarations of the same topic reuse it).
-    pub(crate) fn channel(&self, topic: &str, schema_name: &str, schema: &[u8]) -> Result<Arc<RawChannel>> {
+    pub(crate) fn channel(
+        &self,
+        topic: &str,
+        schema_name: &str,
+        schema_encoding: &str,
+        schema: &[u8],
+        message_encoding: &str,
+    ) -> Result<Arc<RawChannel>> {
         let mut inner = self.lock();
         if let Some(c) = inner.channels.get(topic) {
             return Ok(c.clone());
         }
         let channel = ChannelBuilder::new(topic)
-            .message_encoding("json")
-            .schema(Schema::new(schema_name, "jsonschema", schema.to_vec()))
+            .message_encoding(message_encoding)
+            .schema(Schema::new(schema_name, schema_encoding, schema.to_vec()))
             .context(&inner.context)
             .build_raw()
             .with_context(|| format!("live view: cannot declare {topic}"))?;

@@ -46,9 +46,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::{Context, Result, ensure};
-use base64::Engine as _;
 use dexter_sim::scene::Scene;
 use dexter_sim::snapshot::{Snapshot, SnapshotHeader};
+use foxglove::messages as fm;
 use mcap::records::{MessageHeader, Metadata, Record};
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use mcap::write::NoSeek;
@@ -235,7 +235,9 @@ pub struct McapLogOptions {
 impl Default for McapLogOptions {
     fn default() -> Self {
         Self {
-            chunk_bytes: 1 << 20,
+            // Protobuf made Foxglove's messages about half their JSON size; 512 KiB keeps a chunk
+            // (what a crash can lose) about as long in time as 1 MiB of JSON did.
+            chunk_bytes: 512 << 10,
             max_chunk_age: Duration::from_secs(2),
             zstd_level: 1,
             image_format: ImageFormat::default(),
@@ -289,12 +291,12 @@ struct Channels {
 }
 
 /// Schema ids of the camera topics, and each camera's channels (image, calibration).
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 struct CameraChannels {
     /// Schema ids and texts.
-    raw: (u16, Vec<u8>),
-    compressed: (u16, Vec<u8>),
-    calibration: (u16, Vec<u8>),
+    raw: (u16, foxglove::Schema),
+    compressed: (u16, foxglove::Schema),
+    calibration: (u16, foxglove::Schema),
     by_name: HashMap<String, (u16, u16)>,
 }
 
@@ -304,7 +306,16 @@ struct ChannelInfo {
     id: u16,
     topic: String,
     schema_name: String,
+    /// `jsonschema` (pbd's own messages) or `protobuf` (Foxglove's).
+    schema_encoding: &'static str,
     schema: Vec<u8>,
+    /// `json` or `protobuf`.
+    message_encoding: &'static str,
+}
+
+/// The schema of a Foxglove message type of the `foxglove` crate (Protobuf descriptors).
+fn foxglove_schema<T: foxglove::Encode>() -> Result<foxglove::Schema> {
+    T::get_schema().context("a foxglove message type without a schema")
 }
 
 /// The fingertip arrows: sensor ids, their tip links in the frame tree, the arrows of this
@@ -342,8 +353,6 @@ pub struct McapLog {
     last_activity: Option<String>,
     /// Reused JSON buffer.
     json: Vec<u8>,
-    /// Reused base64 buffer for images.
-    base64: String,
     sequence: u32,
     /// When the open chunk got its first message, and its uncompressed size so far.
     open_chunk: Option<(Instant, usize)>,
@@ -394,40 +403,82 @@ impl McapLog {
             .with_context(|| write_context(&path))?;
 
         let mut declared: Vec<ChannelInfo> = Vec::new();
-        let mut add = |topic: &str, schema_name: &str, schema: serde_json::Value| -> Result<u16> {
-            let data = serde_json::to_vec(&schema)?;
-            let schema_id = writer.add_schema(schema_name, "jsonschema", &data)?;
-            let id = writer.add_channel(schema_id, topic, "json", &BTreeMap::new())?;
-            declared.push(ChannelInfo {
-                id,
-                topic: topic.to_owned(),
-                schema_name: schema_name.to_owned(),
-                schema: data,
-            });
-            Ok(id)
-        };
+        let mut declared_fox: Vec<ChannelInfo> = Vec::new();
+        // pbd's own messages: JSON with a JSON Schema.
+        let mut add_json =
+            |writer: &mut McapWriter, topic: &str, schema_name: &str, schema: serde_json::Value| -> Result<u16> {
+                let data = serde_json::to_vec(&schema)?;
+                let schema_id = writer.add_schema(schema_name, "jsonschema", &data)?;
+                let id = writer.add_channel(schema_id, topic, "json", &BTreeMap::new())?;
+                declared.push(ChannelInfo {
+                    id,
+                    topic: topic.to_owned(),
+                    schema_name: schema_name.to_owned(),
+                    schema_encoding: "jsonschema",
+                    schema: data,
+                    message_encoding: "json",
+                });
+                Ok(id)
+            };
         let channels = (|| -> Result<Channels> {
+            // Foxglove's: Protobuf, one schema per type.
+            let mut schema_ids: HashMap<String, u16> = HashMap::new();
+            let mut fox =
+                |writer: &mut McapWriter, topic: &str, schema: foxglove::Schema| -> Result<(u16, ChannelInfo)> {
+                    let schema_id = match schema_ids.get(&schema.name) {
+                        Some(&id) => id,
+                        None => {
+                            let id = writer.add_schema(&schema.name, &schema.encoding, &schema.data)?;
+                            schema_ids.insert(schema.name.clone(), id);
+                            id
+                        }
+                    };
+                    let id = writer.add_channel(schema_id, topic, "protobuf", &BTreeMap::new())?;
+                    Ok((
+                        id,
+                        ChannelInfo {
+                            id,
+                            topic: topic.to_owned(),
+                            schema_name: schema.name,
+                            schema_encoding: "protobuf",
+                            schema: schema.data.into_owned(),
+                            message_encoding: "protobuf",
+                        },
+                    ))
+                };
+            let mut fox_channel = |writer: &mut McapWriter, topic: &str, schema: foxglove::Schema| -> Result<u16> {
+                let (id, info) = fox(writer, topic, schema)?;
+                declared_fox.push(info);
+                Ok(id)
+            };
+            let w = &mut writer;
             Ok(Channels {
-                tf: add(TOPIC_TF, "foxglove.FrameTransforms", schemas::frame_transforms())?,
-                scene: add(TOPIC_SCENE, "foxglove.SceneUpdate", schemas::scene_update())?,
-                log: add(TOPIC_LOG, "foxglove.Log", schemas::log())?,
-                joint_states: add(TOPIC_JOINT_STATES, "pbd.JointState", schemas::joint_state())?,
-                fingertips: add(TOPIC_FINGERTIPS, "pbd.FingertipWrenches", schemas::fingertip_wrenches())?,
-                activity: add(TOPIC_ACTIVITY, "pbd.Activity", schemas::activity())?,
-                robot: add(TOPIC_ROBOT, "foxglove.SceneUpdate", schemas::scene_update())?,
-                arrows: add(TOPIC_FINGERTIP_ARROWS, "foxglove.SceneUpdate", schemas::scene_update())?,
+                tf: fox_channel(w, TOPIC_TF, foxglove_schema::<fm::FrameTransforms>()?)?,
+                scene: fox_channel(w, TOPIC_SCENE, foxglove_schema::<fm::SceneUpdate>()?)?,
+                log: fox_channel(w, TOPIC_LOG, foxglove_schema::<fm::Log>()?)?,
+                joint_states: add_json(w, TOPIC_JOINT_STATES, "pbd.JointState", schemas::joint_state())?,
+                fingertips: add_json(
+                    w,
+                    TOPIC_FINGERTIPS,
+                    "pbd.FingertipWrenches",
+                    schemas::fingertip_wrenches(),
+                )?,
+                activity: add_json(w, TOPIC_ACTIVITY, "pbd.Activity", schemas::activity())?,
+                robot: fox_channel(w, TOPIC_ROBOT, foxglove_schema::<fm::SceneUpdate>()?)?,
+                arrows: fox_channel(w, TOPIC_FINGERTIP_ARROWS, foxglove_schema::<fm::SceneUpdate>()?)?,
             })
         })()
         .with_context(|| write_context(&path))?;
+        declared.append(&mut declared_fox);
+        declared.sort_by_key(|c| c.id);
         let cameras = (|| -> Result<CameraChannels> {
-            let mut schema = |name: &str, value: serde_json::Value| -> Result<(u16, Vec<u8>)> {
-                let data = serde_json::to_vec(&value)?;
-                Ok((writer.add_schema(name, "jsonschema", &data)?, data))
+            let mut schema = |s: foxglove::Schema| -> Result<(u16, foxglove::Schema)> {
+                Ok((writer.add_schema(&s.name, &s.encoding, &s.data)?, s))
             };
             Ok(CameraChannels {
-                raw: schema("foxglove.RawImage", schemas::raw_image())?,
-                compressed: schema("foxglove.CompressedImage", schemas::compressed_image())?,
-                calibration: schema("foxglove.CameraCalibration", schemas::camera_calibration())?,
+                raw: schema(foxglove_schema::<fm::RawImage>()?)?,
+                compressed: schema(foxglove_schema::<fm::CompressedImage>()?)?,
+                calibration: schema(foxglove_schema::<fm::CameraCalibration>()?)?,
                 by_name: HashMap::new(),
             })
         })()
@@ -451,7 +502,6 @@ impl McapLog {
             frame_tree: None,
             last_activity: None,
             json: Vec::with_capacity(1 << 14),
-            base64: String::new(),
             sequence: 0,
             open_chunk: None,
             last_time_ns: 0,
@@ -483,7 +533,13 @@ impl McapLog {
 
     fn declare_live(&mut self, info: &ChannelInfo) -> Result<()> {
         let Some(live) = &self.live else { return Ok(()) };
-        let channel = live.channel(&info.topic, &info.schema_name, &info.schema)?;
+        let channel = live.channel(
+            &info.topic,
+            &info.schema_name,
+            info.schema_encoding,
+            &info.schema,
+            info.message_encoding,
+        )?;
         let i = usize::from(info.id);
         if self.live_channels.len() <= i {
             self.live_channels.resize(i + 1, None);
@@ -536,7 +592,7 @@ impl McapLog {
         if let Some(tree) = &mut self.frame_tree
             && tree.update(log_time, &snap.link_poses, &snap.objects, &self.tf_policy) > 0
         {
-            encode(&mut self.json, &messages::FrameTransforms { timestamp, tree })?;
+            tree.encode_transforms(timestamp, &mut self.json);
             self.write_buffer(self.channels.tf, log_time)?;
         }
 
@@ -603,14 +659,7 @@ impl McapLog {
             return Ok(());
         }
         a.shown = any;
-        encode(
-            &mut self.json,
-            &robot::ArrowUpdate {
-                timestamp,
-                ids: &a.ids,
-                arrows: &a.arrows,
-            },
-        )?;
+        encode_proto(&mut self.json, &robot::arrow_update(timestamp, &a.ids, &a.arrows))?;
         self.write_buffer(self.channels.arrows, log_time)
     }
 
@@ -620,7 +669,7 @@ impl McapLog {
     pub fn log_robot(&mut self, model: &control_basis::RobotModel, time_secs: f64) -> Result<()> {
         let log_time = time_ns(time_secs);
         let update = robot::robot_update(model, Time::from_ns(log_time));
-        encode(&mut self.json, &update)?;
+        encode_proto(&mut self.json, &update.proto())?;
         self.write_buffer(self.channels.robot, log_time)
     }
 
@@ -629,13 +678,7 @@ impl McapLog {
     pub fn log_pre_grasps(&mut self, time_secs: f64, markers: &[PreGraspMarker]) -> Result<()> {
         let log_time = time_ns(time_secs);
         let update = grasps::pre_grasp_update(markers, Time::from_ns(log_time));
-        self.log_json(
-            TOPIC_GRASP_CANDIDATES,
-            "foxglove.SceneUpdate",
-            &schemas::scene_update(),
-            time_secs,
-            &update,
-        )
+        self.log_foxglove(TOPIC_GRASP_CANDIDATES, time_secs, &update.proto())
     }
 
     /// Logs the scene on `/scene`: the table and places in `world`, each object in its frame
@@ -644,7 +687,7 @@ impl McapLog {
     pub fn log_scene(&mut self, scene: &Scene, header: &SnapshotHeader, time_secs: f64) -> Result<()> {
         let log_time = time_ns(time_secs);
         let update = scene::scene_update(scene, header, Time::from_ns(log_time))?;
-        encode(&mut self.json, &update)?;
+        encode_proto(&mut self.json, &update.proto())?;
         self.write_buffer(self.channels.scene, log_time)
     }
 
@@ -665,15 +708,8 @@ impl McapLog {
         line: u32,
     ) -> Result<()> {
         let log_time = time_ns(time_secs);
-        let msg = messages::Log {
-            timestamp: Time::from_ns(log_time),
-            level: level as u8,
-            message,
-            name,
-            file,
-            line,
-        };
-        encode(&mut self.json, &msg)?;
+        let msg = messages::log(Time::from_ns(log_time), level as u8, message, name, file, line);
+        encode_proto(&mut self.json, &msg)?;
         self.write_buffer(self.channels.log, log_time)
     }
 
@@ -737,12 +773,12 @@ impl McapLog {
                     _ => &self.cameras.compressed,
                 };
                 let channels = writer
-                    .add_channel(schema.0, &camera_topic(camera_name), "json", &BTreeMap::new())
+                    .add_channel(schema.0, &camera_topic(camera_name), "protobuf", &BTreeMap::new())
                     .and_then(|image| {
                         let calibration = writer.add_channel(
                             self.cameras.calibration.0,
                             &calibration_topic(camera_name),
-                            "json",
+                            "protobuf",
                             &BTreeMap::new(),
                         )?;
                         Ok((image, calibration))
@@ -750,22 +786,20 @@ impl McapLog {
                     .with_context(|| write_context(&self.path))?;
                 self.cameras.by_name.insert(camera_name.to_owned(), channels);
                 let image_schema = match format {
-                    ImageFormat::Raw => ("foxglove.RawImage", &self.cameras.raw.1),
-                    _ => ("foxglove.CompressedImage", &self.cameras.compressed.1),
+                    ImageFormat::Raw => &self.cameras.raw.1,
+                    _ => &self.cameras.compressed.1,
+                };
+                let info = |id: u16, topic: String, schema: &foxglove::Schema| ChannelInfo {
+                    id,
+                    topic,
+                    schema_name: schema.name.clone(),
+                    schema_encoding: "protobuf",
+                    schema: schema.data.to_vec(),
+                    message_encoding: "protobuf",
                 };
                 let infos = [
-                    ChannelInfo {
-                        id: channels.0,
-                        topic: camera_topic(camera_name),
-                        schema_name: image_schema.0.to_owned(),
-                        schema: image_schema.1.clone(),
-                    },
-                    ChannelInfo {
-                        id: channels.1,
-                        topic: calibration_topic(camera_name),
-                        schema_name: "foxglove.CameraCalibration".to_owned(),
-                        schema: self.cameras.calibration.1.clone(),
-                    },
+                    info(channels.0, camera_topic(camera_name), image_schema),
+                    info(channels.1, calibration_topic(camera_name), &self.cameras.calibration.1),
                 ];
                 for info in infos {
                     self.declare(info)?;
@@ -802,36 +836,35 @@ impl McapLog {
                 &self.image
             }
         };
-        self.base64.clear();
-        base64::engine::general_purpose::STANDARD.encode_string(data, &mut self.base64);
+        let data = foxglove::bytes::Bytes::copy_from_slice(data);
         match format {
-            ImageFormat::Raw => encode(
+            ImageFormat::Raw => encode_proto(
                 &mut self.json,
-                &messages::RawImage {
-                    timestamp,
-                    frame_id,
+                &fm::RawImage {
+                    timestamp: Some(timestamp.proto()),
+                    frame_id: frame_id.to_owned(),
                     width,
                     height,
-                    encoding: "rgb8",
+                    encoding: "rgb8".into(),
                     step,
-                    data: &self.base64,
+                    data,
                 },
             )?,
-            ImageFormat::Jpeg { .. } | ImageFormat::Png => encode(
+            ImageFormat::Jpeg { .. } | ImageFormat::Png => encode_proto(
                 &mut self.json,
-                &messages::CompressedImage {
-                    timestamp,
-                    frame_id,
-                    data: &self.base64,
-                    format: if format == ImageFormat::Png { "png" } else { "jpeg" },
+                &fm::CompressedImage {
+                    timestamp: Some(timestamp.proto()),
+                    frame_id: frame_id.to_owned(),
+                    data,
+                    format: if format == ImageFormat::Png { "png" } else { "jpeg" }.into(),
                 },
             )?,
         }
         self.write_buffer(image_channel, log_time)?;
         if let Some(c) = calibration {
-            encode(
+            encode_proto(
                 &mut self.json,
-                &messages::CameraCalibration::pinhole(timestamp, frame_id, width, height, c.focal, c.principal),
+                &messages::pinhole_calibration(timestamp, frame_id, width, height, c.focal, c.principal),
             )?;
             self.write_buffer(calibration_channel, log_time)?;
         }
@@ -862,12 +895,46 @@ impl McapLog {
                     id: c,
                     topic: topic.to_owned(),
                     schema_name: schema_name.to_owned(),
+                    schema_encoding: "jsonschema",
                     schema: data,
+                    message_encoding: "json",
                 })?;
                 c
             }
         };
         encode(&mut self.json, msg)?;
+        self.write_buffer(channel, time_ns(time_secs))
+    }
+
+    /// Logs a Foxglove message (Protobuf) on `topic`, whose channel is created on first use.
+    pub fn log_foxglove<T: foxglove::Encode + prost::Message>(
+        &mut self,
+        topic: &str,
+        time_secs: f64,
+        msg: &T,
+    ) -> Result<()> {
+        let channel = match self.json_channels.get(topic) {
+            Some(&c) => c,
+            None => {
+                let schema = foxglove_schema::<T>()?;
+                let writer = self.writer.as_mut().context("the MCAP log is finished")?;
+                let c = writer
+                    .add_schema(&schema.name, &schema.encoding, &schema.data)
+                    .and_then(|id| writer.add_channel(id, topic, "protobuf", &BTreeMap::new()))
+                    .with_context(|| write_context(&self.path))?;
+                self.json_channels.insert(topic.to_owned(), c);
+                self.declare(ChannelInfo {
+                    id: c,
+                    topic: topic.to_owned(),
+                    schema_name: schema.name,
+                    schema_encoding: "protobuf",
+                    schema: schema.data.into_owned(),
+                    message_encoding: "protobuf",
+                })?;
+                c
+            }
+        };
+        encode_proto(&mut self.json, msg)?;
         self.write_buffer(channel, time_ns(time_secs))
     }
 
@@ -972,6 +1039,35 @@ fn finish_writer(mut writer: McapWriter) -> Result<WriteStats> {
 }
 
 /// Serialises `msg` into the cleared buffer.
+/// One message of a pbd log as JSON, whatever its encoding: pbd's own (`json`) as written, and
+/// Foxglove's (`protobuf`, by schema name) decoded with the `foxglove` crate's types and shown with
+/// that crate's field names (Foxglove's, lower-cased: a calibration's `K` is `k`; bytes as base64,
+/// enums by name) — what the tests read, and what a script can print.
+pub fn message_json(schema_name: &str, message_encoding: &str, data: &[u8]) -> Result<serde_json::Value> {
+    fn decode<T: prost::Message + Default + Serialize>(data: &[u8]) -> Result<serde_json::Value> {
+        Ok(serde_json::to_value(T::decode(data)?)?)
+    }
+    match message_encoding {
+        "json" => Ok(serde_json::from_slice(data)?),
+        "protobuf" => match schema_name {
+            "foxglove.FrameTransforms" => decode::<fm::FrameTransforms>(data),
+            "foxglove.SceneUpdate" => decode::<fm::SceneUpdate>(data),
+            "foxglove.Log" => decode::<fm::Log>(data),
+            "foxglove.CompressedImage" => decode::<fm::CompressedImage>(data),
+            "foxglove.RawImage" => decode::<fm::RawImage>(data),
+            "foxglove.CameraCalibration" => decode::<fm::CameraCalibration>(data),
+            other => anyhow::bail!("Protobuf schema `{other}` is not one pbd writes"),
+        },
+        other => anyhow::bail!("message encoding `{other}` is not one pbd writes"),
+    }
+}
+
+/// Encodes a Protobuf message into `buf` (cleared first).
+fn encode_proto<M: prost::Message>(buf: &mut Vec<u8>, msg: &M) -> Result<()> {
+    buf.clear();
+    msg.encode(buf).context("Protobuf encoding")
+}
+
 fn encode<T: Serialize>(buf: &mut Vec<u8>, msg: &T) -> Result<()> {
     buf.clear();
     serde_json::to_writer(&mut *buf, msg).context("cannot serialise a log message")
@@ -1771,7 +1867,8 @@ pub fn repair(path: impl AsRef<Path>, out: impl AsRef<Path>) -> Result<u64> {
 /// Messages of some topics read back from a log, with its metadata and attachments.
 #[derive(Debug, Clone, Default)]
 pub struct Recording {
-    /// (topic, log time ns, payload) in file order.
+    /// (topic, log time ns, payload) in file order: JSON on pbd's own topics, Protobuf on
+    /// Foxglove's (JSON in recordings before 2026-11-29; [`message_json`] reads either).
     pub messages: Vec<(String, u64, Vec<u8>)>,
     /// Metadata records by name.
     pub metadata: BTreeMap<String, BTreeMap<String, String>>,
@@ -1781,8 +1878,8 @@ pub struct Recording {
     pub status: Option<FileStatus>,
     /// Damaged chunks that were skipped (see [`Summary::skipped_chunks`]).
     pub skipped_chunks: Vec<String>,
-    /// Channels on a wanted topic that were skipped because pbd did not write them: a message
-    /// encoding other than JSON, or a schema other than JSON Schema (protobuf, ROS 2 messages…).
+    /// Channels on a wanted topic that were skipped because pbd did not write them: neither JSON
+    /// with a JSON Schema nor Protobuf with a `foxglove.*` schema (ROS 2 messages…).
     pub foreign_channels: Vec<String>,
 }
 
@@ -1818,25 +1915,28 @@ fn record_of(source: Source<'_>, topics: &[&str]) -> Result<Recording> {
             schemas.insert(header.id, (header.name, header.encoding));
         }
         Record::Channel(c) if topics.is_empty() || topics.contains(&c.topic.as_str()) => {
-            // pbd writes JSON messages with a JSON Schema (or none); anything else is not ours to
-            // JSON-parse.
+            // pbd's own messages are JSON with a JSON Schema (or none), Foxglove's well-known ones
+            // Protobuf (JSON before 2026-11-29): both are read (decode with [`message_json`]);
+            // anything else is not ours.
             let schema = schemas.get(&c.schema_id);
             let foreign_schema = c.schema_id != 0 && schema.is_none_or(|(_, enc)| enc != "jsonschema");
-            if c.message_encoding != "json" || foreign_schema {
+            let foxglove_proto =
+                c.message_encoding == "protobuf" && schema.is_some_and(|(name, _)| name.starts_with("foxglove."));
+            if (c.message_encoding == "json" && !foreign_schema) || foxglove_proto {
+                wanted.insert(c.id, c.topic);
+            } else {
                 let what = match schema {
                     Some((name, enc)) => format!("schema `{name}` ({enc})"),
                     None if c.schema_id != 0 => format!("unknown schema id {}", c.schema_id),
                     None => "no schema".into(),
                 };
                 let note = format!(
-                    "channel {} on {} has message encoding `{}` and {what}; pbd reads JSON channels it wrote — skipped",
+                    "channel {} on {} has message encoding `{}` and {what}; pbd reads the JSON and Foxglove Protobuf channels it writes — skipped",
                     c.id, c.topic, c.message_encoding
                 );
                 if !rec.foreign_channels.contains(&note) {
                     rec.foreign_channels.push(note);
                 }
-            } else {
-                wanted.insert(c.id, c.topic);
             }
         }
         Record::Message { header, data } => {

@@ -31,7 +31,7 @@ fn generated_pre_grasps_are_drawn_where_the_report_puts_them() {
     }
     let drawn: Vec<Value> = rec
         .topic(TOPIC_GRASP_CANDIDATES)
-        .map(|(_, bytes)| serde_json::from_slice(bytes).unwrap())
+        .map(|(_, bytes)| pbd::mcap_log::message_json("foxglove.SceneUpdate", "protobuf", bytes).unwrap())
         .collect();
     assert_eq!(drawn.len(), 1);
     let entities = drawn[0]["entities"].as_array().unwrap();

@@ -53,7 +53,9 @@ fn drain_for(client: &mut Client, texts: &mut Vec<Value>, counts: &mut HashMap<u
                 assert_eq!(b[0], 1, "message data");
                 let sub = u32::from_le_bytes(b[1..5].try_into().unwrap());
                 if sub == 0 {
-                    serde_json::from_slice::<Value>(&b[13..]).expect("the payload is the log's JSON");
+                    // /tf: the log's foxglove.FrameTransforms, Protobuf.
+                    pbd::mcap_log::message_json("foxglove.FrameTransforms", "protobuf", &b[13..])
+                        .expect("the payload is the log's message");
                 }
                 *counts.entry(sub).or_default() += 1;
             }
@@ -126,7 +128,11 @@ fn a_foxglove_client_watches_the_run_as_it_is_logged() {
     subscribe_all(&mut second, &texts2);
     drain(&mut second, &mut texts2, &mut counts2);
     for (sub, topic) in [(1, TOPIC_SCENE), (2, TOPIC_ROBOT)] {
-        assert_eq!(counts2.get(&sub).copied(), Some(1), "{topic}, second viewer: {counts2:?}");
+        assert_eq!(
+            counts2.get(&sub).copied(),
+            Some(1),
+            "{topic}, second viewer: {counts2:?}"
+        );
     }
     // A new scene (the next run) reaches both, once.
     log.log_scene(&scene, sim.header(), 20.0).unwrap();

@@ -112,7 +112,7 @@ mod tests {
             .collect();
         let u = pre_grasp_update(&markers, Time::from_ns(0));
         assert_eq!(u.entities.len(), 3);
-        assert_eq!(u.deletions[0].kind, 1);
+        assert!(u.replace_all.is_some());
         let a = &u.entities[0].arrows[0];
         // Starts 10 cm above the palm and points down.
         assert!((a.pose.position.z - 0.4).abs() < 1e-9, "{:?}", a.pose.position);

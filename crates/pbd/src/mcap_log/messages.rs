@@ -1,12 +1,14 @@
-//! The JSON messages of a pbd log, as borrowed serde structs serialised straight into a reused buffer.
-//!
-//! Field names are the Foxglove ones (see `schemas.rs`); nothing here allocates per message except
-//! the scene update, which is written rarely.
+//! The messages of a pbd log. Foxglove's well-known topics are the `foxglove` crate's typed
+//! Protobuf messages ([`fm`]): the scene builders (`scene.rs`, `robot.rs`, `grasps.rs`) draw with the
+//! small value types below and convert once, and `/tf` is encoded frame by frame from templates
+//! kept with the frame tree (no allocation per snapshot). pbd's own messages (`pbd.*`) are
+//! borrowed serde structs serialised as JSON straight into a reused buffer.
 
 use control_basis::math::Iso3;
 use dexter_sim::snapshot::{FingertipWrench, ObjectState, SnapshotHeader};
+use foxglove::messages as fm;
 use serde::Serialize;
-use serde::ser::{SerializeSeq, SerializeStruct, Serializer};
+use serde::ser::{SerializeSeq, Serializer};
 
 /// The fixed frame everything hangs from.
 pub(super) const WORLD_FRAME: &str = "world";
@@ -34,19 +36,17 @@ pub(super) struct Time {
 }
 
 impl Time {
+    /// As a Foxglove Protobuf timestamp.
+    pub fn proto(self) -> fm::Timestamp {
+        fm::Timestamp::new(self.sec, self.nsec)
+    }
+
     pub fn from_ns(ns: u64) -> Self {
         Self {
             sec: u32::try_from(ns / NS_PER_SEC).unwrap_or(u32::MAX),
             nsec: (ns % NS_PER_SEC) as u32,
         }
     }
-}
-
-/// Foxglove `duration`; zero means "forever" for an entity lifetime.
-#[derive(Debug, Clone, Copy, Serialize)]
-pub(super) struct DurationMsg {
-    pub sec: i32,
-    pub nsec: u32,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -154,8 +154,6 @@ pub(super) struct FrameTree {
     link_parents: Vec<Option<String>>,
     object_names: Vec<String>,
     parents: Vec<ParentFrame>,
-    /// `object/<name>` for each object.
-    object_frames: Vec<String>,
     /// Parent-from-child of every link, then world-from-object of every object, this snapshot.
     current: Vec<Iso3>,
     /// What was last published for each frame.
@@ -164,6 +162,9 @@ pub(super) struct FrameTree {
     publish: Vec<bool>,
     /// Log time (ns) of the last keyframe.
     last_keyframe: Option<u64>,
+    /// Per frame, its transform message with the frame names filled in (`None`: the root, never
+    /// written).
+    templates: Vec<Option<fm::FrameTransform>>,
 }
 
 /// When a transform is written again.
@@ -180,7 +181,7 @@ pub(super) struct TfPolicy {
 impl FrameTree {
     pub fn new(header: &SnapshotHeader) -> Self {
         let index_of = |name: &str| header.link_names.iter().position(|n| n == name);
-        let parents = header
+        let parents: Vec<ParentFrame> = header
             .link_names
             .iter()
             .zip(&header.link_parents)
@@ -191,16 +192,33 @@ impl FrameTree {
             })
             .collect();
         let frames = header.link_names.len() + header.object_names.len();
+        let template = |parent: &str, child: &str| fm::FrameTransform {
+            parent_frame_id: parent.to_owned(),
+            child_frame_id: child.to_owned(),
+            ..Default::default()
+        };
+        let object_frames: Vec<String> = header.object_names.iter().map(|n| object_frame(n)).collect();
+        let templates = header
+            .link_names
+            .iter()
+            .zip(&parents)
+            .map(|(child, parent)| match *parent {
+                ParentFrame::Root => None,
+                ParentFrame::World => Some(template(WORLD_FRAME, child)),
+                ParentFrame::Link(p) => Some(template(&header.link_names[p], child)),
+            })
+            .chain(object_frames.iter().map(|f| Some(template(WORLD_FRAME, f))))
+            .collect();
         Self {
             link_names: header.link_names.clone(),
             link_parents: header.link_parents.clone(),
             object_names: header.object_names.clone(),
             parents,
-            object_frames: header.object_names.iter().map(|n| object_frame(n)).collect(),
             current: vec![Iso3::identity(); frames],
             published: vec![None; frames],
             publish: vec![false; frames],
             last_keyframe: None,
+            templates,
         }
     }
 
@@ -267,94 +285,48 @@ pub(super) fn object_frame(name: &str) -> String {
     format!("{OBJECT_PREFIX}{name}")
 }
 
-/// One `foxglove.FrameTransform`; translation and quaternion are rounded to 6 decimals.
-#[derive(Debug, Serialize)]
-pub(super) struct FrameTransform<'a> {
-    pub timestamp: Time,
-    pub parent_frame_id: &'a str,
-    pub child_frame_id: &'a str,
-    pub translation: Vector3,
-    pub rotation: Quaternion,
-}
-
-impl<'a> FrameTransform<'a> {
-    fn new(timestamp: Time, parent_frame_id: &'a str, child_frame_id: &'a str, parent_from_child: &Iso3) -> Self {
-        let (t, q) = split(parent_from_child);
-        // 1 µm and ~2 µrad are far below what the simulator resolves; short numbers halve the
-        // file and the compression time (18 → 13 kB of JSON for 65 transforms, 4.2 → 2.3 kB zstd).
-        let translation = Vector3 {
-            x: round6(t.x),
-            y: round6(t.y),
-            z: round6(t.z),
-        };
-        let rotation = Quaternion {
-            x: round6(q.x),
-            y: round6(q.y),
-            z: round6(q.z),
-            w: round6(q.w),
-        };
-        Self {
-            timestamp,
-            parent_frame_id,
-            child_frame_id,
-            translation,
-            rotation,
-        }
-    }
-}
-
-/// `x` rounded to 6 decimals (non-finite values unchanged).
+/// `x` rounded to 6 decimals (non-finite values unchanged), for JSON: 1 µm and ~2 µrad are far below
+/// what the simulator resolves, and short numbers compress better.
 pub(super) fn round6(x: f64) -> f64 {
     (x * 1e6).round() / 1e6
 }
 
-/// `foxglove.FrameTransforms` for the frames [`FrameTree::update`] chose: links (parent → child)
-/// and objects (`world → object/<name>`).
-#[derive(Debug)]
-pub(super) struct FrameTransforms<'a> {
-    pub timestamp: Time,
-    pub tree: &'a FrameTree,
+/// `x` rounded to a multiple of 2⁻²⁰ (≈ 0.95 µm or µrad; non-finite values unchanged), for binary
+/// doubles: the low mantissa bits are then zero, and zstd packs them (rounding to decimals would
+/// leave them random: a Protobuf `/tf` compressed 10 % worse than the JSON it replaced).
+pub(super) fn round_bits(x: f64) -> f64 {
+    const GRID: f64 = (1u64 << 20) as f64;
+    (x * GRID).round() / GRID
 }
 
-impl Serialize for FrameTransforms<'_> {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        let mut s = serializer.serialize_struct("FrameTransforms", 1)?;
-        s.serialize_field("transforms", &TransformList(self))?;
-        s.end()
-    }
-}
-
-struct TransformList<'a>(&'a FrameTransforms<'a>);
-
-impl Serialize for TransformList<'_> {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        let m = self.0;
-        let tree = m.tree;
-        let links = tree.link_names.len();
-        let mut seq = serializer.serialize_seq(None)?;
-        for (i, parent) in tree.parents.iter().enumerate() {
-            if !tree.publish[i] {
+impl FrameTree {
+    /// Encodes the frames [`FrameTree::update`] chose as one `foxglove.FrameTransforms` into `buf`
+    /// (cleared first): links (parent → child) and objects (`world → object/<name>`), translation
+    /// and quaternion rounded to multiples of 2⁻²⁰ ([`round_bits`]). Each transform is encoded from its template as field 1
+    /// of the message (Protobuf's repeated field), so nothing is allocated.
+    pub fn encode_transforms(&mut self, timestamp: Time, buf: &mut Vec<u8>) {
+        buf.clear();
+        let timestamp = Some(timestamp.proto());
+        for ((t, publish), current) in self.templates.iter_mut().zip(&self.publish).zip(&self.current) {
+            let Some(t) = t else { continue };
+            if !*publish {
                 continue;
             }
-            let parent_name = match *parent {
-                ParentFrame::Root => continue,
-                ParentFrame::World => WORLD_FRAME,
-                ParentFrame::Link(p) => tree.link_names[p].as_str(),
-            };
-            let child = tree.link_names[i].as_str();
-            seq.serialize_element(&FrameTransform::new(m.timestamp, parent_name, child, &tree.current[i]))?;
+            let (v, q) = split(current);
+            t.timestamp = timestamp;
+            t.translation = Some(fm::Vector3 {
+                x: round_bits(v.x),
+                y: round_bits(v.y),
+                z: round_bits(v.z),
+            });
+            t.rotation = Some(fm::Quaternion {
+                x: round_bits(q.x),
+                y: round_bits(q.y),
+                z: round_bits(q.z),
+                w: round_bits(q.w),
+            });
+            prost::encoding::message::encode(1, &*t, buf);
         }
-        for (k, frame) in tree.object_frames.iter().enumerate() {
-            if tree.publish[links + k] {
-                seq.serialize_element(&FrameTransform::new(
-                    m.timestamp,
-                    WORLD_FRAME,
-                    frame,
-                    &tree.current[links + k],
-                ))?;
-            }
-        }
-        seq.end()
     }
 }
 
@@ -420,78 +392,47 @@ pub(super) struct Activity<'a> {
 }
 
 /// `foxglove.Log`.
-#[derive(Debug, Serialize)]
-pub(super) struct Log<'a> {
-    pub timestamp: Time,
-    pub level: u8,
-    pub message: &'a str,
-    pub name: &'a str,
-    pub file: &'a str,
-    pub line: u32,
-}
-
-/// `foxglove.RawImage`; `data` is already base64.
-#[derive(Debug, Serialize)]
-pub(super) struct RawImage<'a> {
-    pub timestamp: Time,
-    pub frame_id: &'a str,
-    pub width: u32,
-    pub height: u32,
-    pub encoding: &'a str,
-    pub step: u32,
-    pub data: &'a str,
-}
-
-/// `foxglove.CompressedImage`; `data` is already base64.
-#[derive(Debug, Serialize)]
-pub(super) struct CompressedImage<'a> {
-    pub timestamp: Time,
-    pub frame_id: &'a str,
-    pub data: &'a str,
-    pub format: &'a str,
-}
-
-/// `foxglove.CameraCalibration` of an undistorted pinhole camera.
-#[derive(Debug, Serialize)]
-pub(super) struct CameraCalibration<'a> {
-    pub timestamp: Time,
-    pub frame_id: &'a str,
-    pub width: u32,
-    pub height: u32,
-    pub distortion_model: &'a str,
-    #[serde(rename = "D")]
-    pub d: [f64; 0],
-    #[serde(rename = "K")]
-    pub k: [f64; 9],
-    #[serde(rename = "R")]
-    pub r: [f64; 9],
-    #[serde(rename = "P")]
-    pub p: [f64; 12],
-}
-
-impl<'a> CameraCalibration<'a> {
-    /// From the focal lengths and principal point (px).
-    pub fn pinhole(timestamp: Time, frame_id: &'a str, width: u32, height: u32, f: [f64; 2], c: [f64; 2]) -> Self {
-        let [fx, fy] = f;
-        let [cx, cy] = c;
-        Self {
-            timestamp,
-            frame_id,
-            width,
-            height,
-            distortion_model: "plumb_bob",
-            d: [],
-            k: [fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0],
-            r: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
-            p: [fx, 0.0, cx, 0.0, 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0],
-        }
+pub(super) fn log(timestamp: Time, level: u8, message: &str, name: &str, file: &str, line: u32) -> fm::Log {
+    fm::Log {
+        timestamp: Some(timestamp.proto()),
+        level: i32::from(level),
+        message: message.to_owned(),
+        name: name.to_owned(),
+        file: file.to_owned(),
+        line,
     }
 }
 
-/// `foxglove.SceneUpdate`.
-#[derive(Debug, Serialize)]
+/// `foxglove.CameraCalibration` of an undistorted pinhole camera, from the focal lengths and
+/// principal point (px).
+pub(super) fn pinhole_calibration(
+    timestamp: Time,
+    frame_id: &str,
+    width: u32,
+    height: u32,
+    f: [f64; 2],
+    c: [f64; 2],
+) -> fm::CameraCalibration {
+    let [fx, fy] = f;
+    let [cx, cy] = c;
+    fm::CameraCalibration {
+        timestamp: Some(timestamp.proto()),
+        frame_id: frame_id.to_owned(),
+        width,
+        height,
+        distortion_model: "plumb_bob".into(),
+        d: Vec::new(),
+        k: vec![fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0],
+        r: vec![1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+        p: vec![fx, 0.0, cx, 0.0, 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0],
+    }
+}
+
+/// A scene update as pbd draws it: the entities, after deleting every entity of the topic or not.
+#[derive(Debug)]
 pub(super) struct SceneUpdate {
-    pub deletions: Vec<SceneEntityDeletion>,
+    /// Delete everything drawn on the topic before (at this time) first.
+    pub replace_all: Option<Time>,
     pub entities: Vec<SceneEntity>,
 }
 
@@ -500,43 +441,41 @@ impl SceneUpdate {
     /// last update disappear), then draws `entities`.
     pub fn replacing_all(timestamp: Time, entities: Vec<SceneEntity>) -> Self {
         Self {
-            deletions: vec![SceneEntityDeletion {
-                timestamp,
-                kind: 1,
-                id: String::new(),
-            }],
+            replace_all: Some(timestamp),
             entities,
+        }
+    }
+
+    /// As a `foxglove.SceneUpdate`.
+    pub fn proto(&self) -> fm::SceneUpdate {
+        fm::SceneUpdate {
+            deletions: self
+                .replace_all
+                .map(|t| fm::SceneEntityDeletion {
+                    timestamp: Some(t.proto()),
+                    r#type: fm::scene_entity_deletion::Type::All as i32,
+                    id: String::new(),
+                })
+                .into_iter()
+                .collect(),
+            entities: self.entities.iter().map(SceneEntity::proto).collect(),
         }
     }
 }
 
-/// `foxglove.SceneEntityDeletion`; `type` 0 = matching id, 1 = all.
-#[derive(Debug, Serialize)]
-pub(super) struct SceneEntityDeletion {
-    pub timestamp: Time,
-    #[serde(rename = "type")]
-    pub kind: u8,
-    pub id: String,
-}
-
-/// `foxglove.SceneEntity`. Primitive kinds pbd does not draw are written as empty lists (Foxglove
-/// requires every list).
-#[derive(Debug, Serialize)]
+/// A `foxglove.SceneEntity` with the primitives pbd draws; it lives until replaced.
+#[derive(Debug)]
 pub(super) struct SceneEntity {
     pub timestamp: Time,
     pub frame_id: String,
     pub id: String,
-    pub lifetime: DurationMsg,
     pub frame_locked: bool,
-    pub metadata: Vec<KeyValuePair>,
+    pub metadata: Vec<(String, String)>,
     pub arrows: Vec<ArrowPrimitive>,
     pub cubes: Vec<SizedPrimitive>,
     pub spheres: Vec<SizedPrimitive>,
     pub cylinders: Vec<CylinderPrimitive>,
-    pub lines: EmptyList,
-    pub triangles: EmptyList,
     pub texts: Vec<TextPrimitive>,
-    pub models: EmptyList,
 }
 
 impl SceneEntity {
@@ -546,50 +485,86 @@ impl SceneEntity {
             timestamp,
             frame_id: frame_id.to_owned(),
             id,
-            lifetime: DurationMsg { sec: 0, nsec: 0 },
             frame_locked,
             metadata: Vec::new(),
             arrows: Vec::new(),
             cubes: Vec::new(),
             spheres: Vec::new(),
             cylinders: Vec::new(),
-            lines: EmptyList,
-            triangles: EmptyList,
             texts: Vec::new(),
-            models: EmptyList,
         }
     }
 
     pub fn with_metadata(mut self, pairs: &[(&str, &str)]) -> Self {
-        self.metadata = pairs
-            .iter()
-            .map(|(k, v)| KeyValuePair {
-                key: (*k).to_owned(),
-                value: (*v).to_owned(),
-            })
-            .collect();
+        self.metadata = pairs.iter().map(|(k, v)| ((*k).to_owned(), (*v).to_owned())).collect();
         self
     }
-}
 
-/// Serialises as `[]`.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct EmptyList;
-
-impl Serialize for EmptyList {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        serializer.serialize_seq(Some(0))?.end()
+    /// As a `foxglove.SceneEntity` (lifetime zero: forever).
+    pub fn proto(&self) -> fm::SceneEntity {
+        fm::SceneEntity {
+            timestamp: Some(self.timestamp.proto()),
+            frame_id: self.frame_id.clone(),
+            id: self.id.clone(),
+            lifetime: Some(fm::Duration::new(0, 0)),
+            frame_locked: self.frame_locked,
+            metadata: self
+                .metadata
+                .iter()
+                .map(|(key, value)| fm::KeyValuePair {
+                    key: key.clone(),
+                    value: value.clone(),
+                })
+                .collect(),
+            arrows: self.arrows.iter().map(ArrowPrimitive::proto).collect(),
+            cubes: self
+                .cubes
+                .iter()
+                .map(|c| fm::CubePrimitive {
+                    pose: Some(c.pose.proto()),
+                    size: Some(c.size.proto()),
+                    color: Some(c.color.proto()),
+                })
+                .collect(),
+            spheres: self
+                .spheres
+                .iter()
+                .map(|c| fm::SpherePrimitive {
+                    pose: Some(c.pose.proto()),
+                    size: Some(c.size.proto()),
+                    color: Some(c.color.proto()),
+                })
+                .collect(),
+            cylinders: self
+                .cylinders
+                .iter()
+                .map(|c| fm::CylinderPrimitive {
+                    pose: Some(c.pose.proto()),
+                    size: Some(c.size.proto()),
+                    bottom_scale: c.bottom_scale,
+                    top_scale: c.top_scale,
+                    color: Some(c.color.proto()),
+                })
+                .collect(),
+            texts: self
+                .texts
+                .iter()
+                .map(|t| fm::TextPrimitive {
+                    pose: Some(t.pose.proto()),
+                    billboard: t.billboard,
+                    font_size: t.font_size,
+                    scale_invariant: t.scale_invariant,
+                    color: Some(t.color.proto()),
+                    text: t.text.clone(),
+                })
+                .collect(),
+            ..Default::default()
+        }
     }
-}
-
-#[derive(Debug, Serialize)]
-pub(super) struct KeyValuePair {
-    pub key: String,
-    pub value: String,
 }
 
 /// `foxglove.CubePrimitive` and `foxglove.SpherePrimitive` (`size` = full extents / diameters).
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy)]
 pub(super) struct SizedPrimitive {
     pub pose: Pose,
     pub size: Vector3,
@@ -597,7 +572,7 @@ pub(super) struct SizedPrimitive {
 }
 
 /// `foxglove.ArrowPrimitive`: points along the pose's +x, from its position.
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy)]
 pub(super) struct ArrowPrimitive {
     pub pose: Pose,
     pub shaft_length: f64,
@@ -607,8 +582,21 @@ pub(super) struct ArrowPrimitive {
     pub color: Color,
 }
 
+impl ArrowPrimitive {
+    pub fn proto(&self) -> fm::ArrowPrimitive {
+        fm::ArrowPrimitive {
+            pose: Some(self.pose.proto()),
+            shaft_length: self.shaft_length,
+            shaft_diameter: self.shaft_diameter,
+            head_length: self.head_length,
+            head_diameter: self.head_diameter,
+            color: Some(self.color.proto()),
+        }
+    }
+}
+
 /// `foxglove.CylinderPrimitive`, axis along local z.
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy)]
 pub(super) struct CylinderPrimitive {
     pub pose: Pose,
     pub size: Vector3,
@@ -618,7 +606,7 @@ pub(super) struct CylinderPrimitive {
 }
 
 /// `foxglove.TextPrimitive`.
-#[derive(Debug, Serialize)]
+#[derive(Debug)]
 pub(super) struct TextPrimitive {
     pub pose: Pose,
     pub billboard: bool,
@@ -626,4 +614,40 @@ pub(super) struct TextPrimitive {
     pub scale_invariant: bool,
     pub color: Color,
     pub text: String,
+}
+
+impl Vector3 {
+    pub fn proto(self) -> fm::Vector3 {
+        fm::Vector3 {
+            x: self.x,
+            y: self.y,
+            z: self.z,
+        }
+    }
+}
+
+impl Pose {
+    pub fn proto(self) -> fm::Pose {
+        let q = self.orientation;
+        fm::Pose {
+            position: Some(self.position.proto()),
+            orientation: Some(fm::Quaternion {
+                x: q.x,
+                y: q.y,
+                z: q.z,
+                w: q.w,
+            }),
+        }
+    }
+}
+
+impl Color {
+    pub fn proto(self) -> fm::Color {
+        fm::Color {
+            r: self.r,
+            g: self.g,
+            b: self.b,
+            a: self.a,
+        }
+    }
 }

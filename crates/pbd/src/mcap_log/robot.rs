@@ -14,12 +14,10 @@
 use control_basis::math::{Iso3, Rot3, Vec3};
 use control_basis::{RobotModel, VisualGeometry};
 use dexter_sim::snapshot::FingertipWrench;
-use serde::Serialize;
-use serde::ser::{SerializeSeq, SerializeStruct, Serializer};
+use foxglove::messages as fm;
 
 use super::messages::{
-    ArrowPrimitive, Color, CylinderPrimitive, DurationMsg, EmptyList, Pose, SceneEntity, SceneUpdate, SizedPrimitive,
-    Time, Vector3,
+    ArrowPrimitive, Color, CylinderPrimitive, Pose, SceneEntity, SceneUpdate, SizedPrimitive, Time, Vector3,
 };
 
 /// Prefix of a link's scene-entity id: `link/<name>`.
@@ -133,62 +131,24 @@ pub(super) fn force_arrow(origin: &Vec3, force: [f64; 3], in_contact: bool) -> O
     })
 }
 
-/// `foxglove.SceneUpdate` with one entity per fingertip sensor, serialised without building owned
-/// entities (it is written with every snapshot).
-#[derive(Debug)]
-pub(super) struct ArrowUpdate<'a> {
-    pub timestamp: Time,
-    /// `fingertip/<arm>/<finger>`, parallel to `arrows`.
-    pub ids: &'a [String],
-    pub arrows: &'a [Option<ArrowPrimitive>],
-}
-
-impl Serialize for ArrowUpdate<'_> {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        let mut s = serializer.serialize_struct("SceneUpdate", 2)?;
-        s.serialize_field("deletions", &EmptyList)?;
-        s.serialize_field("entities", &ArrowEntities(self))?;
-        s.end()
-    }
-}
-
-struct ArrowEntities<'a>(&'a ArrowUpdate<'a>);
-
-impl Serialize for ArrowEntities<'_> {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        let u = self.0;
-        let mut seq = serializer.serialize_seq(Some(u.ids.len()))?;
-        for (id, arrow) in u.ids.iter().zip(u.arrows) {
-            seq.serialize_element(&ArrowEntity {
-                timestamp: u.timestamp,
-                id,
-                arrow: arrow.as_ref(),
-            })?;
-        }
-        seq.end()
-    }
-}
-
-struct ArrowEntity<'a> {
-    timestamp: Time,
-    id: &'a str,
-    arrow: Option<&'a ArrowPrimitive>,
-}
-
-impl Serialize for ArrowEntity<'_> {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        let mut s = serializer.serialize_struct("SceneEntity", 14)?;
-        s.serialize_field("timestamp", &self.timestamp)?;
-        s.serialize_field("frame_id", super::messages::WORLD_FRAME)?;
-        s.serialize_field("id", self.id)?;
-        s.serialize_field("lifetime", &DurationMsg { sec: 0, nsec: 0 })?;
-        s.serialize_field("frame_locked", &false)?;
-        s.serialize_field("metadata", &EmptyList)?;
-        s.serialize_field("arrows", self.arrow.as_slice())?;
-        for empty in ["cubes", "spheres", "cylinders", "lines", "triangles", "texts", "models"] {
-            s.serialize_field(empty, &EmptyList)?;
-        }
-        s.end()
+/// `foxglove.SceneUpdate` with one entity per fingertip sensor (`ids`: `fingertip/<arm>/<finger>`,
+/// parallel to `arrows`), each with its arrow or none.
+pub(super) fn arrow_update(timestamp: Time, ids: &[String], arrows: &[Option<ArrowPrimitive>]) -> fm::SceneUpdate {
+    let timestamp = Some(timestamp.proto());
+    fm::SceneUpdate {
+        deletions: Vec::new(),
+        entities: ids
+            .iter()
+            .zip(arrows)
+            .map(|(id, arrow)| fm::SceneEntity {
+                timestamp,
+                frame_id: super::messages::WORLD_FRAME.to_owned(),
+                id: id.clone(),
+                lifetime: Some(fm::Duration::new(0, 0)),
+                arrows: arrow.iter().map(ArrowPrimitive::proto).collect(),
+                ..Default::default()
+            })
+            .collect(),
     }
 }
 
