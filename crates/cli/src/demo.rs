@@ -31,7 +31,7 @@ pub fn main(a: DemoArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         &DemoOptions {
             out: a.out,
             seed: a.seed,
-            live: a.live.bind(),
+            live: pbd::LiveOptions::bind(a.live.bind()),
         },
         &Bars::new(a.json, true)?,
     )?;

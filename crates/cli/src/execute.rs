@@ -54,8 +54,7 @@ pub fn main(a: ExecuteArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         library: a.library,
         seed: a.seed,
         output: a.output,
-        live: a.live.bind(),
-        live_view: None,
+        live: pbd::LiveOptions::bind(a.live.bind()),
     };
     let report = execute(&options, &Bars::new(a.json, true)?)?;
     emit(a.json, &report, out)

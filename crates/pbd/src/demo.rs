@@ -34,9 +34,10 @@ pub struct DemoOptions {
     pub out: PathBuf,
     /// Seed of every random choice.
     pub seed: u64,
-    /// Serve the demonstration and the execution live to Foxglove on this address (`HOST:PORT`);
-    /// `None`: no network listener.
-    pub live: Option<String>,
+    /// Serve the demonstration and the execution live to Foxglove (one view for both; default: no
+    /// network listener).
+    #[serde(default)]
+    pub live: crate::live::LiveOptions,
 }
 
 impl Default for DemoOptions {
@@ -44,7 +45,7 @@ impl Default for DemoOptions {
         DemoOptions {
             out: PathBuf::from("pbd-demo"),
             seed: 1,
-            live: None,
+            live: crate::live::LiveOptions::default(),
         }
     }
 }
@@ -67,10 +68,19 @@ pub struct DemoReport {
 }
 
 /// Runs the four steps; `progress` hears each as a phase (`"1/4 record"`, …).
-pub fn demo(args: &DemoOptions, progress: &dyn Progress) -> Result<DemoReport> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn demo(args: &DemoOptions, progress: &dyn Progress) -> crate::Result<DemoReport> {
+    demo_impl(args, progress).map_err(crate::Error::from)
+}
+
+fn demo_impl(args: &DemoOptions, progress: &dyn Progress) -> Result<DemoReport> {
     let wall = std::time::Instant::now();
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
-    let live = crate::live::LiveView::from_options(args.live.as_deref(), None)?;
+    let live = args.live.start()?;
+    let live = live
+        .as_ref()
+        .map_or_else(crate::live::LiveOptions::default, crate::live::LiveOptions::view);
     let demo = args.out.join("demo.mcap");
     let infer = args.out.join("demo.infer.json");
     let model = args.out.join("model.json");
@@ -91,7 +101,7 @@ pub fn demo(args: &DemoOptions, progress: &dyn Progress) -> Result<DemoReport> {
             output: demo.clone(),
             // The head cameras at the percept rate, as JPEG with their calibration.
             images: true,
-            live_view: live.clone(),
+            live: live.clone(),
             ..RecordOptions::default()
         },
         progress,
@@ -126,7 +136,7 @@ pub fn demo(args: &DemoOptions, progress: &dyn Progress) -> Result<DemoReport> {
             model: Some(model),
             seed: Some(args.seed),
             output: Some(run),
-            live_view: live.clone(),
+            live: live.clone(),
             ..ExecuteOptions::default()
         },
         progress,

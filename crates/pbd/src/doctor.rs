@@ -45,7 +45,13 @@ pub struct DoctorReport {
 }
 
 /// Checks `file`; with `repair`, writes a complete copy of everything readable there.
-pub fn doctor(file: &Path, repair_to: Option<&Path>) -> Result<DoctorReport> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn doctor(file: &Path, repair_to: Option<&Path>) -> crate::Result<DoctorReport> {
+    doctor_impl(file, repair_to).map_err(crate::Error::from)
+}
+
+fn doctor_impl(file: &Path, repair_to: Option<&Path>) -> Result<DoctorReport> {
     if let Some(out) = repair_to {
         crate::files::refuse_inputs_as_outputs(&[file], &[out])?;
     }

@@ -44,13 +44,9 @@ pub struct ExecuteOptions {
     pub seed: Option<u64>,
     /// Record the execution to this MCAP file.
     pub output: Option<PathBuf>,
-    /// Serve the run live to Foxglove on this address (`HOST:PORT`, e.g. `127.0.0.1:8765`) as well
-    /// as writing the log; `None`: no network listener.
-    pub live: Option<String>,
-    /// A live view already running (shared by several steps, e.g. `pbd demo`'s); takes precedence
-    /// over `live`. Not part of the serialised options.
-    #[serde(skip)]
-    pub live_view: Option<crate::live::LiveView>,
+    /// Serve the run live to Foxglove as well as writing the log (default: no network listener).
+    #[serde(default)]
+    pub live: crate::live::LiveOptions,
 }
 
 impl Default for ExecuteOptions {
@@ -64,8 +60,7 @@ impl Default for ExecuteOptions {
             library: None,
             seed: None,
             output: None,
-            live: None,
-            live_view: None,
+            live: crate::live::LiveOptions::default(),
         }
     }
 }
@@ -260,7 +255,13 @@ impl RunLog for McapRunLog<'_> {
 
 /// `pbd execute`: the robot does the task of a model or an inference in a scene, from its own
 /// senses; the world judges every object.
-pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<ExecuteReport> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> crate::Result<ExecuteReport> {
+    execute_impl(args, progress).map_err(crate::Error::from)
+}
+
+fn execute_impl(args: &ExecuteOptions, progress: &dyn Progress) -> Result<ExecuteReport> {
     let library = match &args.library {
         Some(p) => Library::open(p)?,
         None => Library::builtin(),
@@ -339,7 +340,7 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
         (None, None) => bail!("pass --demo demo.infer.json or --model model.json"),
     };
     anyhow::ensure!(
-        args.output.is_some() || (args.live.is_none() && args.live_view.is_none()),
+        args.output.is_some() || !args.live.is_on(),
         "--live streams the execution's log: pass --output FILE.mcap too"
     );
     // Every input, the scene's catalog included, is refused as the output before anything is written.
@@ -363,7 +364,7 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execute
         Some(p) => {
             let sim = DexterSim::new(&scene, SimSettings::default())?;
             let mut log = McapLog::create(p)?;
-            if let Some(live) = crate::live::LiveView::from_options(args.live.as_deref(), args.live_view.as_ref())? {
+            if let Some(live) = args.live.start()? {
                 progress.message(&format!(
                     "live view on {} (Foxglove: Open connection → Foxglove WebSocket)",
                     live.url()

@@ -102,8 +102,29 @@ impl InferFile {
 /// True object positions over time: (t, [(label, position)]).
 pub type TruthTrack = Vec<(f64, Vec<(String, [f64; 3])>)>;
 
-/// What a recording holds for inference: percepts, truth, metadata, warnings.
-pub type Demonstration = (Vec<Percept>, TruthTrack, BTreeMap<String, String>, Vec<String>);
+/// What a recording holds for inference.
+#[derive(Debug, Clone, Default)]
+pub struct Demonstration {
+    /// The robot's percepts (`/pbd/percept`), in time order.
+    pub percepts: Vec<Percept>,
+    /// The world's truth beside them (`/pbd/truth`), for evaluation only; empty when absent.
+    pub truth: TruthTrack,
+    /// The recording's `pbd` metadata (command, scene, seed, …).
+    pub metadata: BTreeMap<String, String>,
+    /// What the reader noticed (a file cut short, damaged chunks, foreign channels).
+    pub warnings: Vec<String>,
+}
+
+/// What inference made of a percept stream ([`infer_percepts`]).
+#[derive(Debug)]
+pub struct PerceptInference {
+    /// The instances and the posterior over schemas.
+    pub inference: Inference,
+    /// The monitors' observation at each percept.
+    pub observations: Vec<Observation>,
+    /// The engine that inferred it (its configuration and the library's models).
+    pub engine: Engine,
+}
 
 #[derive(Debug, Deserialize)]
 struct Truth {
@@ -168,7 +189,12 @@ pub fn demonstration_from(rec: &Recording, path: &Path) -> Result<Demonstration>
             truth.push((t.t, t.objects));
         }
     }
-    Ok((percepts, truth, metadata, warnings))
+    Ok(Demonstration {
+        percepts,
+        truth,
+        metadata,
+        warnings,
+    })
 }
 
 /// The observation rate of a percept stream (Hz), from the median step.
@@ -183,7 +209,7 @@ fn rate_of(percepts: &[Percept]) -> f64 {
 }
 
 /// Runs inference on a percept stream.
-pub fn infer_percepts(library: &Library, percepts: &[Percept]) -> Result<(Inference, Vec<Observation>, Engine)> {
+pub fn infer_percepts(library: &Library, percepts: &[Percept]) -> Result<PerceptInference> {
     let mut bank = MonitorBank::new(library, MonitorConfig::default());
     let obs = bank.observe_all(percepts);
     let engine = Engine::new(
@@ -194,7 +220,11 @@ pub fn infer_percepts(library: &Library, percepts: &[Percept]) -> Result<(Infere
         },
     )?;
     let inference = engine.infer(&obs, percepts)?;
-    Ok((inference, obs, engine))
+    Ok(PerceptInference {
+        inference,
+        observations: obs,
+        engine,
+    })
 }
 
 fn truth_for(inf: &Inference, percepts: &[Percept], truth: &TruthTrack) -> Vec<Option<TruthNote>> {
@@ -234,18 +264,33 @@ fn default_output(demo: &Path, ext: &str) -> PathBuf {
 }
 
 /// `pbd infer`: reads the demonstration, infers, writes `NAME.infer.json` and its companion MCAP.
-pub fn infer(args: &InferOptions, progress: &dyn Progress) -> Result<InferRun> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn infer(args: &InferOptions, progress: &dyn Progress) -> crate::Result<InferRun> {
+    infer_impl(args, progress).map_err(crate::Error::from)
+}
+
+fn infer_impl(args: &InferOptions, progress: &dyn Progress) -> Result<InferRun> {
     let library = match &args.library {
         Some(p) => Library::open(p)?,
         None => Library::builtin(),
     };
-    let (percepts, truth, metadata, warnings) = read_percepts(&args.demo)?;
+    let Demonstration {
+        percepts,
+        truth,
+        metadata,
+        warnings,
+    } = read_percepts(&args.demo)?;
     for w in &warnings {
         progress.warn(w);
     }
     progress.phase("infer", None);
     progress.message(&format!("{} percepts", percepts.len()));
-    let (inference, obs, engine) = infer_percepts(&library, &percepts)?;
+    let PerceptInference {
+        inference,
+        observations: obs,
+        engine,
+    } = infer_percepts(&library, &percepts)?;
     let file = InferFile {
         format: INFER_FORMAT.into(),
         version: INFER_VERSION,

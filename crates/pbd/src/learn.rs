@@ -95,11 +95,16 @@ pub struct ModelExplanation {
 /// Reach-And-Touch): what ψ binds from the object's features.
 pub fn examples_from(path: &Path, library: &Library, progress: &dyn Progress) -> Result<Vec<(String, Example)>> {
     let file: InferFile = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap")) {
-        let (percepts, _, metadata, warnings) = crate::infer::read_percepts(path)?;
+        let crate::infer::Demonstration {
+            percepts,
+            metadata,
+            warnings,
+            ..
+        } = crate::infer::read_percepts(path)?;
         for w in &warnings {
             progress.warn(w);
         }
-        let (inference, _, _) = crate::infer::infer_percepts(library, &percepts)?;
+        let inference = crate::infer::infer_percepts(library, &percepts)?.inference;
         InferFile {
             format: INFER_FORMAT.into(),
             version: crate::infer::INFER_VERSION,
@@ -168,7 +173,13 @@ pub fn main_schema(examples: &[(String, Example)]) -> Option<String> {
 }
 
 /// `pbd learn`: learns (or updates) the procedural model from demonstrations and saves it.
-pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> crate::Result<LearnReport> {
+    learn_impl(args, progress).map_err(crate::Error::from)
+}
+
+fn learn_impl(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport> {
     if args.demos.is_empty() {
         bail!("no demonstrations given (pass *.infer.json or *.mcap files)");
     }
@@ -285,7 +296,13 @@ pub fn learn(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnReport
 
 /// Explains a saved model; with `samples > 0`, also draws that many task instances from its posterior
 /// predictive (seeded by `seed`) for pictures.
-pub fn explain(path: &Path, samples: usize, seed: u64) -> Result<ModelExplanation> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn explain(path: &Path, samples: usize, seed: u64) -> crate::Result<ModelExplanation> {
+    explain_impl(path, samples, seed).map_err(crate::Error::from)
+}
+
+fn explain_impl(path: &Path, samples: usize, seed: u64) -> Result<ModelExplanation> {
     crate::limits::check_at_most("samples", samples, crate::limits::MAX_SAMPLES)?;
     let model = ProceduralModel::load(path)?;
     let explanation = model.explain()?;

@@ -6,16 +6,17 @@
 //! few examples which object features decide the task's references (ch. 5), and does the task in new
 //! scenes with the contingencies the teacher never showed (§4.3.2).
 //!
-//! The pipeline, one function per step, each taking plain serde options and a [`Progress`] callback:
+//! The pipeline, one function per step at the crate root, each taking plain serde options and a
+//! [`Progress`] callback (`pbd::record(&options, &progress)`; the modules hold the details):
 //!
-//! | step | function | writes |
-//! |---|---|---|
-//! | record a demonstration in the simulator | [`record::record`] | an MCAP file ([`mcap_log`]) |
-//! | infer the schema and its instances | [`infer::infer`] | `NAME.infer.json` ([`infer::InferFile`]) + a companion MCAP |
-//! | learn the procedural model | [`learn::learn`] | `model.json` |
-//! | execute it in a new scene | [`execute::execute`] | an [`execute::ExecuteReport`], an MCAP log |
-//! | all four on the built-in scenes | [`demo::demo`] | `pbd-demo/` |
-//! | check / repair a recording | [`doctor::doctor`] | a repaired copy |
+//! | step | function | options → report | writes |
+//! |---|---|---|---|
+//! | record a demonstration in the simulator | [`record()`] | [`RecordOptions`] → [`RecordReport`] | an MCAP file ([`mcap_log`]) |
+//! | infer the schema and its instances | [`infer()`] | [`InferOptions`] → [`InferRun`] | `NAME.infer.json` ([`infer::InferFile`]) + a companion MCAP |
+//! | learn the procedural model | [`learn()`] | [`LearnOptions`] → [`LearnReport`] | `model.json` |
+//! | execute it in a new scene | [`execute()`] | [`ExecuteOptions`] → [`ExecuteReport`] | an MCAP log |
+//! | all four on the built-in scenes | [`demo()`] | [`DemoOptions`] → [`DemoReport`] | `pbd-demo/` |
+//! | check / repair a recording | [`doctor()`] | a path → [`DoctorReport`] | a repaired copy |
 //!
 //! and the experiments of the seed: [`experiment::sorting`] (§5.1–5.3), [`experiment::execute`]
 //! (execution on random new scenes) and [`grasp`] (grasp prototypes, ch. 6). Every random choice
@@ -30,7 +31,7 @@
 //! ```no_run
 //! use pbd::progress::Quiet;
 //! # fn main() -> anyhow::Result<()> {
-//! let report = pbd::demo::demo(&pbd::demo::DemoOptions::default(), &Quiet)?;
+//! let report = pbd::demo(&pbd::DemoOptions::default(), &Quiet)?;
 //! println!("{report}");
 //! println!("placed {}/{}", report.execute.placed, report.execute.relevant);
 //! # Ok(()) }
@@ -42,12 +43,12 @@
 //! # fn main() -> anyhow::Result<()> {
 //! let dir = std::env::temp_dir().join(format!("pbd-doc-{}", std::process::id()));
 //! std::fs::create_dir_all(&dir)?;
-//! let options = pbd::record::RecordOptions {
+//! let options = pbd::RecordOptions {
 //!     script: pbd::record::Script::Touch,
 //!     output: dir.join("touch.mcap"),
 //!     ..Default::default()
 //! };
-//! let recorded = pbd::record::record(&options, &pbd::progress::Quiet)?;
+//! let recorded = pbd::record(&options, &pbd::Quiet)?;
 //! assert!(recorded.demo.percepts > 0);
 //! let summary = pbd::mcap_log::read_summary(&options.output)?;
 //! assert!(summary.count(pbd::record::TOPIC_PERCEPT) > 0);
@@ -59,6 +60,7 @@
 
 pub mod demo;
 pub mod doctor;
+pub mod error;
 pub mod execute;
 pub mod experiment;
 pub mod figure;
@@ -79,5 +81,13 @@ pub mod skills;
 pub mod table;
 
 pub use bayes::rng;
+pub use demo::{DemoOptions, DemoReport, demo};
+pub use doctor::{DoctorReport, doctor};
+pub use error::{Error, ErrorKind, Result};
+pub use execute::{ExecuteOptions, ExecuteReport, execute};
+pub use infer::{InferOptions, InferRun, infer};
+pub use learn::{LearnOptions, LearnReport, explain, learn};
+pub use live::{LiveOptions, LiveView};
 pub use progress::{Progress, Quiet};
+pub use record::{RecordOptions, RecordReport, record};
 pub use {bayes, control_basis, dexter, dexter_sim, grasp_topics, schema};

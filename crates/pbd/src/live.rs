@@ -36,6 +36,64 @@ pub const MESSAGE_BACKLOG: usize = 4096;
 /// The default address of `--live`: this machine only, Foxglove's usual port.
 pub const DEFAULT_BIND: &str = "127.0.0.1:8765";
 
+/// Whether and where a run is shown live — the one option of every command that can serve a live
+/// view (`record`, `execute`, `demo`). Deserialises from an address string too (`"127.0.0.1:8765"`),
+/// so a script can write `live = "127.0.0.1:8765"`.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(from = "LiveSetting")]
+pub struct LiveOptions {
+    /// Serve on this address (`HOST:PORT`, e.g. [`DEFAULT_BIND`]) as well as writing the log;
+    /// `None`: no network listener.
+    pub bind: Option<String>,
+    /// A live view already running (shared by several steps, e.g. `pbd demo`'s); takes precedence
+    /// over `bind`. Not part of the serialised options.
+    #[serde(skip)]
+    pub view: Option<LiveView>,
+}
+
+/// What [`LiveOptions`] deserialises from: an address, or `{bind}`.
+#[derive(serde::Deserialize)]
+#[serde(untagged)]
+enum LiveSetting {
+    Address(Option<String>),
+    Table {
+        #[serde(default)]
+        bind: Option<String>,
+    },
+}
+
+impl From<LiveSetting> for LiveOptions {
+    fn from(s: LiveSetting) -> Self {
+        let (LiveSetting::Address(bind) | LiveSetting::Table { bind }) = s;
+        LiveOptions { bind, view: None }
+    }
+}
+
+impl LiveOptions {
+    /// Serve on `bind` (`None`: no listener).
+    pub fn bind(bind: Option<String>) -> Self {
+        LiveOptions { bind, view: None }
+    }
+
+    /// Stream to a view already running.
+    pub fn view(view: &LiveView) -> Self {
+        LiveOptions {
+            bind: None,
+            view: Some(view.clone()),
+        }
+    }
+
+    /// Whether a live view is asked for.
+    pub fn is_on(&self) -> bool {
+        self.bind.is_some() || self.view.is_some()
+    }
+
+    /// The view to stream to: the running one if given, else a new one on `bind`, else none.
+    pub fn start(&self) -> Result<Option<LiveView>> {
+        LiveView::from_options(self.bind.as_deref(), self.view.as_ref())
+    }
+}
+
 /// A running Foxglove WebSocket server that logs stream to; cheap to clone (all clones are the
 /// same server). The server stops when the last clone is dropped.
 #[derive(Clone)]

@@ -93,13 +93,9 @@ pub struct RecordOptions {
     pub percept_hz: f64,
     /// Longest recording (s of simulated time).
     pub max_seconds: f64,
-    /// Serve the run live to Foxglove on this address (`HOST:PORT`, e.g. `127.0.0.1:8765`) as well
-    /// as writing the log; `None`: no network listener.
-    pub live: Option<String>,
-    /// A live view already running (shared by several steps, e.g. `pbd demo`'s); takes precedence
-    /// over `live`. Not part of the serialised options.
-    #[serde(skip)]
-    pub live_view: Option<crate::live::LiveView>,
+    /// Serve the run live to Foxglove as well as writing the log (default: no network listener).
+    #[serde(default)]
+    pub live: crate::live::LiveOptions,
 }
 
 impl Default for RecordOptions {
@@ -121,8 +117,7 @@ impl Default for RecordOptions {
             log_hz: 30.0,
             percept_hz: 10.0,
             max_seconds: 600.0,
-            live: None,
-            live_view: None,
+            live: crate::live::LiveOptions::default(),
         }
     }
 }
@@ -514,7 +509,13 @@ pub fn check_rates(values: &[(&str, f64)]) -> Result<()> {
 /// `pbd record`: runs the teacher (scripted or a teleop file) in the simulator and records the
 /// demonstration to MCAP. When `progress` asks to stop (Ctrl-C), the file is finished with what was
 /// captured and the report says `interrupted`.
-pub fn record(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordReport> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn record(args: &RecordOptions, progress: &dyn Progress) -> crate::Result<RecordReport> {
+    record_impl(args, progress).map_err(crate::Error::from)
+}
+
+fn record_impl(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordReport> {
     // Config.
     check_rates(&[
         ("log_hz", args.log_hz),
@@ -592,7 +593,7 @@ pub fn record(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordRep
             ..Default::default()
         },
     )?;
-    if let Some(live) = crate::live::LiveView::from_options(args.live.as_deref(), args.live_view.as_ref())? {
+    if let Some(live) = args.live.start()? {
         progress.message(&format!(
             "live view on {} (Foxglove: Open connection → Foxglove WebSocket)",
             live.url()

@@ -219,7 +219,7 @@ proptest! {
         let p = file("demo.mcap", &bytes);
         let _ = read_unchanged(&p, |p| pbd::mcap_log::read_summary(p).map(|s| s.message_count));
         let _ = read_unchanged(&p, |p| pbd::mcap_log::read_recording(p, &[]).map(|r| r.messages.len()));
-        let _ = read_unchanged(&p, |p| pbd::infer::read_percepts(p).map(|d| d.0.len()));
+        let _ = read_unchanged(&p, |p| pbd::infer::read_percepts(p).map(|d| d.percepts.len()));
     }
 
     /// Inference JSON through `learn`: refused or learned; the output is a complete model or absent.

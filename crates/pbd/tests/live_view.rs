@@ -159,3 +159,29 @@ fn a_bad_bind_address_is_refused_with_a_message() {
         assert!(format!("{e:#}").contains(bad), "{bad}: {e:#}");
     }
 }
+
+#[test]
+fn live_options_are_one_setting_read_from_an_address_or_a_table() {
+    use pbd::LiveOptions;
+    let from = |json: &str| serde_json::from_str::<LiveOptions>(json).unwrap();
+    assert_eq!(
+        from("\"127.0.0.1:8765\""),
+        LiveOptions::bind(Some("127.0.0.1:8765".into()))
+    );
+    assert_eq!(
+        from("{\"bind\": \"0.0.0.0:9000\"}").bind.as_deref(),
+        Some("0.0.0.0:9000")
+    );
+    assert_eq!(from("null"), LiveOptions::default());
+    assert!(!LiveOptions::default().is_on());
+    // A record's options without the key: no listener; a running view is never serialised.
+    let o: pbd::RecordOptions = serde_json::from_str("{}").unwrap();
+    assert!(!o.live.is_on());
+    let live = pbd::LiveView::start("127.0.0.1:0").unwrap();
+    let shared = LiveOptions::view(&live);
+    assert!(shared.is_on() && shared.start().unwrap() == Some(live.clone()));
+    assert_eq!(
+        serde_json::to_value(&shared).unwrap(),
+        serde_json::json!({ "bind": null })
+    );
+}

@@ -144,69 +144,27 @@ pub fn value_error(message: impl Into<String>) -> PyErr {
     error(Kind::Value, message)
 }
 
-fn kind_of_cb(e: &pbd::control_basis::CbError) -> Kind {
-    use pbd::control_basis::CbError as E;
-    match e {
-        E::Io { .. } => Kind::File,
-        E::MalformedUrdf { .. } | E::InvalidModel { .. } => Kind::Format,
-        E::UnknownLink { .. } | E::UnknownJoint { .. } | E::NoChain { .. } => Kind::Lookup,
-        E::DimensionMismatch { .. } | E::NotFinite { .. } | E::InvalidParameter { .. } => Kind::Value,
-        E::Solver(_) => Kind::Sim,
+/// The class of a facade error's kind (decided by `pbd::Error`, not here).
+fn kind_of(kind: pbd::ErrorKind) -> Kind {
+    match kind {
+        pbd::ErrorKind::Value => Kind::Value,
+        pbd::ErrorKind::Format => Kind::Format,
+        pbd::ErrorKind::Lookup => Kind::Lookup,
+        pbd::ErrorKind::File => Kind::File,
+        pbd::ErrorKind::Failed => Kind::Sim,
+        pbd::ErrorKind::Other => Kind::Base,
     }
 }
 
-fn kind_of_schema(e: &pbd::schema::SchemaError) -> Kind {
-    use pbd::schema::SchemaError as E;
-    match e {
-        E::Io { .. } => Kind::File,
-        E::Parse { .. } => Kind::Format,
-        E::Invalid { .. } | E::Empty(_) | E::Bayes(_) => Kind::Value,
-        E::Unknown { .. } => Kind::Lookup,
-        E::Plant(_) => Kind::Sim,
-    }
+/// A facade error as a `PbdError` subclass carrying its message and causes.
+pub fn from_pbd(err: &pbd::Error) -> PyErr {
+    error(kind_of(err.kind()), err.chain_message())
 }
 
-fn kind_of_sim(e: &pbd::dexter_sim::SimError) -> Kind {
-    use pbd::dexter_sim::SimError as E;
-    match e {
-        E::Io { .. } => Kind::File,
-        E::Parse { .. } => Kind::Format,
-        E::Invalid { .. } | E::Size { .. } => Kind::Value,
-        E::Unknown { .. } => Kind::Lookup,
-        E::Model(m) => kind_of_cb(m),
-        E::Schema(s) => kind_of_schema(s),
-        _ => Kind::Sim,
-    }
-}
-
-/// The class for an error chain: the first cause pbd knows decides.
-fn kind_of(err: &anyhow::Error) -> Kind {
-    for cause in err.chain() {
-        if let Some(e) = cause.downcast_ref::<pbd::control_basis::CbError>() {
-            return kind_of_cb(e);
-        }
-        if let Some(e) = cause.downcast_ref::<pbd::dexter_sim::SimError>() {
-            return kind_of_sim(e);
-        }
-        if let Some(e) = cause.downcast_ref::<pbd::schema::SchemaError>() {
-            return kind_of_schema(e);
-        }
-        if cause.downcast_ref::<pbd::bayes::BayesError>().is_some() {
-            return Kind::Value;
-        }
-        if cause.downcast_ref::<serde_json::Error>().is_some() {
-            return Kind::Format;
-        }
-        if cause.downcast_ref::<std::io::Error>().is_some() {
-            return Kind::File;
-        }
-    }
-    Kind::Base
-}
-
-/// A Rust error as a `PbdError` subclass carrying its message and causes.
+/// A Rust error as a `PbdError` subclass carrying its message and causes (its kind as
+/// `pbd::Error` decides it).
 pub fn to_py(err: anyhow::Error) -> PyErr {
-    error(kind_of(&err), format!("{err:#}"))
+    from_pbd(&pbd::Error::from(err))
 }
 
 /// `?` for the errors of pbd's crates.

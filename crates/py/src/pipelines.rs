@@ -20,19 +20,20 @@ use crate::runner;
 /// `(report, text, warnings)` of a pipeline.
 type Outcome = (Py<PyAny>, String, Vec<String>);
 
-fn pipeline<O, R>(
+fn pipeline<O, R, E>(
     py: Python<'_>,
     options: &Bound<'_, PyAny>,
     progress: Option<Py<PyAny>>,
     what: &str,
-    f: fn(&O, &dyn pbd::Progress) -> anyhow::Result<R>,
+    f: fn(&O, &dyn pbd::Progress) -> Result<R, E>,
 ) -> PyResult<Outcome>
 where
     O: DeserializeOwned + Send + Sync,
     R: Serialize + std::fmt::Display + Send,
+    E: Into<anyhow::Error>,
 {
     let options: O = from_python(options, what)?;
-    let (report, warnings) = runner::run(py, progress, |p| f(&options, p))?;
+    let (report, warnings) = runner::run(py, progress, |p| f(&options, p).map_err(Into::into))?;
     Ok((to_python(py, &report)?, report.to_string(), warnings))
 }
 
@@ -114,7 +115,7 @@ pub fn grasp_eval(py: Python<'_>, options: &Bound<'_, PyAny>, progress: Option<P
             let summary = pbd::grasp::eval::run(o, p)?;
             // Fig. 6.7, as `pbd grasp eval` draws it.
             pbd::figure::draw(&o.output.join("fig6_7.svg"), &pbd::grasp::report::figure(&summary))?;
-            Ok(summary)
+            Ok::<_, anyhow::Error>(summary)
         },
     )
 }
@@ -134,7 +135,7 @@ pub fn experiment_sorting(
         for (path, figure) in &summary.figures {
             pbd::figure::draw(path, figure)?;
         }
-        Ok(summary)
+        Ok::<_, anyhow::Error>(summary)
     })
 }
 
@@ -151,7 +152,7 @@ pub fn experiment_perception(
     pipeline(py, options, progress, "perception experiment options", |o, p| {
         let run = pbd::experiment::perception::run(o, p)?;
         pbd::figure::draw(&run.output.join("errors.svg"), &run.figure)?;
-        Ok(run)
+        Ok::<_, anyhow::Error>(run)
     })
 }
 
@@ -171,7 +172,12 @@ impl Demonstration {
     /// Opens a recording (a file cut short is read up to its last complete chunk, with a warning).
     #[staticmethod]
     fn open(py: Python<'_>, path: PathBuf) -> PyResult<Demonstration> {
-        let (percepts, truth, metadata, warnings) = py.detach(|| pbd::infer::read_percepts(&path)).py_err()?;
+        let pbd::infer::Demonstration {
+            percepts,
+            truth,
+            metadata,
+            warnings,
+        } = py.detach(|| pbd::infer::read_percepts(&path)).py_err()?;
         Ok(Demonstration {
             path,
             percepts,
