@@ -27,7 +27,7 @@
 
 use bayes::special::ln_gamma;
 
-use super::ObjectDraws;
+use super::features::ObjectDraws;
 
 /// Nats below its peak where a table-count pmf is cut.
 const PMF_TRIM: f64 = 250.0;

@@ -6,7 +6,11 @@ use rand::Rng;
 
 use serde::Serialize;
 
-use super::{COLORS, Connectivity, FeatureType, Features, PlacePrior, PlaceStats, ProceduralModel, StructurePosterior};
+use super::features::{COLORS, Features};
+use super::hyper::{Connectivity, FeatureType, PlacePrior};
+use super::model::ProceduralModel;
+use super::stats::PlaceStats;
+use super::structure::StructurePosterior;
 use crate::error::SchemaError;
 use crate::percept::{COLOR_TERM_HSV, COLOR_TERMS};
 
@@ -104,7 +108,7 @@ struct Sampler<'a> {
 /// [`CONSISTENCY_MIN_DRAWS`]). A prediction scores the object against every place with the exact
 /// colour evidence (P5), so it costs O(places); with the draws shared out, explaining costs
 /// O(places) predictions' worth up to 40 places and O(places²) beyond (measured: 8 places 1.2 s,
-/// 100 places ~40 s, the limit [`super::MAX_PLACES`]), instead of 200 predictions per place, each
+/// 100 places ~40 s, the limit [`super::MAX_PLACES`](super::model::MAX_PLACES)), instead of 200 predictions per place, each
 /// re-deriving the model-wide posterior (8 places took 23 s).
 const CONSISTENCY_TOTAL: usize = 400;
 

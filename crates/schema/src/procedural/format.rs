@@ -4,12 +4,17 @@ use bayes::univariate::NormalInverseGamma;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::{
-    COLORS, Connectivity, Hyper, MODEL_FORMAT, MODEL_VERSION, PlacePrior, PlaceStats, ProceduralModel, SizeStats,
-    StructureChoice,
-};
+use super::features::COLORS;
+use super::hyper::{Connectivity, Hyper, PlacePrior, StructureChoice};
+use super::model::{MAX_PLACES, ProceduralModel};
+use super::stats::{PlaceStats, SizeStats};
 use crate::error::SchemaError;
 use crate::percept::COLOR_TERMS;
+
+/// The `format` field of a model file.
+pub const MODEL_FORMAT: &str = "pbd-procedural-model";
+/// The model format version this crate reads and writes.
+pub const MODEL_VERSION: u32 = 4;
 
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -298,10 +303,10 @@ impl ProceduralModel {
         let Value::Array(places_v) = places_v else {
             return Err(invalid("places", "must be an array".into()));
         };
-        if places_v.len() > super::MAX_PLACES {
+        if places_v.len() > MAX_PLACES {
             return Err(invalid(
                 "places",
-                format!("{} places is above the limit of {}", places_v.len(), super::MAX_PLACES),
+                format!("{} places is above the limit of {}", places_v.len(), MAX_PLACES),
             ));
         }
         let mut model = ProceduralModel::new(hyper)?;
