@@ -6,7 +6,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use clap::{Args, Subcommand, ValueEnum};
+use clap::{Args, Subcommand};
 use pbd::dexter_sim::fault::FaultKind;
 use pbd::experiment::execute::ExecuteExperimentOptions;
 use pbd::experiment::faults::FaultsOptions;
@@ -32,28 +32,12 @@ pub enum ExperimentCommand {
     Perception(PerceptionArgs),
 }
 
-/// Which experiment.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum FeatureArg {
-    /// Colour sorting by the catalog's `color_class` labels (Figs. 5.2, 5.3).
-    Color,
-    /// Size sorting by `size_class` (Small vs Large, Fig. 5.6).
-    Size,
-    /// Task relevance ROC: objects of the task's classes vs all others (Figs. 5.8, 5.10).
-    Relevance,
-    /// Incremental learning: the pmfs after each example (Fig. 5.11); incremental = batch.
-    Incremental,
-    /// Feature selection: which feature type decides the place, for colour-only, size-only and
-    /// colour-and-size tasks (§5.3.3).
-    Selection,
-}
-
 /// `pbd experiment sorting` arguments.
 #[derive(Debug, Args)]
 pub struct SortingArgs {
     /// The experiment.
     #[arg(long, value_enum)]
-    feature: FeatureArg,
+    feature: Feature,
     /// Object catalog (TOML) the examples (and, without --test-catalog, the test objects) come
     /// from; default: the built-in household catalog.
     #[arg(long, visible_alias = "train-catalog")]
@@ -257,13 +241,7 @@ fn faults(a: FaultsArgs, out: &mut dyn Write) -> anyhow::Result<()> {
 
 fn sorting(a: SortingArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     let options = SortingOptions {
-        feature: match a.feature {
-            FeatureArg::Color => Feature::Color,
-            FeatureArg::Size => Feature::Size,
-            FeatureArg::Relevance => Feature::Relevance,
-            FeatureArg::Incremental => Feature::Incremental,
-            FeatureArg::Selection => Feature::Selection,
-        },
+        feature: a.feature,
         catalog: a.catalog,
         trials: a.trials,
         max_examples: a.max_examples,

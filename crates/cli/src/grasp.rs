@@ -3,7 +3,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use clap::{Args, Subcommand, ValueEnum};
+use clap::{Args, Subcommand};
 use pbd::grasp::eval::EvalOptions;
 use pbd::grasp::{GenerateOptions, GraspArm, GraspLearnOptions, GraspRecordOptions, PresentOptions};
 
@@ -24,15 +24,6 @@ pub enum GraspCommand {
     Eval(EvalArgs),
 }
 
-/// Which arm grasps.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ArmArg {
-    /// The left arm.
-    Left,
-    /// The right arm (the seed's).
-    Right,
-}
-
 /// Where and how objects are presented (shared by record, generate and eval).
 #[derive(Debug, Clone, Args)]
 pub struct PresentArgs {
@@ -44,8 +35,8 @@ pub struct PresentArgs {
     #[arg(long, num_args = 2, value_names = ["X", "Y"], default_values_t = [0.55, 0.0], allow_negative_numbers = true)]
     xy: Vec<f64>,
     /// The arm that grasps.
-    #[arg(long, value_enum, default_value_t = ArmArg::Right)]
-    arm: ArmArg,
+    #[arg(long, value_enum, default_value_t = GraspArm::Right)]
+    arm: GraspArm,
 }
 
 impl PresentArgs {
@@ -56,10 +47,7 @@ impl PresentArgs {
         Ok(PresentOptions {
             scene: self.scene.clone(),
             xy: [x, y],
-            arm: match self.arm {
-                ArmArg::Left => GraspArm::Left,
-                ArmArg::Right => GraspArm::Right,
-            },
+            arm: self.arm,
         })
     }
 }

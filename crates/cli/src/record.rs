@@ -4,45 +4,12 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use clap::{Args, ValueEnum};
+use clap::Args;
 use pbd::record::{RecordOptions, Script, record};
+use pbd::sim::ArmChoice;
 
 use crate::output::emit;
 use crate::progress::Bars;
-use crate::sim::ArmArg;
-
-/// What the scripted teacher demonstrates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ScriptArg {
-    /// Pick an object and place it in a bin.
-    PickPlace,
-    /// Sort every object of the scene into the bins (one pick-and-place each).
-    Sort,
-    /// Pick with one arm, put the object down between the hands, place it with the other arm.
-    PassPlace,
-    /// Pick an object up and hold it (a rival schema).
-    PickHold,
-    /// Pick an object up and hand it to the teacher (a rival schema).
-    HandOver,
-    /// Reach to an object and touch it (a rival schema).
-    Touch,
-    /// Move a hand about without touching anything (no schema explains it).
-    Wander,
-}
-
-impl From<ScriptArg> for Script {
-    fn from(s: ScriptArg) -> Self {
-        match s {
-            ScriptArg::PickPlace => Script::PickPlace,
-            ScriptArg::Sort => Script::Sort,
-            ScriptArg::PassPlace => Script::PassPlace,
-            ScriptArg::PickHold => Script::PickHold,
-            ScriptArg::HandOver => Script::HandOver,
-            ScriptArg::Touch => Script::Touch,
-            ScriptArg::Wander => Script::Wander,
-        }
-    }
-}
 
 /// Arguments of `pbd record`.
 #[derive(Debug, Args)]
@@ -51,8 +18,8 @@ pub struct RecordArgs {
     #[arg(long, default_value = "pick-place")]
     scene: String,
     /// The scripted teacher's task (ignored with --teleop).
-    #[arg(long, value_enum, default_value_t = ScriptArg::PickPlace)]
-    script: ScriptArg,
+    #[arg(long, value_enum, default_value_t = Script::PickPlace)]
+    script: Script,
     /// Replay a glove/mocap stream instead (CSV or JSON lines; see the README).
     #[arg(long, conflicts_with = "script")]
     teleop: Option<PathBuf>,
@@ -67,8 +34,8 @@ pub struct RecordArgs {
     #[arg(long)]
     assign: Option<String>,
     /// The teacher's arm.
-    #[arg(long, value_enum, default_value_t = ArmArg::Auto)]
-    arm: ArmArg,
+    #[arg(long, value_enum, default_value_t = ArmChoice::Auto)]
+    arm: ArmChoice,
     /// The first grasp closes too early and is retried.
     #[arg(long)]
     retry: bool,
@@ -112,12 +79,12 @@ pub fn main(a: RecordArgs, out: &mut dyn Write) -> anyhow::Result<()> {
     ])?;
     let options = RecordOptions {
         scene: a.scene,
-        script: a.script.into(),
+        script: a.script,
         teleop: a.teleop,
         object: a.object,
         place: a.place,
         assign: a.assign,
-        arm: a.arm.into(),
+        arm: a.arm,
         retry: a.retry,
         seed: a.seed,
         output: a.output,

@@ -3,7 +3,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use clap::{Args, Subcommand, ValueEnum};
+use clap::{Args, Subcommand};
 use pbd::sim::{ArmChoice, PickPlaceOptions, pick_place};
 
 use crate::output::emit;
@@ -14,27 +14,6 @@ use crate::progress::Bars;
 pub enum SimCommand {
     /// One pick-and-place: pick OBJECT and put it in PLACE, with either arm.
     PickPlace(PickPlaceArgs),
-}
-
-/// Which arm: left, right or auto (one that reaches both the object and the place).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ArmArg {
-    /// The left arm.
-    Left,
-    /// The right arm.
-    Right,
-    /// Choose an arm that reaches both the object and the place.
-    Auto,
-}
-
-impl From<ArmArg> for ArmChoice {
-    fn from(a: ArmArg) -> Self {
-        match a {
-            ArmArg::Left => ArmChoice::Left,
-            ArmArg::Right => ArmChoice::Right,
-            ArmArg::Auto => ArmChoice::Auto,
-        }
-    }
 }
 
 /// Arguments of `pbd sim pick-place`.
@@ -50,8 +29,8 @@ pub struct PickPlaceArgs {
     #[arg(long)]
     place: Option<String>,
     /// Arm to use.
-    #[arg(long, value_enum, default_value_t = ArmArg::Auto)]
-    arm: ArmArg,
+    #[arg(long, value_enum, default_value_t = ArmChoice::Auto)]
+    arm: ArmChoice,
     /// Seed of every random choice (encoder noise, placement jitter); default: the scene's seed.
     #[arg(long)]
     seed: Option<u64>,
@@ -76,7 +55,7 @@ pub fn main(cmd: SimCommand, out: &mut dyn Write) -> anyhow::Result<()> {
         scene: a.scene,
         object: a.object,
         place: a.place,
-        arm: a.arm.into(),
+        arm: a.arm,
         seed: a.seed,
         mcap: a.mcap,
         log_hz: a.log_hz,

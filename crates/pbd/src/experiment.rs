@@ -15,6 +15,7 @@ pub mod sorting;
 /// Which experiment.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Feature {
     /// Colour sorting by the catalog's `color_class` labels (Figs. 5.2, 5.3).
     #[default]

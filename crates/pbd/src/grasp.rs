@@ -35,6 +35,7 @@ use common::{Presenter, select_candidates};
 /// Which arm grasps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum GraspArm {
     /// The left arm.
     Left,

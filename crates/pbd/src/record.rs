@@ -36,6 +36,7 @@ pub const TOPIC_TRUTH: &str = "/pbd/truth";
 /// What the scripted teacher demonstrates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Script {
     /// Pick an object and place it in a bin.
     #[default]

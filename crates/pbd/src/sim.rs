@@ -21,6 +21,7 @@ use crate::progress::Progress;
 /// Which arm: left, right or auto (one that reaches both the object and the place).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum ArmChoice {
     /// The left arm.
     Left,
