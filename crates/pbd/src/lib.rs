@@ -69,9 +69,7 @@ pub mod grasp;
 pub mod infer;
 pub mod learn;
 pub mod limits;
-pub mod live;
 pub mod logging;
-pub mod mcap_log;
 pub mod parallel;
 pub mod progress;
 pub mod record;
@@ -88,6 +86,10 @@ pub use execute::{ExecuteOptions, ExecuteReport, execute};
 pub use infer::{InferOptions, InferRun, infer};
 pub use learn::{LearnOptions, LearnReport, explain, learn};
 pub use live::{LiveOptions, LiveView};
+/// Recordings: MCAP writing and reading, doctor/repair, the Foxglove topics (the `pbd-mcap` crate).
+pub use pbd_mcap as mcap_log;
+/// The Foxglove live view (`pbd-mcap`'s).
+pub use pbd_mcap::live;
 pub use progress::{Progress, Quiet};
 pub use record::{RecordOptions, RecordReport, record};
 pub use {bayes, control_basis, dexter, dexter_sim, grasp_topics, schema};

@@ -2,8 +2,8 @@
 //!
 //! A [`LiveView`] is a Foxglove WebSocket server (the `foxglove` SDK, protocol
 //! `foxglove.sdk.v1`, the successor of `foxglove.websocket.v1`) that carries the same channels, schemas and messages (Protobuf for Foxglove's schemas, JSON for pbd's own) as the MCAP
-//! log: every [`McapLog`](crate::mcap_log::McapLog) it is attached to with
-//! [`McapLog::stream_to`](crate::mcap_log::McapLog::stream_to) sends each message both to the file
+//! log: every [`McapLog`](crate::McapLog) it is attached to with
+//! [`McapLog::stream_to`](crate::McapLog::stream_to) sends each message both to the file
 //! and to the connected clients. Writing the file does not change. In Foxglove: *Open connection →
 //! Foxglove WebSocket → `ws://127.0.0.1:8765`*, then import `assets/foxglove/pbd-layout.json`.
 //!
@@ -28,7 +28,7 @@ use foxglove::{ChannelBuilder, Context, PartialMetadata, RawChannel, Schema, Web
 
 /// Topics whose last message each client receives when it subscribes (see the module
 /// documentation).
-const LATCHED: [&str; 2] = [crate::mcap_log::TOPIC_ROBOT, crate::mcap_log::TOPIC_SCENE];
+const LATCHED: [&str; 2] = [crate::topics::TOPIC_ROBOT, crate::topics::TOPIC_SCENE];
 
 /// Messages queued per client; a viewer slower than the run loses the oldest beyond this.
 pub const MESSAGE_BACKLOG: usize = 4096;

@@ -1,4 +1,14 @@
 use super::*;
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::path::PathBuf;
+
+use dexter_sim::scene::Scene;
+use dexter_sim::snapshot::{Snapshot, SnapshotHeader};
+use std::time::Instant;
+
+use crate::messages::{FrameTree, Time, time_ns};
+use crate::scene;
 use base64::Engine as _;
 use control_basis::math::{Iso3, Vec3};
 use dexter_sim::Arm;
