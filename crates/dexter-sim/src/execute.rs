@@ -21,7 +21,7 @@ use schema::{ExecReport, Percept};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{SimError, from_robot};
-use crate::fault::{Fault, FaultRecord, FaultSpec};
+use crate::fault::model::{Fault, FaultRecord, FaultSpec};
 use crate::hardware::{SimRobot, parked_sim, workspace};
 use crate::physics::{DexterSim, SimSettings};
 use crate::scene::Scene;

@@ -16,7 +16,7 @@ use control_basis::{CbError, Plant, RobotModel};
 
 use crate::convert::iso_from_glam;
 use crate::error::SimError;
-use crate::fault::Fault;
+use crate::fault::model::Fault;
 use crate::physics::DexterSim;
 use crate::scene::Scene;
 use crate::snapshot::{Arm, FingertipWrench};
