@@ -10,8 +10,8 @@ use pbd::bayes::univariate as uni;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use crate::arrays::{matrix, vector};
 use crate::errors::{IntoPy, value_error};
-use crate::robot::{matrix, vector};
 
 fn indices(obs: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<usize>> {
     let v = vector(obs, what)?;

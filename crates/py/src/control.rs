@@ -10,8 +10,8 @@ use pbd::control_basis::{
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use crate::arrays::vector;
 use crate::errors::{IntoPy, value_error};
-use crate::robot::vector;
 
 fn predicate_name(p: Predicate) -> String {
     serde_json::to_value(p)
@@ -84,7 +84,7 @@ impl ControlStack {
     /// 4×4 pose.
     fn set_target(&mut self, target: &Bound<'_, PyAny>) -> PyResult<()> {
         let reference = if self.pose {
-            Reference::Pose(crate::robot::isometry(target)?)
+            Reference::Pose(crate::arrays::isometry(target)?)
         } else {
             let v = vector(target, "target")?;
             if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {

@@ -4,6 +4,7 @@
 //! Built with maturin (`pip install ./crates/py`), abi3 for CPython ≥ 3.9. Depends on the library
 //! crates only (the facade `pbd` and below), never on the CLI.
 
+mod arrays;
 mod bayes;
 mod control;
 mod errors;

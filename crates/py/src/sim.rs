@@ -14,9 +14,9 @@ use pbd::sim::ArmChoice;
 use pbd::skills::SkillSession;
 use pyo3::prelude::*;
 
+use crate::arrays::vector;
 use crate::errors::{IntoPy, Kind, error, value_error};
 use crate::json::{from_python, to_python};
-use crate::robot::vector;
 use crate::runner;
 
 fn arm_choice(arm: &str) -> PyResult<ArmChoice> {
