@@ -32,6 +32,7 @@
 pub mod actions;
 pub mod arm;
 pub mod body;
+mod calibrate;
 pub mod calibration;
 pub mod control;
 pub mod error;
