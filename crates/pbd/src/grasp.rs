@@ -288,7 +288,13 @@ fn demo_grasp(o: &TrialOutcome, p: &Percept) -> DemoGrasp {
 }
 
 /// `pbd grasp record`: demonstrated grasps in the simulator, the ones that held saved as a corpus.
-pub fn record(args: &GraspRecordOptions, progress: &dyn Progress) -> Result<RecordSummary> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn record(args: &GraspRecordOptions, progress: &dyn Progress) -> crate::Result<RecordSummary> {
+    record_impl(args, progress).map_err(crate::Error::from)
+}
+
+fn record_impl(args: &GraspRecordOptions, progress: &dyn Progress) -> anyhow::Result<RecordSummary> {
     let presenter = Presenter::new(&args.present)?;
     let objects: Vec<String> = if args.objects.is_empty() {
         presenter.presentations()
@@ -437,7 +443,13 @@ pub fn model_summary(model: &GraspModel, path: &Path) -> ModelSummary {
 }
 
 /// `pbd grasp learn`: grasp prototypes from a corpus (collapsed Gibbs, or a DP mixture), saved.
-pub fn learn(args: &GraspLearnOptions, progress: &dyn Progress) -> Result<ModelSummary> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn learn(args: &GraspLearnOptions, progress: &dyn Progress) -> crate::Result<ModelSummary> {
+    learn_impl(args, progress).map_err(crate::Error::from)
+}
+
+fn learn_impl(args: &GraspLearnOptions, progress: &dyn Progress) -> anyhow::Result<ModelSummary> {
     let corpus = Corpus::load(&args.corpus)?;
     let config = learn_config(
         args.prototypes,
@@ -526,7 +538,13 @@ pub struct GenerateReport {
 
 /// `pbd grasp generate`: perceive a presented object and propose ranked, collision-free pre-grasps
 /// from its appearance (6.28).
-pub fn generate(args: &GenerateOptions) -> Result<GenerateReport> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn generate(args: &GenerateOptions) -> crate::Result<GenerateReport> {
+    generate_impl(args).map_err(crate::Error::from)
+}
+
+fn generate_impl(args: &GenerateOptions) -> anyhow::Result<GenerateReport> {
     let presenter = Presenter::new(&args.present)?;
     presenter.check(&args.object)?;
     if args.n == 0 {

@@ -88,7 +88,13 @@ pub struct PickPlaceRun {
 }
 
 /// `pbd sim pick-place`: one pick-and-place with the robot's own skills, judged by the world.
-pub fn pick_place(args: &PickPlaceOptions, progress: &dyn Progress) -> anyhow::Result<PickPlaceRun> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn pick_place(args: &PickPlaceOptions, progress: &dyn Progress) -> crate::Result<PickPlaceRun> {
+    pick_place_impl(args, progress).map_err(crate::Error::from)
+}
+
+fn pick_place_impl(args: &PickPlaceOptions, progress: &dyn Progress) -> anyhow::Result<PickPlaceRun> {
     // Config: every user mistake is reported here.
     let scene = Scene::open(&args.scene)?;
     let object = match &args.object {

@@ -87,7 +87,13 @@ pub const OUTPUT_FILES: &[&str] = &["objects.csv", "summary.md"];
 
 /// Runs the experiment: the scenes in parallel on the thread pool, then `objects.csv` and `summary.md`
 /// in the output directory. The same seed gives the same files, whatever the number of threads.
-pub fn run(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> Result<ExecuteExperimentRun> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn run(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> crate::Result<ExecuteExperimentRun> {
+    run_impl(args, progress).map_err(crate::Error::from)
+}
+
+fn run_impl(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> anyhow::Result<ExecuteExperimentRun> {
     crate::limits::check_count("scenes", args.scenes, crate::limits::MAX_SCENES)?;
     crate::limits::check_count("objects", args.objects, crate::limits::MAX_OBJECTS)?;
     let base = Scene::open(&args.scene)?;

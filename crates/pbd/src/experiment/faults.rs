@@ -218,7 +218,13 @@ pub const OUTPUT_FILES: &[&str] = &["faults.csv", "summary.md", "recovered.svg"]
 /// in the output directory; the figure `recovered.svg` is returned in [`FaultsReport::figures`].
 /// The same seed gives the same files, whatever the number of threads. On Ctrl-C the finished
 /// scenes are written, marked partial, and an error says so.
-pub fn run(args: &FaultsOptions, progress: &dyn Progress) -> Result<FaultsReport> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn run(args: &FaultsOptions, progress: &dyn Progress) -> crate::Result<FaultsReport> {
+    run_impl(args, progress).map_err(crate::Error::from)
+}
+
+fn run_impl(args: &FaultsOptions, progress: &dyn Progress) -> anyhow::Result<FaultsReport> {
     crate::limits::check_count("scenes", args.scenes, crate::limits::MAX_SCENES)?;
     if args.kinds.is_empty() {
         anyhow::bail!("no fault kinds to inject");

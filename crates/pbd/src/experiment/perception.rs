@@ -72,7 +72,13 @@ impl std::fmt::Display for PerceptionRun {
 /// Runs the experiment: the scenes in parallel on the thread pool, then `objects.csv` and
 /// `summary.md` in the output directory (the caller draws [`PerceptionRun::figure`]). The same seed
 /// gives the same files, whatever the number of threads.
-pub fn run(args: &PerceptionOptions, progress: &dyn Progress) -> Result<PerceptionRun> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn run(args: &PerceptionOptions, progress: &dyn Progress) -> crate::Result<PerceptionRun> {
+    run_impl(args, progress).map_err(crate::Error::from)
+}
+
+fn run_impl(args: &PerceptionOptions, progress: &dyn Progress) -> anyhow::Result<PerceptionRun> {
     crate::limits::check_count("scenes", args.scenes, crate::limits::MAX_SCENES)?;
     crate::limits::check_count("objects", args.objects, crate::limits::MAX_OBJECTS)?;
     let base = Scene::open(&args.scene)?;

@@ -528,13 +528,19 @@ pub const OUTPUT_FILES: &[&str] = &[
 
 /// `pbd experiment sorting`: renders the catalog's features, runs the trials, writes the CSVs and
 /// `summary.md`; the figures are returned in [`Summary::figures`] for the caller to draw.
-pub fn run(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Summary> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn run(args: &SortingOptions, progress: &dyn Progress) -> crate::Result<Summary> {
+    run_impl(args, progress).map_err(crate::Error::from)
+}
+
+fn run_impl(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Summary> {
     if let Some(path) = &args.features {
         if args.dump_features.is_some() {
             bail!("features and dump_features: give one (features are read, not rendered)");
         }
         let bank = super::features::load_bank(path)?;
-        return run_on_bank(args, &bank, progress);
+        return run_on_bank_impl(args, &bank, progress);
     }
     let mut io = crate::files::IoPlan::new();
     if let Some(c) = &args.catalog {
@@ -569,7 +575,13 @@ pub fn run(args: &SortingOptions, progress: &dyn Progress) -> anyhow::Result<Sum
 /// The experiment on features already rendered (a bank from [`super::features::render_bank`], or a
 /// `dump_features` file read with [`super::features::load_bank`]): the same trials, files and
 /// summary as [`run`], without the rendering.
-pub fn run_on_bank(args: &SortingOptions, bank: &FeatureBank, progress: &dyn Progress) -> anyhow::Result<Summary> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn run_on_bank(args: &SortingOptions, bank: &FeatureBank, progress: &dyn Progress) -> crate::Result<Summary> {
+    run_on_bank_impl(args, bank, progress).map_err(crate::Error::from)
+}
+
+fn run_on_bank_impl(args: &SortingOptions, bank: &FeatureBank, progress: &dyn Progress) -> anyhow::Result<Summary> {
     plan(args)?;
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
     let test = test_bank(args, progress)?;

@@ -112,7 +112,13 @@ pub const OUTPUT_FILES: &[&str] = &[
 /// `pbd grasp eval`: the §6.5 experiment. Writes the report files into `output` and returns the
 /// summary; [`super::report::figure`] gives Fig. 6.7 to draw. The same seed gives the same files on
 /// any number of threads.
-pub fn run(args: &EvalOptions, progress: &dyn Progress) -> Result<EvalSummary> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn run(args: &EvalOptions, progress: &dyn Progress) -> crate::Result<EvalSummary> {
+    run_impl(args, progress).map_err(crate::Error::from)
+}
+
+fn run_impl(args: &EvalOptions, progress: &dyn Progress) -> anyhow::Result<EvalSummary> {
     let wall = Instant::now();
     // Config.
     let presenter = Presenter::new(&args.present)?;

@@ -39,7 +39,13 @@ pub struct FkOptions {
 
 /// Forward kinematics and the Jacobian of `base → tip` at `q` (checked against the chain: the error
 /// lists the chain's variables in order).
-pub fn fk(args: &FkOptions) -> anyhow::Result<FkReport> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn fk(args: &FkOptions) -> crate::Result<FkReport> {
+    fk_impl(args).map_err(crate::Error::from)
+}
+
+fn fk_impl(args: &FkOptions) -> anyhow::Result<FkReport> {
     let loaded = load_model(args.urdf.as_deref())?;
     let chain = Chain::new(&loaded.model, &args.base, &args.tip)?;
     let n = chain.dof();

@@ -22,7 +22,13 @@ use super::{LoadedModel, load_model};
 use crate::table::{Table, num};
 
 /// Loads the URDF at `urdf` (or the built-in Dexter) and summarises it.
-pub fn info(urdf: Option<&Path>) -> anyhow::Result<RobotSummary> {
+///
+/// Errors are [`crate::Error`]s: their [`crate::ErrorKind`] says what went wrong.
+pub fn info(urdf: Option<&Path>) -> crate::Result<RobotSummary> {
+    info_impl(urdf).map_err(crate::Error::from)
+}
+
+fn info_impl(urdf: Option<&Path>) -> anyhow::Result<RobotSummary> {
     RobotSummary::new(&load_model(urdf)?)
 }
 
