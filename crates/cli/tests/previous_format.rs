@@ -23,7 +23,11 @@ fn infer(path: &std::path::Path) -> Value {
 
 #[test]
 fn a_json_recording_of_the_previous_format_infers_as_it_did_and_as_todays_format_does() {
-    let old = data("touch-json-v1.mcap");
+    // Inferred in a temporary directory: `pbd infer` writes its files beside the recording.
+    let dir = std::env::temp_dir().join(format!("pbd-previous-format-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let old = dir.join("touch-json-v1.mcap");
+    std::fs::copy(data("touch-json-v1.mcap"), &old).unwrap();
     let expected: Value =
         serde_json::from_str(&std::fs::read_to_string(data("touch-json-v1.expected.json")).unwrap()).unwrap();
     let then = infer(&old);
@@ -34,8 +38,6 @@ fn a_json_recording_of_the_previous_format_infers_as_it_did_and_as_todays_format
     assert_eq!(best["schema"], "reach_and_touch", "{best}");
 
     // Today's format: Foxglove's topics are Protobuf; pbd's own (read by infer) are JSON as before.
-    let dir = std::env::temp_dir().join(format!("pbd-previous-format-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
     let new = dir.join("touch.mcap");
     let o = pbd(&[
         "record",
