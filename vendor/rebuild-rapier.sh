@@ -96,16 +96,19 @@ if [ "$mode" = export ]; then
         n=$(basename "$p" .patch)
         short_name[$(subject "$p")]=${n#[0-9][0-9][0-9][0-9]-}
     done
-    rm -f "${patches[@]}"
+    mkdir "$work/named"
     for f in "$work"/export/*.patch; do
         n=$(basename "$f")
         s=$(subject "$f")
         if [ -n "${short_name[$s]:-}" ]; then
             n=${n%%-*}-${short_name[$s]}.patch
         fi
-        cp "$f" "$vendor_dir/patches/$n"
-        echo "== vendor/patches/$n"
+        cp "$f" "$work/named/$n"
     done
+    # Only now that the whole series is written: replace the old one.
+    rm -f "${patches[@]}"
+    cp "$work"/named/*.patch "$vendor_dir/patches/"
+    ls "$vendor_dir/patches"
     exit 0
 fi
 
