@@ -4,16 +4,16 @@
 use rand::seq::SliceRandom;
 use schema::procedural::{Example, Features, Hyper, ProceduralModel};
 
-use super::pools::{Label, class_pools, trial_rng, view};
-use super::report::{Summary, write_csv};
+use super::pools::{Label, class_pools, draw, trial_rng};
+use super::report::Summary;
 use crate::experiment::SortingOptions;
 use crate::experiment::features::FeatureBank;
 use crate::figure::Figure;
-use crate::progress::Progress;
 
+/// Runs it: `incremental_pmfs.csv`, `incremental_pmfs.svg`, `samples.svg`, `size_density.svg` and
+/// the final model's explanation as notes.
 pub(super) fn incremental(
     args: &SortingOptions,
-    _progress: &dyn Progress,
     bank: &FeatureBank,
     hyper: &Hyper,
     label: Label,
@@ -26,10 +26,8 @@ pub(super) fn incremental(
     // Interleave the classes: one example of each per step.
     let mut examples = Vec::new();
     for (k, pool) in pools.iter().enumerate() {
-        let mut pool = pool.clone();
-        pool.shuffle(&mut rng);
-        for (i, &p) in pool.iter().take(m).enumerate() {
-            examples.push((i, k, view(bank, &mut rng, p).clone()));
+        for (i, (_, f)) in draw(bank, pool, m, &mut rng).into_iter().enumerate() {
+            examples.push((i, k, f));
         }
     }
     examples.sort_by_key(|e| (e.0, e.1));
@@ -77,18 +75,21 @@ pub(super) fn incremental(
         }
     }
     let dir = &args.output;
-    let csv_path = dir.join("incremental_pmfs.csv");
-    write_csv(&csv_path, "examples_per_class,place,bin,probability", &csv)?;
-    let svg = dir.join("incremental_pmfs.svg");
-    summary.figures.push((
-        svg.clone(),
+    summary.write_csv(
+        dir,
+        "incremental_pmfs.csv",
+        "examples_per_class,place,bin,probability",
+        &csv,
+    )?;
+    summary.add_figure(
+        dir,
+        "incremental_pmfs.svg",
         Figure::PmfGrid {
             title: "colour pmf per place after each example (Fig. 5.11)".into(),
             rows,
         },
-    ));
+    );
     // Swatches and size densities of the final model (Figs. 5.12, 5.5).
-    let sw = dir.join("samples.svg");
     let mut srng = trial_rng(args.seed, 4, 0, 0);
     let inst = model.sample_instances(&mut srng, 36 * classes.len())?;
     let by_place: Vec<(String, Vec<Features>)> = classes
@@ -103,27 +104,24 @@ pub(super) fn incremental(
             )
         })
         .collect();
-    summary.figures.push((sw.clone(), Figure::Swatches(by_place)));
-    let dens = dir.join("size_density.svg");
+    summary.add_figure(dir, "samples.svg", Figure::Swatches(by_place));
     let dists = classes
         .iter()
         .map(|c| Ok((c.clone(), model.size_density(c)?)))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    summary.figures.push((
-        dens.clone(),
+    summary.add_figure(
+        dir,
+        "size_density.svg",
         Figure::SizeDensities {
             places: dists,
             samples: vec![],
         },
-    ));
+    );
     let ex = model.explain()?;
     summary.measure = "colour pmf per place after each example".into();
     summary.notes.push(format!(
         "incremental = batch over 10 random orders: identical statistics {identical}, max |difference| of predictive quantities {max_diff:e}"
     ));
     summary.notes.extend(ex.text.lines().map(str::to_string));
-    summary
-        .files
-        .extend([csv_path, svg, sw, dens].map(|p| p.display().to_string()));
     Ok(())
 }

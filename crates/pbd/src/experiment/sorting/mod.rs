@@ -4,9 +4,12 @@
 //! demonstrations (each in a random rendered view), learns the procedural model, and tests on the
 //! class's remaining presentations (again in a random view). Everything is seeded.
 //!
-//! This file is the public API and the options' checks; the parts: `pools` (what a trial draws
-//! from), `trial` (one trial), `report` (the summary, `summary.md`, the CSVs) and one file per
-//! experiment — `sort` (colour / size), `relevance`, `incremental`, `selection`.
+//! This file is the public API and the options' checks. The machinery the experiments share is
+//! written once: `pools` (what a trial draws from), `trial` (one colour / size or relevance trial,
+//! and running them all), `sweep` (the examples-per-class × trials loop with its progress phase and
+//! stop requests), `report` (the summary rows, `summary.md`, the CSV files and figures). Each
+//! experiment's file says only what is its own — what a trial measures, its rows, files and
+//! figures: `sort` (colour / size), `relevance`, `incremental`, `selection`.
 
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -25,6 +28,7 @@ mod relevance;
 mod report;
 mod selection;
 mod sort;
+mod sweep;
 mod trial;
 
 pub use pools::Label;
@@ -33,7 +37,7 @@ pub use trial::{TrialRecord, chi2_against_random};
 
 use pools::setup;
 use report::markdown;
-use trial::run_trial;
+use trial::{run_trial, run_trials};
 
 /// Trial `trial` with `examples` examples per class of the experiment `args` on `bank` (see
 /// [`TrialRecord`]). `examples` must lie in 1..=the largest the classes allow.
@@ -262,9 +266,15 @@ fn run_with(
         partial: None,
     };
     match args.feature {
-        Feature::Color | Feature::Size => sort::sorting(args, progress, bank, test, &classes, &mut summary)?,
-        Feature::Relevance => relevance::relevance(args, progress, bank, test, &classes, &mut summary)?,
-        Feature::Incremental => incremental::incremental(args, progress, bank, &hyper, label, &classes, &mut summary)?,
+        Feature::Color | Feature::Size => {
+            let run = run_trials(args, progress, bank, test, &mut summary)?;
+            sort::sorting(args, run, &classes, &mut summary)?
+        }
+        Feature::Relevance => {
+            let run = run_trials(args, progress, bank, test, &mut summary)?;
+            relevance::relevance(args, run, bank, &classes, &mut summary)?
+        }
+        Feature::Incremental => incremental::incremental(args, bank, &hyper, label, &classes, &mut summary)?,
         Feature::Selection => selection::selection(args, progress, bank, &hyper, &mut summary)?,
     }
     summary.seconds[1] = t1.elapsed().as_secs_f64();

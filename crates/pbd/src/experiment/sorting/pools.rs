@@ -4,6 +4,7 @@
 
 use anyhow::bail;
 use rand::RngExt;
+use rand::seq::SliceRandom;
 use schema::procedural::{Features, Hyper};
 use serde::Serialize;
 
@@ -78,13 +79,27 @@ pub(super) fn class_pools(
     Ok(pools)
 }
 
+/// The random stream of trial `trial` with `n` examples per class; `salt` tells the experiments
+/// (and the feature-selection tasks) apart.
 pub(super) fn trial_rng(seed: u64, salt: u64, n: usize, trial: usize) -> Generator {
     crate::rng::stream(crate::rng::split(seed, salt), ((n as u64) << 32) | trial as u64)
 }
 
+/// Presentation `p` in one of its rendered views, drawn at random.
 pub(super) fn view<'a>(bank: &'a FeatureBank, rng: &mut Generator, p: usize) -> &'a Features {
     let v = rng.random_range(0..bank.variants());
     &bank.features[p][v]
+}
+
+/// The first `take` presentations of `pool` in a random order, each in a random view: (presentation,
+/// its features) — the pool is shuffled first, then the views are drawn in that order.
+pub(super) fn draw(bank: &FeatureBank, pool: &[usize], take: usize, rng: &mut Generator) -> Vec<(usize, Features)> {
+    let mut pool = pool.to_vec();
+    pool.shuffle(rng);
+    pool.iter()
+        .take(take)
+        .map(|&p| (p, view(bank, rng, p).clone()))
+        .collect()
 }
 
 /// The fixed parts of a run: classes, pools, negatives.

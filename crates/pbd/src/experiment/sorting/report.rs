@@ -5,8 +5,9 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::figure::FigureFile;
+use crate::figure::{Figure, FigureFile, LineChart, Series};
 
+/// The mean and the sample standard deviation (0 for fewer than two values).
 pub(super) fn mean_sd(xs: &[f64]) -> (f64, f64) {
     let n = xs.len().max(1) as f64;
     let m = xs.iter().sum::<f64>() / n;
@@ -18,6 +19,7 @@ pub(super) fn mean_sd(xs: &[f64]) -> (f64, f64) {
     (m, v.sqrt())
 }
 
+/// The median (NaN for none).
 pub(super) fn median(xs: &[f64]) -> f64 {
     let mut v = xs.to_vec();
     v.sort_by(f64::total_cmp);
@@ -92,14 +94,70 @@ pub struct Summary {
     pub partial: Option<String>,
 }
 
-pub(super) fn write_csv(path: &Path, header: &str, rows: &[String]) -> anyhow::Result<()> {
-    let mut s = String::from(header);
-    s.push('\n');
-    for r in rows {
-        s.push_str(r);
-        s.push('\n');
+impl Row {
+    /// The row of `examples` examples per class over its trials' `values` (mean and sd), without
+    /// p-values.
+    pub(super) fn of(examples: usize, values: &[f64]) -> Row {
+        let (mean, sd) = mean_sd(values);
+        Row {
+            examples,
+            mean,
+            sd,
+            median_p: None,
+            max_p: None,
+            p_computed: None,
+            pooled: None,
+        }
     }
-    crate::files::write_atomic(path, s.as_bytes())
+
+    /// (examples per class, mean): the row's point in a figure.
+    pub(super) fn point(&self) -> (f64, f64) {
+        (self.examples as f64, self.mean)
+    }
+}
+
+impl Summary {
+    /// Writes the CSV file `name` in `dir` (the header line, then the rows) and lists it among the
+    /// files.
+    pub(super) fn write_csv(&mut self, dir: &Path, name: &str, header: &str, rows: &[String]) -> anyhow::Result<()> {
+        let path = dir.join(name);
+        let mut s = String::from(header);
+        s.push('\n');
+        for r in rows {
+            s.push_str(r);
+            s.push('\n');
+        }
+        crate::files::write_atomic(&path, s.as_bytes())?;
+        self.files.push(path.display().to_string());
+        Ok(())
+    }
+
+    /// Adds a figure for the caller to draw to the file `name` in `dir`, and lists that file.
+    pub(super) fn add_figure(&mut self, dir: &Path, name: &str, figure: Figure) {
+        let path = dir.join(name);
+        self.files.push(path.display().to_string());
+        self.figures.push((path, figure));
+    }
+}
+
+/// A line chart against examples per class, n = 1..=`max_n`; y from 0 to 1.05 (a rate).
+pub(super) fn examples_chart(
+    title: String,
+    y_label: &str,
+    max_n: usize,
+    series: Vec<Series>,
+    hlines: Vec<(f64, String)>,
+) -> LineChart {
+    LineChart {
+        title,
+        x_label: "examples per class".into(),
+        y_label: y_label.into(),
+        x_range: (0.5, max_n as f64 + 0.5),
+        y_range: (0.0, 1.05),
+        log_y: false,
+        series,
+        hlines,
+    }
 }
 
 impl std::fmt::Display for Summary {

@@ -2,14 +2,14 @@
 //! colour-only, size-only and colour-and-size tasks.
 
 use anyhow::bail;
-use rand::seq::SliceRandom;
 use schema::procedural::{Connectivity, Example, Hyper, ProceduralModel, StructureChoice};
 
-use super::pools::{trial_rng, view};
-use super::report::{Row, Summary, mean_sd, write_csv};
+use super::pools::{draw, trial_rng};
+use super::report::{Row, Summary, examples_chart};
+use super::sweep::Trials;
 use crate::experiment::SortingOptions;
 use crate::experiment::features::FeatureBank;
-use crate::figure::{Figure, LineChart, Series};
+use crate::figure::{Figure, Series};
 use crate::progress::Progress;
 
 /// A place of a feature-selection task: (place name, colour class, size class) constraints.
@@ -41,6 +41,7 @@ fn selection_tasks() -> Vec<(&'static str, Connectivity, Vec<TaskPlace>)> {
     ]
 }
 
+/// Runs it: `selection.csv`, `selection.svg`, a table per task.
 pub(super) fn selection(
     args: &SortingOptions,
     progress: &dyn Progress,
@@ -50,7 +51,7 @@ pub(super) fn selection(
 ) -> anyhow::Result<()> {
     let max_n = args.max_examples.min(3);
     let tasks = selection_tasks();
-    progress.phase("trials", Some((tasks.len() * max_n * args.trials) as u64));
+    let mut trials = Trials::start(progress, tasks.len(), max_n, args.trials).uninterruptible();
     let mut csv = Vec::new();
     let mut series = Vec::new();
     let hyper = Hyper {
@@ -58,92 +59,83 @@ pub(super) fn selection(
         ..hyper.clone()
     };
     for (ti, (name, expected, places)) in tasks.iter().enumerate() {
-        let pools: Vec<Vec<usize>> = places
-            .iter()
-            .map(|(_, c, s)| {
-                (0..bank.presentations.len())
-                    .filter(|&i| {
-                        let p = &bank.presentations[i];
-                        c.is_none_or(|c| p.color_class.as_deref() == Some(c))
-                            && s.is_none_or(|s| p.size_class.as_deref() == Some(s))
-                    })
-                    .collect()
-            })
-            .collect();
-        if let Some((k, _)) = pools.iter().enumerate().find(|(_, p)| p.is_empty()) {
-            bail!(
-                "catalog {}: no presentation for place `{}` of task {name}",
-                bank.catalog,
-                places[k].0
-            );
-        }
+        let pools = task_pools(bank, name, places)?;
         let names: Vec<String> = places.iter().map(|p| p.0.to_string()).collect();
-        let mut rows = Vec::new();
-        for n in 1..=max_n {
-            let mut hits = Vec::new();
-            for t in 0..args.trials {
-                let mut rng = trial_rng(args.seed, 10 + ti as u64, n, t);
-                let mut train = Vec::new();
-                for (k, pool) in pools.iter().enumerate() {
-                    let mut pool = pool.clone();
-                    pool.shuffle(&mut rng);
-                    for &p in pool.iter().take(n) {
-                        train.push(Example {
-                            features: view(bank, &mut rng, p).clone(),
-                            reference: names[k].clone(),
-                        });
-                    }
+        let by_n = trials.sweep(|n, t| {
+            let mut rng = trial_rng(args.seed, 10 + ti as u64, n, t);
+            let mut train = Vec::new();
+            for (k, pool) in pools.iter().enumerate() {
+                for (_, features) in draw(bank, pool, n, &mut rng) {
+                    train.push(Example {
+                        features,
+                        reference: names[k].clone(),
+                    });
                 }
-                let model = ProceduralModel::learn(hyper.clone(), &train)?;
-                let sp = model.structure_posterior()?;
-                let ok = sp.map() == *expected;
-                hits.push(f64::from(u8::from(ok)));
-                let probs: Vec<String> = sp.structures.iter().map(|s| format!("{:.6}", s.probability)).collect();
-                csv.push(format!("{name},{n},{t},{},{ok},{}", sp.map().name(), probs.join(",")));
-                progress.advance(1);
             }
-            let (mean, sd) = mean_sd(&hits);
-            rows.push(Row {
-                examples: n,
-                mean,
-                sd,
-                median_p: None,
-                max_p: None,
-                p_computed: None,
-                pooled: None,
-            });
+            let model = ProceduralModel::learn(hyper.clone(), &train)?;
+            let sp = model.structure_posterior()?;
+            let ok = sp.map() == *expected;
+            let probs: Vec<String> = sp.structures.iter().map(|s| format!("{:.6}", s.probability)).collect();
+            let line = format!("{name},{n},{t},{},{ok},{}", sp.map().name(), probs.join(","));
+            Ok((f64::from(u8::from(ok)), line))
+        })?;
+        let mut rows = Vec::new();
+        for (n, results) in by_n {
+            let (hits, lines): (Vec<f64>, Vec<String>) = results.into_iter().unzip();
+            csv.extend(lines);
+            rows.push(Row::of(n, &hits));
         }
         series.push(Series {
             label: name.to_string(),
-            points: rows.iter().map(|r| (r.examples as f64, r.mean)).collect(),
+            points: rows.iter().map(Row::point).collect(),
             errors: vec![],
         });
         summary.rows.insert(name.to_string(), rows);
     }
-    progress.finish();
+    summary.partial = trials.finish();
     let dir = &args.output;
-    let csv_path = dir.join("selection.csv");
-    write_csv(
-        &csv_path,
+    summary.write_csv(
+        dir,
+        "selection.csv",
         "task,examples_per_class,trial,map_structure,correct,p_neither,p_color,p_size,p_color_size",
         &csv,
     )?;
-    let svg = dir.join("selection.svg");
-    summary.figures.push((
-        svg.clone(),
-        Figure::Lines(LineChart {
-            title: "feature selection: right structure named (fraction of trials)".into(),
-            x_label: "examples per class".into(),
-            y_label: "fraction of trials".into(),
-            x_range: (0.5, max_n as f64 + 0.5),
-            y_range: (0.0, 1.05),
-            log_y: false,
+    summary.add_figure(
+        dir,
+        "selection.svg",
+        Figure::Lines(examples_chart(
+            "feature selection: right structure named (fraction of trials)".into(),
+            "fraction of trials",
+            max_n,
             series,
-            hlines: vec![(0.9, "0.9".into())],
-        }),
-    ));
+            vec![(0.9, "0.9".into())],
+        )),
+    );
     summary.measure = "fraction of trials whose MAP structure is the task's".into();
     summary.classes = tasks.iter().map(|t| t.0.to_string()).collect();
-    summary.files.extend([csv_path, svg].map(|p| p.display().to_string()));
     Ok(())
+}
+
+/// The presentations of each place of the task `name`: those whose labels match its constraints.
+fn task_pools(bank: &FeatureBank, name: &str, places: &[TaskPlace]) -> anyhow::Result<Vec<Vec<usize>>> {
+    let pools: Vec<Vec<usize>> = places
+        .iter()
+        .map(|(_, c, s)| {
+            (0..bank.presentations.len())
+                .filter(|&i| {
+                    let p = &bank.presentations[i];
+                    c.is_none_or(|c| p.color_class.as_deref() == Some(c))
+                        && s.is_none_or(|s| p.size_class.as_deref() == Some(s))
+                })
+                .collect()
+        })
+        .collect();
+    if let Some((k, _)) = pools.iter().enumerate().find(|(_, p)| p.is_empty()) {
+        bail!(
+            "catalog {}: no presentation for place `{}` of task {name}",
+            bank.catalog,
+            places[k].0
+        );
+    }
+    Ok(pools)
 }

@@ -1,39 +1,28 @@
 //! The colour / size sorting experiment (Figs. 5.2, 5.3, 5.6): success rate and χ² p-value against
 //! a random sorter per number of examples per class.
 
-use super::pools::setup;
-use super::report::{Row, Summary, mean_sd, median, write_csv};
-use super::trial::run_trial;
+use super::report::{Row, Summary, examples_chart, median};
+use super::trial::Run;
 use crate::experiment::SortingOptions;
-use crate::experiment::features::FeatureBank;
 use crate::figure::{Figure, LineChart, Series};
-use crate::progress::Progress;
 
+/// Its report on the trials `run`: `success.csv`, `success.svg`, `p_values.svg`, a row per n.
 pub(super) fn sorting(
     args: &SortingOptions,
-    progress: &dyn Progress,
-    bank: &FeatureBank,
-    test: Option<&FeatureBank>,
+    run: Run,
     classes: &[String],
     summary: &mut Summary,
 ) -> anyhow::Result<()> {
-    let setup = setup(args, bank, test)?;
-    let max_n = setup.max_n;
-    progress.phase("trials", Some((max_n * args.trials) as u64));
+    let max_n = run.setup.max_n;
     let mut csv = Vec::new();
     let mut rows = Vec::new();
     let mut not_computed = Vec::new();
-    let mut done = 0;
-    for n in 1..=max_n {
+    for (n, trials) in run.by_n {
         let mut rates = Vec::new();
         let mut ps = Vec::new();
         let (mut hits, mut tested) = (0, 0);
-        for t in 0..args.trials {
-            if progress.should_stop() {
-                break;
-            }
-            done += 1;
-            let (r, _, _) = run_trial(args, bank, &setup, n, t)?;
+        for (r, _, _) in trials {
+            let t = r.trial;
             hits += r.correct;
             tested += r.tested;
             csv.push(format!(
@@ -53,16 +42,8 @@ pub(super) fn sorting(
                     why.unwrap_or_default()
                 )),
             }
-            progress.advance(1);
         }
-        if rates.is_empty() {
-            break;
-        }
-        let (mean, sd) = mean_sd(&rates);
         rows.push(Row {
-            examples: n,
-            mean,
-            sd,
             median_p: (!ps.is_empty()).then(|| median(&ps)),
             max_p: (!ps.is_empty()).then(|| ps.iter().copied().fold(0.0, f64::max)),
             p_computed: Some(ps.len()),
@@ -70,10 +51,8 @@ pub(super) fn sorting(
                 hits as f64 / tested.max(1) as f64,
                 dexter_sim::experiment::wilson(hits, tested),
             )),
+            ..Row::of(n, &rates)
         });
-    }
-    if done < max_n * args.trials {
-        summary.partial = Some(format!("interrupted after {done} of {} trials", max_n * args.trials));
     }
     if !not_computed.is_empty() {
         summary.notes.push(format!(
@@ -82,70 +61,57 @@ pub(super) fn sorting(
             not_computed.iter().take(5).cloned().collect::<Vec<_>>().join("; ")
         ));
     }
-    progress.finish();
     let dir = &args.output;
-    let csv_path = dir.join("success.csv");
-    write_csv(
-        &csv_path,
+    summary.write_csv(
+        dir,
+        "success.csv",
         "examples_per_class,trial,correct,tested,success_rate,chi2_p_value,map_structure,map_structure_probability",
         &csv,
     )?;
     let what = classes.join(" vs ");
-    let svg = dir.join("success.svg");
-    summary.figures.push((
-        svg.clone(),
-        Figure::Lines(LineChart {
-            title: format!("sorting {what}: success rate (mean ± sd, {} trials)", args.trials),
-            x_label: "examples per class".into(),
-            y_label: "success rate".into(),
-            x_range: (0.5, max_n as f64 + 0.5),
-            y_range: (0.0, 1.05),
-            log_y: false,
-            series: vec![Series {
-                label: String::new(),
-                points: rows.iter().map(|r| (r.examples as f64, r.mean)).collect(),
-                errors: rows.iter().map(|r| (r.mean - r.sd, (r.mean + r.sd).min(1.0))).collect(),
-            }],
-            hlines: vec![(1.0 / classes.len() as f64, "random sorter".into())],
-        }),
-    ));
-    let psvg = dir.join("p_values.svg");
+    let rates = Series {
+        label: String::new(),
+        points: rows.iter().map(Row::point).collect(),
+        errors: rows.iter().map(|r| (r.mean - r.sd, (r.mean + r.sd).min(1.0))).collect(),
+    };
+    summary.add_figure(
+        dir,
+        "success.svg",
+        Figure::Lines(examples_chart(
+            format!("sorting {what}: success rate (mean ± sd, {} trials)", args.trials),
+            "success rate",
+            max_n,
+            vec![rates],
+            vec![(1.0 / classes.len() as f64, "random sorter".into())],
+        )),
+    );
     let floor = 1e-300;
     let lo = rows.iter().filter_map(|r| r.median_p).fold(1.0, f64::min).max(floor) * 0.1;
-    summary.figures.push((
-        psvg.clone(),
+    let p_series = |label: &str, p: fn(&Row) -> Option<f64>| Series {
+        label: label.into(),
+        points: rows
+            .iter()
+            .filter_map(|r| Some((r.examples as f64, p(r)?.max(floor))))
+            .collect(),
+        errors: vec![],
+    };
+    let p_values = vec![p_series("maximum", |r| r.max_p), p_series("median", |r| r.median_p)];
+    summary.add_figure(
+        dir,
+        "p_values.svg",
         Figure::Lines(LineChart {
-            title: format!("sorting {what}: χ² p-value against a random sorter"),
-            x_label: "examples per class".into(),
-            y_label: "p-value".into(),
-            x_range: (0.5, max_n as f64 + 0.5),
             y_range: (lo, 1.0),
             log_y: true,
-            series: vec![
-                Series {
-                    label: "maximum".into(),
-                    points: rows
-                        .iter()
-                        .filter_map(|r| Some((r.examples as f64, r.max_p?.max(floor))))
-                        .collect(),
-                    errors: vec![],
-                },
-                Series {
-                    label: "median".into(),
-                    points: rows
-                        .iter()
-                        .filter_map(|r| Some((r.examples as f64, r.median_p?.max(floor))))
-                        .collect(),
-                    errors: vec![],
-                },
-            ],
-            hlines: vec![(0.05, "5 %".into()), (0.01, "1 %".into())],
+            ..examples_chart(
+                format!("sorting {what}: χ² p-value against a random sorter"),
+                "p-value",
+                max_n,
+                p_values,
+                vec![(0.05, "5 %".into()), (0.01, "1 %".into())],
+            )
         }),
-    ));
+    );
     summary.measure = "success rate (correctly sorted / tested)".into();
     summary.rows.insert(what, rows);
-    summary
-        .files
-        .extend([csv_path, svg, psvg].map(|p| p.display().to_string()));
     Ok(())
 }

@@ -5,13 +5,15 @@ use std::collections::BTreeMap;
 
 use bayes::chi2::chi2_contingency;
 use bayes::roc::auc;
-use rand::seq::SliceRandom;
-use schema::procedural::{Example, Features, Hyper, ProceduralModel};
+use schema::procedural::{Example, ProceduralModel};
 use serde::Serialize;
 
-use super::pools::{Setup, trial_rng, view};
+use super::pools::{Setup, draw, setup, trial_rng, view};
+use super::report::Summary;
+use super::sweep::Trials;
 use crate::experiment::features::FeatureBank;
 use crate::experiment::{Feature, SortingOptions};
+use crate::progress::Progress;
 use crate::rng::Generator;
 
 /// One sorting trial.
@@ -26,37 +28,32 @@ struct TrialResult {
     scored: Vec<usize>,
 }
 
-#[allow(clippy::too_many_arguments)]
+/// One trial with `n` examples per class and `background` objects left alone in the demonstration
+/// scenes (relevance), drawn from `rng`.
 fn sorting_trial(
     bank: &FeatureBank,
-    pools: &[Vec<usize>],
-    names: &[String],
-    hyper: &Hyper,
+    s: &Setup,
     n: usize,
     rng: &mut Generator,
-    negatives: &[usize],
-    held_out: Option<(&FeatureBank, &[Vec<usize>])>,
-    background: (&[usize], usize),
+    background: usize,
 ) -> anyhow::Result<TrialResult> {
-    let mut train = Vec::new();
+    let names = &s.classes;
     // The scene's other objects (left alone by the teacher): drawn first, from the training bank.
-    let mut scene: Vec<usize> = Vec::new();
-    if background.1 > 0 {
-        scene = background.0.to_vec();
-        scene.shuffle(rng);
-        scene.truncate(background.1);
-    }
-    let scene_features: Vec<Features> = scene.iter().map(|&p| view(bank, rng, p).clone()).collect();
-    let seen: Vec<&str> = scene.iter().map(|&p| bank.presentations[p].object.as_str()).collect();
+    let scene = if background > 0 {
+        draw(bank, &s.distractors, background, rng)
+    } else {
+        Vec::new()
+    };
+    let seen: Vec<&str> = scene
+        .iter()
+        .map(|(p, _)| bank.presentations[*p].object.as_str())
+        .collect();
+    let mut train = Vec::new();
     let mut test = Vec::new();
-    for (k, pool) in pools.iter().enumerate() {
-        let mut pool = pool.clone();
-        pool.shuffle(rng);
-        for (i, &p) in pool.iter().enumerate() {
-            if held_out.is_some() && i >= n {
-                break;
-            }
-            let f = view(bank, rng, p).clone();
+    for (k, pool) in s.pools.iter().enumerate() {
+        // With a held-out catalog only the examples are drawn; else the rest are the test objects.
+        let take = if s.test.is_some() { n } else { pool.len() };
+        for (i, (p, f)) in draw(bank, pool, take, rng).into_iter().enumerate() {
             if i < n {
                 train.push(Example {
                     features: f,
@@ -68,19 +65,19 @@ fn sorting_trial(
         }
     }
     // A held-out catalog: every presentation of each class is a test object; the negatives are its.
-    let bank = match held_out {
+    let bank = match &s.test {
         Some((test_bank, test_pools)) => {
             for (k, pool) in test_pools.iter().enumerate() {
                 for &p in pool {
                     test.push((k, p, view(test_bank, rng, p).clone()));
                 }
             }
-            test_bank
+            *test_bank
         }
         None => bank,
     };
-    let mut model = ProceduralModel::learn(hyper.clone(), &train)?;
-    for f in &scene_features {
+    let mut model = ProceduralModel::learn(s.hyper.clone(), &train)?;
+    for (_, f) in &scene {
         model.observe_background(f)?;
     }
     let order: Vec<&str> = model.place_names();
@@ -99,9 +96,9 @@ fn sorting_trial(
         scored.push(*p);
     }
     debug_assert_eq!(order.len(), names.len());
-    for &p in negatives {
+    for &p in &s.negatives {
         // An object seen in the demonstration scenes is not a new object (same catalog only).
-        if held_out.is_none() && seen.contains(&bank.presentations[p].object.as_str()) {
+        if s.test.is_none() && seen.contains(&bank.presentations[p].object.as_str()) {
             continue;
         }
         let f = view(bank, rng, p);
@@ -198,25 +195,12 @@ pub(super) fn run_trial(
 ) -> anyhow::Result<TrialScores> {
     let salt = if args.feature == Feature::Relevance { 2 } else { 1 };
     let mut rng = trial_rng(args.seed, salt, n, t);
-    let held_out = s.test.as_ref().map(|(b, p)| (*b, p.as_slice()));
-    let r = sorting_trial(
-        bank,
-        &s.pools,
-        &s.classes,
-        &s.hyper,
-        n,
-        &mut rng,
-        &s.negatives,
-        held_out,
-        (
-            &s.distractors,
-            if args.feature == Feature::Relevance {
-                args.background
-            } else {
-                0
-            },
-        ),
-    )?;
+    let background = if args.feature == Feature::Relevance {
+        args.background
+    } else {
+        0
+    };
+    let r = sorting_trial(bank, s, n, &mut rng, background)?;
     let sp = r.model.structure_posterior()?;
     let (auc_value, accuracy) = if args.feature == Feature::Relevance {
         let th = s.hyper.relevance_log_threshold;
@@ -240,4 +224,29 @@ pub(super) fn run_trial(
         accuracy_at_threshold: accuracy,
     };
     Ok((record, r.scores, r.scored))
+}
+
+/// The trials of a colour / size sorting or relevance run.
+pub(super) struct Run<'a> {
+    /// Its set-up.
+    pub setup: Setup<'a>,
+    /// Per n = 1, 2, … examples per class: n, and each trial's record and scores in trial order.
+    pub by_n: Vec<(usize, Vec<TrialScores>)>,
+}
+
+/// Runs the trials of the colour / size sorting or relevance experiment `args` on `bank` (the test
+/// objects from `test` when given) under the progress phase "trials"; when stopped, says so in
+/// `summary.partial`.
+pub(super) fn run_trials<'a>(
+    args: &SortingOptions,
+    progress: &dyn Progress,
+    bank: &FeatureBank,
+    test: Option<&'a FeatureBank>,
+    summary: &mut Summary,
+) -> anyhow::Result<Run<'a>> {
+    let setup = setup(args, bank, test)?;
+    let mut trials = Trials::start(progress, 1, setup.max_n, args.trials);
+    let by_n = trials.sweep(|n, t| run_trial(args, bank, &setup, n, t))?;
+    summary.partial = trials.finish();
+    Ok(Run { setup, by_n })
 }
