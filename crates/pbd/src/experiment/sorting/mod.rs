@@ -168,7 +168,7 @@ fn run_on_bank_impl(args: &SortingOptions, bank: &FeatureBank, progress: &dyn Pr
 }
 
 /// The classes, the kind of label and the hyperparameters of a run, validated.
-pub(super) fn plan(args: &SortingOptions) -> anyhow::Result<(Vec<String>, Label, Hyper)> {
+fn plan(args: &SortingOptions) -> anyhow::Result<(Vec<String>, Label, Hyper)> {
     crate::limits::check_count("trials", args.trials, crate::limits::MAX_TRIALS)?;
     crate::limits::check_count("max_examples", args.max_examples, crate::limits::MAX_EXAMPLES)?;
     crate::limits::check_count("views", args.views, crate::limits::MAX_VIEWS)?;
