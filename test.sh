@@ -11,12 +11,14 @@ cd "$(dirname "${BASH_SOURCE[0]}")"
 what="${PBD_TEST:-all}"
 
 if [ "$what" = all ] || [ "$what" = rust ]; then
-    echo "== Rust tests"
+    echo "== [${SECONDS} s] Rust tests: build"
+    cargo test --workspace --release --no-run
+    echo "== [${SECONDS} s] Rust tests: run"
     cargo test --workspace --release
 fi
 
 if [ "$what" = all ] || [ "$what" = python ]; then
-    echo "== Python module (crates/py) and its tests"
+    echo "== [${SECONDS} s] Python module (crates/py) and its tests"
     python="${PYTHON:-python3}"
     venv="${PBD_VENV:-.venv-test}"
     if [ ! -x "$venv/bin/python" ]; then
@@ -29,5 +31,6 @@ if [ "$what" = all ] || [ "$what" = python ]; then
     # The module is built in the repository's target directory, so it reuses what the Rust tests built.
     CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$PWD/target}" \
         "$venv/bin/python" -m pip install --quiet --force-reinstall --no-deps ./crates/py
+    echo "== [${SECONDS} s] pytest"
     "$venv/bin/python" -m pytest -q -rs crates/py/tests
 fi
