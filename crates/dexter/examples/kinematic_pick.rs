@@ -30,7 +30,9 @@ const MASS: f64 = 0.2;
 const CONTACT_FLEX: f64 = 1.0;
 
 /// The scripted world and the robot's hardware in one.
-struct ScriptedDexter {
+/// (Public so that the tests that include this example can build the plant.)
+#[allow(missing_debug_implementations)]
+pub struct ScriptedDexter {
     model: RobotModel,
     names: Vec<String>,
     limits: Vec<JointLimits>,
@@ -53,7 +55,7 @@ struct ScriptedDexter {
 }
 
 impl ScriptedDexter {
-    fn new() -> Result<Self, Box<dyn std::error::Error>> {
+    pub fn new() -> Result<Self, Box<dyn std::error::Error>> {
         let model = RobotModel::from_urdf_str(include_str!("../../../assets/dexter.urdf"))?;
         let joints: Vec<_> = model.actuated_joints().cloned().collect();
         let names: Vec<String> = joints.iter().map(|j| j.name.clone()).collect();

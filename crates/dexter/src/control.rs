@@ -244,27 +244,8 @@ impl ReachControl {
         }
         // Reference generator: move `commanded` towards `goal` with a trapezoidal speed profile
         // (bounded speed and acceleration), so that a held object is not shaken out of the hand.
-        let dp = self.goal.translation.vector - self.commanded.translation.vector;
-        let dist = dp.norm();
-        let braking = (2.0 * self.max_acceleration * dist).sqrt();
-        self.speed = (self.speed + self.max_acceleration * dt)
-            .min(self.max_speed)
-            .min(braking);
-        let step = self.speed * dt;
-        if dist > step && dist > 1e-9 {
-            self.commanded.translation.vector += dp * (step / dist);
-        } else {
-            self.commanded.translation.vector = self.goal.translation.vector;
-            self.speed = 0.0;
-        }
-        let dr = self.commanded.rotation.rotation_to(&self.goal.rotation);
-        let angle = dr.angle();
-        let astep = self.max_angular_speed * dt;
-        self.commanded.rotation = if angle > astep {
-            self.commanded.rotation.slerp(&self.goal.rotation, astep / angle)
-        } else {
-            self.goal.rotation
-        };
+        let limits = self.limits();
+        advance_reference(&mut self.commanded, &mut self.speed, &self.goal, limits, dt);
         let _ = self
             .stack
             .set_reference(&self.chain, 0, Reference::Pose(self.commanded));
@@ -278,6 +259,77 @@ impl ReachControl {
             let j = self.binding.plant_index(i);
             hw.set_joint_reference(j, self.q_chain[i] + du[i], du[i] / dt);
         }
+    }
+
+    /// The reference generator's limits: linear speed, linear acceleration, angular speed.
+    fn limits(&self) -> [f64; 3] {
+        [self.max_speed, self.max_acceleration, self.max_angular_speed]
+    }
+
+    /// A kinematic rollout of the Cartesian reach (the same reference generator and control stack as
+    /// [`ReachControl::tick`], on the robot's own model) from configuration `q0` (chain order) through
+    /// the tool poses of `way` in turn, each for at most `seconds` (a via point counts as passed
+    /// within 3 cm, the last pose as reached within 1.5 cm), the motor units assumed to track their
+    /// references. `clearance` measures each
+    /// configuration passed through (e.g. [`crate::sweep::arm_clearance`]); the sweep keeps the
+    /// least. Nothing is commanded. A robot-side plan check: which way round a tall thing the whole
+    /// arm, not only the palm, can take.
+    pub fn sweep(
+        &self,
+        q0: &[f64],
+        way: &[Iso3],
+        seconds: f64,
+        clearance: &mut dyn FnMut(&ChainState) -> f64,
+    ) -> Sweep {
+        const DT: f64 = 0.02;
+        let mut out = Sweep {
+            clearance: f64::INFINITY,
+            reached: true,
+            error: 0.0,
+        };
+        let mut state = self.state.clone();
+        let mut stack = self.stack.clone();
+        stack.reset_predicates();
+        let mut q = q0.to_vec();
+        if state.set_q(&self.chain, &q).is_err() {
+            out.reached = false;
+            return out;
+        }
+        control_basis::forward_kinematics(&self.chain, &mut state);
+        let mut commanded = *state.tip_pose();
+        let limits = self.limits();
+        for (i, goal) in way.iter().enumerate() {
+            // A via point counts as passed within 3 cm (as [`crate::skills`] moves through them),
+            // the goal within 1.5 cm.
+            let tolerance = if i + 1 < way.len() { 0.03 } else { 0.015 };
+            let mut speed = 0.0;
+            let mut reached = false;
+            for _ in 0..(seconds / DT).ceil() as usize {
+                advance_reference(&mut commanded, &mut speed, goal, limits, DT);
+                let _ = stack.set_reference(&self.chain, 0, Reference::Pose(commanded));
+                let _ = stack.set_reference(&self.chain, 1, Reference::Undefined);
+                if state.set_q(&self.chain, &q).is_err() {
+                    break;
+                }
+                let du = stack.tick(&self.chain, &mut state, &[], DT);
+                for (qi, d) in q.iter_mut().zip(du.iter()) {
+                    *qi += d;
+                }
+                // `tick` left the forward kinematics of the configuration before the step.
+                out.clearance = out.clearance.min(clearance(&state));
+                let error = (state.tip_pose().translation.vector - goal.translation.vector).norm();
+                if commanded.translation.vector == goal.translation.vector && error < tolerance {
+                    reached = true;
+                    break;
+                }
+            }
+            if !reached {
+                out.reached = false;
+                out.error = (state.tip_pose().translation.vector - goal.translation.vector).norm();
+                return out;
+            }
+        }
+        out
     }
 
     /// Distance (m) and angle (rad) between the measured tool pose and the goal.
@@ -305,6 +357,42 @@ impl ReachControl {
     pub fn predicate(&self) -> Predicate {
         self.stack.predicate(0)
     }
+}
+
+/// What a [`ReachControl::sweep`] found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sweep {
+    /// The least clearance (m) of the configurations passed through.
+    pub clearance: f64,
+    /// Whether every pose of the way was reached.
+    pub reached: bool,
+    /// How far (m) the tool stayed from the first pose it did not reach (0 when all were).
+    pub error: f64,
+}
+
+/// One tick of the Cartesian reference generator: moves `commanded` towards `goal` with a
+/// trapezoidal speed profile (`limits`: linear speed, linear acceleration, angular speed; `speed` the
+/// reference's current linear speed).
+fn advance_reference(commanded: &mut Iso3, speed: &mut f64, goal: &Iso3, limits: [f64; 3], dt: f64) {
+    let [max_speed, max_acceleration, max_angular_speed] = limits;
+    let dp = goal.translation.vector - commanded.translation.vector;
+    let dist = dp.norm();
+    let braking = (2.0 * max_acceleration * dist).sqrt();
+    *speed = (*speed + max_acceleration * dt).min(max_speed).min(braking);
+    let step = *speed * dt;
+    if dist > step && dist > 1e-9 {
+        commanded.translation.vector += dp * (step / dist);
+    } else {
+        commanded.translation.vector = goal.translation.vector;
+        *speed = 0.0;
+    }
+    let angle = commanded.rotation.rotation_to(&goal.rotation).angle();
+    let astep = max_angular_speed * dt;
+    commanded.rotation = if angle > astep {
+        commanded.rotation.slerp(&goal.rotation, astep / angle)
+    } else {
+        goal.rotation
+    };
 }
 
 /// The BarrettHand's motor units: spread and the three flexion joints.

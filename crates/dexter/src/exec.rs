@@ -613,7 +613,7 @@ impl<'a> RobotPlant<'a> {
             .segments
             .iter()
             .filter_map(|s| s.extent.as_ref())
-            .filter(|e| e.model == "standing")
+            .filter(|e| e.model.starts_with("standing"))
             .collect();
         p.segments
             .iter()
@@ -635,7 +635,7 @@ impl<'a> RobotPlant<'a> {
                     return None;
                 }
                 let tall = match e.model.as_str() {
-                    "standing" => true,
+                    "standing" | "standing_whole" => true,
                     "coarse" => {
                         s.centroid[2] - table_z > TALL_THING
                             && palms
@@ -644,10 +644,16 @@ impl<'a> RobotPlant<'a> {
                     }
                     _ => e.height > TALL_THING,
                 };
+                // A coarse segment's centroid lies half-way up what it saw.
+                let top = match e.model.as_str() {
+                    "coarse" => table_z + 2.0 * (s.centroid[2] - table_z),
+                    _ => table_z + e.height,
+                };
                 tall.then_some(crate::route::Obstacle {
                     center: e.center,
                     major_axis: e.major_axis,
                     half: [e.half_major, e.half_minor],
+                    top,
                 })
             })
             .collect()
@@ -895,8 +901,13 @@ impl<'a> RobotPlant<'a> {
                 })
             })
         };
-        // Spots the head sees the object on first; if there are none, any.
-        for must_see in [true, false] {
+        // Spots the head sees the object on first, to which both arms have a way clear of the
+        // tall things (the holding arm's carry, the other's reach; [`crate::skills::plan_way`]);
+        // then seen spots; then spots with clear ways; then any.
+        for (must_see, must_clear) in [(true, true), (true, false), (false, true), (false, false)] {
+            if must_clear && tall.is_empty() {
+                continue;
+            }
             for (c, _, _) in &candidates {
                 let c = *c;
                 // The head must turn to the spot (both cameras, for stereo) to find the object there.
@@ -904,10 +915,17 @@ impl<'a> RobotPlant<'a> {
                 if (must_see && hidden(c)) || !self.watcher.can_look_at(self.hw, &seen_at, HEAD_LIMIT_MARGIN)? {
                     continue;
                 }
-                if arms_reaching(self.hw, table_z, &Vec3::new(c[0], c[1], table_z))?.len() == 2 {
+                if arms_reaching(self.hw, table_z, &Vec3::new(c[0], c[1], table_z))?.len() == 2
+                    && (!must_clear || self.ways_to_spot_clear(c, &tall))
+                {
                     tracing::debug!(
-                        "handoff spot {c:?}{}",
-                        if must_see { "" } else { " (hidden from the head)" }
+                        "handoff spot {c:?}{}{}",
+                        if must_see { "" } else { " (hidden from the head)" },
+                        if must_clear || tall.is_empty() {
+                            ""
+                        } else {
+                            " (an arm's way passes a tall thing)"
+                        }
                     );
                     self.handoff = c;
                     return Ok(Some(c));
@@ -915,6 +933,54 @@ impl<'a> RobotPlant<'a> {
             }
         }
         Ok(None)
+    }
+
+    /// Whether both arms have a way to the handoff spot `c` that keeps the whole arm clear of the
+    /// `tall` things ([`crate::skills::plan_way`], rolled out from where each arm is now): the arm
+    /// that holds the object carrying it over the spot (its bottom [`Held::below`] the palm), the
+    /// other reaching above the spot, each at its present height or higher — and on down to the
+    /// spot; and no tall thing between the spot and the destination ([`RobotPlant::set_destination`]).
+    fn ways_to_spot_clear(&mut self, c: [f64; 2], tall: &[crate::route::Obstacle]) -> bool {
+        let table_z = self.workspace.table_z;
+        // The receiving hand carries the object on to the destination: a spot beyond a tall thing
+        // from there has it carried round (or over) the thing again, high and far.
+        if let Some(d) = self.destination
+            && !crate::route::clear_of(c, d, tall, crate::skills::ROUTE_CLEARANCE)
+        {
+            tracing::trace!("handoff spot {c:?}: a tall thing between it and the destination");
+            return false;
+        }
+        for arm in Arm::BOTH {
+            let held = self.held.filter(|_| self.touch(arm).holding());
+            let (below, offset) = held.map_or((crate::sweep::HAND_LENGTH, [0.0; 2]), |h| (h.below, h.offset_xy));
+            let reach = &mut self.reach[arm.index()];
+            let mut goal = reach.tool_pose(self.hw);
+            let q0 = reach.chain_configuration(self.hw);
+            let z = goal.translation.z.max(table_z + below + 0.10);
+            goal.translation.vector = Vec3::new(c[0] - offset[0], c[1] - offset[1], z);
+            let saved = std::mem::replace(&mut reach.avoid, tall.to_vec());
+            let way = crate::skills::plan_way(reach, q0.as_slice(), &goal, crate::skills::ROUTE_CLEARANCE, below);
+            // Then down to the spot: the holding hand puts the object on the table, the other
+            // grasps it there (its palm about an object's height above the table) — a forearm
+            // that comes down onto a post beside the spot stops the hand short.
+            let down = way.as_ref().filter(|w| w.clear).map(|w| {
+                let mut low = goal;
+                low.translation.vector.z = table_z + below.max(0.10);
+                let mut poses = w.poses.clone();
+                poses.push(low);
+                let chain = reach.chain().clone();
+                let sweep = reach.sweep(q0.as_slice(), &poses, 5.0, &mut |st| {
+                    crate::sweep::arm_clearance(&chain, st, tall, f64::NEG_INFINITY, below)
+                });
+                sweep.reached && sweep.clearance >= w.clearance.min(crate::skills::SWEEP_MARGIN) - 1e-9
+            });
+            reach.avoid = saved;
+            if way.is_some_and(|w| !w.clear) || down == Some(false) {
+                tracing::trace!("handoff spot {c:?}: no clear way for the {arm} arm (down: {down:?})");
+                return false;
+            }
+        }
+        true
     }
 
     /// Looks over the middle of the table, where handoff spots lie (the scan points within

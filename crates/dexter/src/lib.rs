@@ -40,6 +40,7 @@ pub mod exec;
 pub mod eyes;
 pub mod route;
 pub mod skills;
+pub mod sweep;
 pub mod task;
 pub mod vision;
 pub mod watch;

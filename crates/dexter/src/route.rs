@@ -18,6 +18,9 @@ pub struct Obstacle {
     pub major_axis: [f64; 2],
     /// Half extents along the major and the minor axis (m).
     pub half: [f64; 2],
+    /// Height (m, world) of its top: a whole-arm sweep ([`crate::sweep`]) may pass over it.
+    /// `f64::INFINITY` when unknown.
+    pub top: f64,
 }
 
 impl Obstacle {
@@ -204,6 +207,7 @@ mod tests {
             center: [0.55, -0.1],
             major_axis: [0.0, 1.0],
             half: [0.11, 0.03],
+            top: f64::INFINITY,
         }
     }
 
@@ -272,6 +276,7 @@ mod tests {
             center: [0.45, 0.0],
             major_axis: [1.0, 0.0],
             half: [0.1, 0.04],
+            top: f64::INFINITY,
         };
         let free = route([0.45, 0.3], [0.45, -0.3], &[post], 0.1).unwrap();
         assert!(free.iter().any(|p| p[0] < 0.3), "{free:?}");
@@ -291,21 +296,25 @@ mod tests {
                 center: [1.0, 0.0],
                 major_axis: [0.0, 1.0],
                 half: [0.5, 0.01],
+                top: f64::INFINITY,
             },
             Obstacle {
                 center: [1.4, 0.0],
                 major_axis: [0.0, 1.0],
                 half: [0.5, 0.01],
+                top: f64::INFINITY,
             },
             Obstacle {
                 center: [1.2, 0.4],
                 major_axis: [1.0, 0.0],
                 half: [0.3, 0.01],
+                top: f64::INFINITY,
             },
             Obstacle {
                 center: [1.2, -0.4],
                 major_axis: [1.0, 0.0],
                 half: [0.3, 0.01],
+                top: f64::INFINITY,
             },
         ];
         assert_eq!(route([0.0, 0.0], [1.2, 0.0], &walls, 0.05), None);

@@ -56,7 +56,13 @@ struct Tracker {
 /// Whether a segment's extent was measured from its vertical edges: a tall thing standing on the
 /// table ([`crate::vision::edges`]).
 fn standing(s: &SegmentPercept) -> bool {
-    s.extent.as_ref().is_some_and(|e| e.model == "standing")
+    s.extent.as_ref().is_some_and(|e| e.model.starts_with("standing"))
+}
+
+/// Whether a standing thing's footprint was measured whole ([`crate::vision::edges`]: the outline
+/// of its top seen).
+fn standing_whole(s: &SegmentPercept) -> bool {
+    s.extent.as_ref().is_some_and(|e| e.model == "standing_whole")
 }
 
 /// Whether a segment is taller than any object the hand grasps: measured standing from its edges,
@@ -64,7 +70,7 @@ fn standing(s: &SegmentPercept) -> bool {
 fn tall(s: &SegmentPercept) -> bool {
     s.extent
         .as_ref()
-        .is_some_and(|e| e.model == "standing" || (e.model == "coarse" && e.height >= 0.4 - 1e-9))
+        .is_some_and(|e| e.model.starts_with("standing") || (e.model == "coarse" && e.height >= 0.4 - 1e-9))
 }
 
 /// A segment moves at most this far between two frames to keep its id (m).
@@ -303,10 +309,13 @@ impl Tracker {
                 // height pulled towards the hand): it stays where its palm moved it, with what it
                 // looked like on the table, so that it is put down where it is.
                 self.tracks[j].seen = true;
-            } else if standing(&self.tracks[j]) && !standing(&seen[i]) {
+            } else if (standing(&self.tracks[j]) && !standing(&seen[i]))
+                || (standing_whole(&self.tracks[j]) && !standing_whole(&seen[i]))
+            {
                 // A thing too tall to grasp, located from its edges (it stands where it stood: no
                 // hand moves it), keeps that location when a view shows only one of its edges
-                // (an arm beside it) and the cut silhouettes' centroid measures it 10 cm off.
+                // (an arm beside it) and the cut silhouettes' centroid measures it 10 cm off — and
+                // keeps its footprint measured whole when a view does not show its top.
                 self.tracks[j].seen = true;
             } else if near_palm[j] && px < OCCLUDED_SHARE * self.whole_pixels[j] && !moved {
                 // Partly hidden by the hand: keep what was seen whole.

@@ -320,7 +320,8 @@ pub fn execute<P: SchemaPlant>(
         let outcome = span.in_scope(|| {
             let outcome = plant.run(action, &binding);
             match &outcome {
-                Ok(ActionOutcome::Failed(why)) => tracing::warn!("failed: {why}"),
+                // A failed action is the schema's to handle (a contingency), not a warning to the user.
+                Ok(ActionOutcome::Failed(why)) => tracing::info!("failed: {why}"),
                 Ok(o) => tracing::info!("{o:?}"),
                 Err(e) => tracing::error!("the plant failed: {e}"),
             }

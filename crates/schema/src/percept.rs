@@ -86,8 +86,10 @@ pub struct SeenExtent {
     /// Half extent along the minor axis (m).
     pub half_minor: f64,
     /// `prism` (flat top measured), `round` (a sphere's radius), `lying` (a round cross-section
-    /// lying on its side: height its diameter, footprint along its axis) or `coarse` (from the
-    /// silhouette size only).
+    /// lying on its side: height its diameter, footprint along its axis), `standing` (a thing too
+    /// tall to grasp, from its vertical edges: its depth along the line of sight assumed),
+    /// `standing_whole` (the same, its footprint measured whole with the outline of its top) or
+    /// `coarse` (from the silhouette size only).
     pub model: String,
 }
 

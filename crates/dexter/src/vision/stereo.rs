@@ -648,6 +648,7 @@ impl StereoPipeline {
         blob.source = CentroidSource::Standing {
             height: found.top,
             top_seen: found.top_seen,
+            whole: found.outline.is_some(),
         };
         blob.footprint = Some(fp);
     }

@@ -158,6 +158,8 @@ pub enum CentroidSource {
         height: f64,
         /// Whether that is its top (not cut by the image border).
         top_seen: bool,
+        /// Whether its footprint was measured whole (the outline of its top seen in both views).
+        whole: bool,
     },
 }
 
