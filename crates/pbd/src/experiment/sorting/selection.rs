@@ -51,7 +51,7 @@ pub(super) fn selection(
 ) -> anyhow::Result<()> {
     let max_n = args.max_examples.min(3);
     let tasks = selection_tasks();
-    let mut trials = Trials::start(progress, tasks.len(), max_n, args.trials).uninterruptible();
+    let mut trials = Trials::start(progress, tasks.len(), max_n, args.trials);
     let mut csv = Vec::new();
     let mut series = Vec::new();
     let hyper = Hyper {
@@ -79,6 +79,11 @@ pub(super) fn selection(
             let line = format!("{name},{n},{t},{},{ok},{}", sp.map().name(), probs.join(","));
             Ok((f64::from(u8::from(ok)), line))
         })?;
+        // Stopped (Ctrl-C) before this task's first trial: the tasks done so far are the result,
+        // marked partial.
+        if by_n.is_empty() {
+            break;
+        }
         let mut rows = Vec::new();
         for (n, results) in by_n {
             let (hits, lines): (Vec<f64>, Vec<String>) = results.into_iter().unzip();
