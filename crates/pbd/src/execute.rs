@@ -261,21 +261,51 @@ pub fn execute(args: &ExecuteOptions, progress: &dyn Progress) -> crate::Result<
     execute_impl(args, progress).map_err(crate::Error::from)
 }
 
-fn execute_impl(args: &ExecuteOptions, progress: &dyn Progress) -> Result<ExecuteReport> {
+/// The task a run does, owned: the library, the schema, how the robot decides per segment, and
+/// the spot a user pointed at. In-process runs and robots over ROS 2 (`crate::ros2`) share it.
+pub(crate) struct TaskPlan {
+    pub(crate) library: Library,
+    pub(crate) schema: String,
+    decide: DecideBy,
+    pub(crate) only_near: Option<[f64; 2]>,
+}
+
+enum DecideBy {
+    Place(String),
+    Every,
+    Model(Box<schema::procedural::ProceduralModel>),
+}
+
+impl TaskPlan {
+    /// The robot's task.
+    pub(crate) fn task(&self) -> Task<'_> {
+        Task {
+            library: &self.library,
+            schema: &self.schema,
+            decider: match &self.decide {
+                DecideBy::Place(p) => Decider::Place(p.clone()),
+                DecideBy::Every => Decider::Every,
+                DecideBy::Model(m) => Decider::Model(m),
+            },
+            only_near: self.only_near,
+            max_actions: dexter_sim::execute::MAX_ACTIONS,
+        }
+    }
+}
+
+/// Reads the library and the demonstration or model of `args`: what the robot will do in `scene`.
+pub(crate) fn plan_task(args: &ExecuteOptions, scene: &Scene) -> Result<TaskPlan> {
     let library = match &args.library {
         Some(p) => Library::open(p)?,
         None => Library::builtin(),
     };
-    let scene = Scene::open(&args.scene)?;
-    let seed = args.seed.unwrap_or(scene.spec.seed);
     let only_near = match &args.object {
-        Some(o) => Some(dexter_sim::execute::pointed_at(&scene, o)?),
+        Some(o) => Some(dexter_sim::execute::pointed_at(scene, o)?),
         None => None,
     };
     let demo_place;
-    let model;
     let schema_name;
-    let decider = match (&args.demo, &args.model) {
+    let decide = match (&args.demo, &args.model) {
         (Some(path), _) => {
             let text = bayes::input::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
             let file = InferFile::from_json(&text, &path.display().to_string())?;
@@ -307,13 +337,13 @@ fn execute_impl(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execut
                 };
                 scene.place(&demo_place)?;
                 schema_name = schema;
-                Decider::Place(demo_place.clone())
+                DecideBy::Place(demo_place.clone())
             } else {
                 if args.place.is_some() {
                     bail!("--place: the demonstration's schema `{schema}` puts nothing in a place");
                 }
                 schema_name = schema;
-                Decider::Every
+                DecideBy::Every
             }
         }
         (None, Some(path)) => {
@@ -322,7 +352,7 @@ fn execute_impl(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execut
                     "place overrides the place of a demonstration (--demo); a model (--model) decides the place per object"
                 );
             }
-            model = schema::procedural::ProceduralModel::load(path)?;
+            let model = schema::procedural::ProceduralModel::load(path)?;
             // The schema the model's demonstrations were instances of (older models: Pick-And-Place).
             let schema = model.schema_in(&library)?.to_string();
             let def = library.schema(&schema).with_context(|| {
@@ -335,10 +365,23 @@ fn execute_impl(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execut
                 bail!("{}: {why}", path.display());
             }
             schema_name = schema;
-            Decider::Model(&model)
+            DecideBy::Model(Box::new(model))
         }
         (None, None) => bail!("pass --demo demo.infer.json or --model model.json"),
     };
+    Ok(TaskPlan {
+        library,
+        schema: schema_name,
+        decide,
+        only_near,
+    })
+}
+
+fn execute_impl(args: &ExecuteOptions, progress: &dyn Progress) -> Result<ExecuteReport> {
+    let scene = Scene::open(&args.scene)?;
+    let seed = args.seed.unwrap_or(scene.spec.seed);
+    let plan = plan_task(args, &scene)?;
+    let schema_name = plan.schema.clone();
     anyhow::ensure!(
         args.output.is_some() || !args.live.is_on(),
         "--live streams the execution's log: pass --output FILE.mcap too"
@@ -388,13 +431,7 @@ fn execute_impl(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execut
     progress.phase("execute", None);
     let mut run_log = McapRunLog::new(log, sim.header().clone(), progress);
     drop(sim);
-    let task = Task {
-        library: &library,
-        schema: &schema_name,
-        decider,
-        only_near,
-        max_actions: dexter_sim::execute::MAX_ACTIONS,
-    };
+    let task = plan.task();
     let run = execute_scene(&scene, &args.scene, &task, seed, &mut run_log);
     let finished = run_log.finish();
     let mut report = run?;

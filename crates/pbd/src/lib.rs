@@ -74,6 +74,7 @@ pub mod parallel;
 pub mod progress;
 pub mod record;
 pub mod robot;
+pub mod ros2;
 pub mod sim;
 pub mod skills;
 pub mod table;

@@ -8,8 +8,6 @@
 //! publishes the new state: a deterministic co-simulation in which the robot in another process
 //! sees the world exactly as it would in-process, however long it thinks.
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use control_basis::{ForceTorque, Hardware, Image};
@@ -34,8 +32,6 @@ pub struct ServeOptions {
     pub camera_rate_hz: f64,
     /// End after this long without a command, once one has arrived.
     pub idle_exit: Option<Duration>,
-    /// End when set (Ctrl-C, SIGTERM).
-    pub stop: Option<Arc<AtomicBool>>,
 }
 
 impl Default for ServeOptions {
@@ -45,7 +41,6 @@ impl Default for ServeOptions {
             period: 0.002,
             camera_rate_hz: 15.0,
             idle_exit: None,
-            stop: None,
         }
     }
 }
@@ -192,11 +187,11 @@ pub fn serve<H: Hardware + ?Sized>(
             ended: String::new(),
         },
     };
-    s.run(options)
+    s.run(options, stop)
 }
 
 impl<H: Hardware + ?Sized> Server<'_, H> {
-    fn run(&mut self, options: &ServeOptions) -> Result<ServeReport, Ros2Error> {
+    fn run(&mut self, options: &ServeOptions, stop: &dyn Fn() -> bool) -> Result<ServeReport, Ros2Error> {
         let wall = Instant::now();
         for k in 0..self.cameras.len() {
             self.publish_info(k)?;
@@ -207,7 +202,7 @@ impl<H: Hardware + ?Sized> Server<'_, H> {
         let mut next_tick = Instant::now();
         let tick = Duration::from_secs_f64(options.period);
         loop {
-            if options.stop.as_ref().is_some_and(|s| s.load(Ordering::Relaxed)) {
+            if stop() {
                 self.report.ended = "stop".into();
                 break;
             }

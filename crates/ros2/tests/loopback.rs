@@ -197,9 +197,9 @@ fn lock_step_over_dds_reads_what_the_robot_shows_in_process() {
                 &cfg,
                 &ServeOptions {
                     lockstep: true,
-                    stop: Some(stop),
                     ..ServeOptions::default()
                 },
+                &|| stop.load(Ordering::Relaxed),
             )
             .unwrap()
         })
@@ -237,9 +237,9 @@ fn a_robot_that_stops_answering_is_an_error_naming_the_topic_and_the_robot_stops
                 &cfg,
                 &ServeOptions {
                     lockstep: true,
-                    stop: Some(stop),
                     ..ServeOptions::default()
                 },
+                &|| stop.load(Ordering::Relaxed),
             )
             .unwrap()
         })
