@@ -36,6 +36,10 @@ pub struct ExecuteArgs {
     /// Record the execution to this MCAP file.
     #[arg(short, long)]
     output: Option<PathBuf>,
+    /// The robot's calibration of the empty workcell, from `pbd calibrate` (default: calibrate
+    /// the workcell now, which gives the same calibration as `pbd calibrate` with its default seed).
+    #[arg(long, value_name = "FILE")]
+    calibration: Option<PathBuf>,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
@@ -54,6 +58,7 @@ pub fn main(a: ExecuteArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         library: a.library,
         seed: a.seed,
         output: a.output,
+        calibration: a.calibration,
         live: pbd::LiveOptions::bind(a.live.bind()),
     };
     let report = execute(&options, &Bars::new(a.json, true)?)?;
