@@ -12,6 +12,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod calibrate;
 mod demo;
 mod doctor;
 mod execute;
@@ -61,6 +62,8 @@ enum Command {
     Learn(learn::LearnArgs),
     /// Do a demonstrated task in a new scene (any arm, transfers, re-grasps).
     Execute(execute::ExecuteArgs),
+    /// Calibrate the robot's eyes in the empty workcell and save the calibration to a file.
+    Calibrate(calibrate::CalibrateArgs),
     /// Check an MCAP file (and repair one that was cut short).
     Doctor(doctor::DoctorArgs),
     /// The seed's procedural-learning experiments on features rendered from an object catalog.
@@ -158,6 +161,7 @@ fn dispatch(command: Command, out: &mut dyn Write) -> anyhow::Result<()> {
         Command::Learn(args) => learn::main(args, out),
         Command::Demo(args) => demo::main(args, out),
         Command::Execute(args) => execute::main(args, out),
+        Command::Calibrate(args) => calibrate::main(args, out),
         Command::Experiment(cmd) => experiment::main(cmd, out),
     }
 }

@@ -14,6 +14,42 @@ use crate::progress::Bars;
 pub enum SimCommand {
     /// One pick-and-place: pick OBJECT and put it in PLACE, with either arm.
     PickPlace(PickPlaceArgs),
+    /// Serve the simulated Dexter as a ROS 2 robot (joint states, fingertip wrenches, camera images
+    /// on the topics of a mapping file; motor-unit references from its command topic) until Ctrl-C;
+    /// then print where every object ended.
+    Serve(ServeArgs),
+}
+
+/// Arguments of `pbd sim serve`.
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// Serve over ROS 2 (DDS; the only transport so far, and required).
+    #[arg(long)]
+    ros2: bool,
+    /// Scene: a built-in name (pick-place, sorting, sorting-new) or a TOML file.
+    #[arg(long, default_value = "sorting-new")]
+    scene: String,
+    /// Seed of the world's random choices; default: the scene's seed.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// The topic mapping (TOML; default: Dexter's built-in assets/ros2/dexter.toml).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Advance the world only when a command arrives (a deterministic co-simulation), not in real time.
+    #[arg(long)]
+    lockstep: bool,
+    /// Control period (s): a real-time tick, and the lock step of an array command.
+    #[arg(long, default_value_t = 0.002)]
+    period: f64,
+    /// Stop after this many seconds without a command, once one has arrived.
+    #[arg(long)]
+    idle_exit: Option<f64>,
+    /// Serve the workcell without its objects (to run `pbd calibrate --hardware ros2` against).
+    #[arg(long)]
+    empty: bool,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
 }
 
 /// Arguments of `pbd sim pick-place`.
@@ -47,7 +83,10 @@ pub struct PickPlaceArgs {
 
 /// Runs a `pbd sim` subcommand.
 pub fn main(cmd: SimCommand, out: &mut dyn Write) -> anyhow::Result<()> {
-    let SimCommand::PickPlace(a) = cmd;
+    let a = match cmd {
+        SimCommand::PickPlace(a) => a,
+        SimCommand::Serve(a) => return serve(a, out),
+    };
     if !(a.log_hz.is_finite() && a.log_hz > 0.0) {
         anyhow::bail!("--log-hz must be a positive number (got {})", a.log_hz);
     }
@@ -62,4 +101,30 @@ pub fn main(cmd: SimCommand, out: &mut dyn Write) -> anyhow::Result<()> {
     };
     let run = pick_place(&options, &Bars::new(a.json, true)?)?;
     emit(a.json, &run, out)
+}
+
+fn serve(a: ServeArgs, out: &mut dyn Write) -> anyhow::Result<()> {
+    if !a.ros2 {
+        anyhow::bail!("pbd sim serve: pass --ros2 (the only transport so far)");
+    }
+    if !(a.period.is_finite() && a.period > 0.0) {
+        anyhow::bail!("--period must be a positive number of seconds (got {})", a.period);
+    }
+    if let Some(t) = a.idle_exit
+        && !(t.is_finite() && t > 0.0)
+    {
+        anyhow::bail!("--idle-exit must be a positive number of seconds (got {t})");
+    }
+    let options = pbd::ros2::ServeOptions {
+        scene: a.scene,
+        seed: a.seed,
+        config: a.config,
+        lockstep: a.lockstep,
+        period: a.period,
+        idle_exit: a.idle_exit,
+        empty: a.empty,
+    };
+    // The first Ctrl-C / SIGTERM ends serving at the next tick, and the report is printed.
+    let report = pbd::ros2::serve_sim(&options, &Bars::new(a.json, true)?)?;
+    emit(a.json, &report, out)
 }

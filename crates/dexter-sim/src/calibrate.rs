@@ -46,9 +46,25 @@ fn layout_seed(text: &str) -> u64 {
     })
 }
 
+/// The seed of the camera noise [`workcell_calibration`] calibrates `scene`'s workcell with
+/// (derived from its layout: the same for every run in the workcell). [`calibrate`] with
+/// the default settings and this seed gives the same calibration as [`workcell_calibration`].
+pub fn workcell_seed(scene: &Scene) -> u64 {
+    layout_seed(&empty_workcell(scene).1)
+}
+
 /// Runs the calibration phase of `scene`'s workcell: a fresh world without objects, the robot
 /// parked, its calibration routine with `settings`, camera noise from `seed`.
 pub fn calibrate(scene: &Scene, settings: &CalibrationSettings, seed: u64) -> Result<Calibration, SimError> {
+    Ok(calibrate_timed(scene, settings, seed)?.0)
+}
+
+/// [`calibrate`], and the simulated time the routine took (s).
+pub fn calibrate_timed(
+    scene: &Scene,
+    settings: &CalibrationSettings,
+    seed: u64,
+) -> Result<(Calibration, f64), SimError> {
     let (empty, _) = empty_workcell(scene);
     let mut sim = parked_sim(
         &empty,
@@ -59,7 +75,9 @@ pub fn calibrate(scene: &Scene, settings: &CalibrationSettings, seed: u64) -> Re
     )?;
     let ws = workspace(&empty);
     let mut hw = SimRobot::new(&mut sim, &empty, seed)?;
-    Calibration::capture(&mut hw, &ws, settings).map_err(crate::error::from_robot)
+    let t0 = hw.sim().time();
+    let calibration = Calibration::capture(&mut hw, &ws, settings).map_err(crate::error::from_robot)?;
+    Ok((calibration, hw.sim().time() - t0))
 }
 
 /// The calibration of `scene`'s workcell with the default settings, computed once per layout and

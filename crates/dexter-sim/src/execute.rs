@@ -607,6 +607,23 @@ pub fn execute_scene_with_fault(
     fault: Option<&FaultSpec>,
     log: &mut dyn RunLog,
 ) -> Result<ExecuteReport, SimError> {
+    execute_scene_with(scene, scene_name, task, seed, fault, None, log)
+}
+
+/// [`execute_scene_with_fault`] with the robot's eyes on `calibration` (one loaded from a file, as
+/// a real robot's would be) instead of the workcell's calibration computed here
+/// ([`crate::calibrate::workcell_calibration`]); `None` computes it as [`execute_scene`] does. The
+/// robot refuses a calibration taken with other cameras
+/// ([`dexter::calibration::Calibration::check_cameras`]).
+pub fn execute_scene_with(
+    scene: &Scene,
+    scene_name: &str,
+    task: &Task<'_>,
+    seed: u64,
+    fault: Option<&FaultSpec>,
+    calibration: Option<std::sync::Arc<dexter::calibration::Calibration>>,
+    log: &mut dyn RunLog,
+) -> Result<ExecuteReport, SimError> {
     let mut sim = parked_sim(
         scene,
         SimSettings {
@@ -628,7 +645,10 @@ pub fn execute_scene_with_fault(
     let wall = std::time::Instant::now();
     let t_start = sim.time();
     let ws = workspace(scene);
-    let calibration = crate::calibrate::workcell_calibration(scene)?;
+    let calibration = match calibration {
+        Some(c) => c,
+        None => crate::calibrate::workcell_calibration(scene)?,
+    };
     let hook_logger = logger.clone();
     let stop_logger = logger.clone();
     let mut hw = SimRobot::new(&mut sim, scene, seed)?

@@ -9,10 +9,21 @@
 //! [`Hardware::capture`] is used — the same images a task sees — so calibrating a real robot is
 //! this same routine run on the cleared table. (The routine is in `calibrate.rs`, this file the
 //! calibration as data, which the eyes read.)
+//!
+//! A calibration is kept in a file ([`Calibration::save`], [`Calibration::load`]; the format is
+//! in [`file`]), so that a robot calibrates its cleared workcell once and loads the result for
+//! every later run; [`Calibration::check_cameras`] refuses one taken with other cameras.
 
 use std::sync::Arc;
 
+use control_basis::hardware::CameraInfo;
+
+use crate::error::RobotError;
 use crate::vision::BackgroundBank;
+
+pub mod file;
+
+pub use file::{CalibrationFileError, FORMAT, VERSION};
 
 /// How the calibration views are taken.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,6 +82,65 @@ impl Calibration {
     /// Number of views over all cameras.
     pub fn view_count(&self) -> usize {
         self.banks.iter().map(|(_, b)| b.views().len()).sum()
+    }
+
+    /// Checks that the calibration was taken with `cameras` (a robot's [`Hardware::cameras`]):
+    /// every bank names one of them, and every view has that camera's image size and focal length
+    /// (within 0.1 %). A calibration loaded from a file of another robot, or of this one before a
+    /// camera changed, is refused here rather than warped into wrong backgrounds. Cameras without a
+    /// bank are not an error here ([`crate::eyes::Eyes::new`] refuses the ones it needs).
+    ///
+    /// [`Hardware::cameras`]: control_basis::Hardware::cameras
+    pub fn check_cameras(&self, cameras: &[CameraInfo]) -> Result<(), RobotError> {
+        let names = || {
+            cameras
+                .iter()
+                .map(|c| format!("`{}`", c.name))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        for (name, bank) in &self.banks {
+            let Some(info) = cameras.iter().find(|c| &c.name == name) else {
+                return Err(RobotError::invalid(
+                    "<calibration>",
+                    name,
+                    format!(
+                        "the calibration has views of a camera the robot does not have (its cameras: {})",
+                        names()
+                    ),
+                ));
+            };
+            let k = &info.intrinsics;
+            let fx = 0.5 * k.width as f64 / (0.5 * k.hfov_deg.to_radians()).tan();
+            for view in bank.views() {
+                let c = &view.camera;
+                if (c.width, c.height) != (k.width, k.height) {
+                    return Err(RobotError::invalid(
+                        "<calibration>",
+                        name,
+                        format!(
+                            "the calibration's views are {}×{} px, the robot's camera takes {}×{} px \
+                             (calibrate this robot again)",
+                            c.width, c.height, k.width, k.height
+                        ),
+                    ));
+                }
+                // Written so that a focal length that is not a number is refused too.
+                let close = (c.fx - fx).abs() <= 1e-3 * fx;
+                if !close {
+                    return Err(RobotError::invalid(
+                        "<calibration>",
+                        name,
+                        format!(
+                            "the calibration's views have a focal length of {:.2} px, the robot's camera \
+                             {fx:.2} px ({}° field of view; calibrate this robot again)",
+                            c.fx, k.hfov_deg
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
 }
 

@@ -78,10 +78,12 @@ pub struct Eyes {
 
 impl Eyes {
     /// Eyes on `hw`'s cameras with the backgrounds of `calibration` (every camera of both pairs
-    /// must have a bank); objects rest on the table plane at `table_z` (their centroids, heights
+    /// must have a bank, and it must have been taken with these cameras:
+    /// [`Calibration::check_cameras`]); objects rest on the table plane at `table_z` (their centroids, heights
     /// and footprints come from the support-plane estimate). The self-mask comes from the robot's
     /// own model ([`SelfModel`]).
     pub fn new(hw: &dyn Hardware, table_z: f64, calibration: Arc<Calibration>) -> Result<Self, RobotError> {
+        calibration.check_cameras(hw.cameras())?;
         let pair = |p: Pair| -> Result<PairState, RobotError> {
             let (l, r) = p.camera_names();
             for name in [l, r] {

@@ -110,6 +110,7 @@ from_lower!(
     schema::SchemaError,
     bayes::BayesError,
     dexter::RobotError,
+    dexter::calibration::CalibrationFileError,
     std::io::Error,
     serde_json::Error
 );
@@ -163,6 +164,17 @@ fn kind_of(err: &anyhow::Error) -> ErrorKind {
         }
         if let Some(e) = cause.downcast_ref::<schema::SchemaError>() {
             return kind_of_schema(e);
+        }
+        if let Some(e) = cause.downcast_ref::<dexter::calibration::CalibrationFileError>() {
+            use dexter::calibration::CalibrationFileError as E;
+            return match e {
+                E::Read { .. } | E::Write { .. } => ErrorKind::File,
+                E::Decode { .. } | E::Format { .. } | E::Version { .. } => ErrorKind::Format,
+                E::Invalid { .. } => ErrorKind::Value,
+            };
+        }
+        if let Some(dexter::RobotError::Invalid { .. }) = cause.downcast_ref::<dexter::RobotError>() {
+            return ErrorKind::Value;
         }
         if cause.downcast_ref::<bayes::BayesError>().is_some() {
             return ErrorKind::Value;

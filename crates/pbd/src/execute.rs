@@ -17,7 +17,7 @@ use dexter_sim::scene::Scene;
 use schema::{Library, Percept};
 use serde::{Deserialize, Serialize};
 
-pub use dexter_sim::execute::{Decider, ExecuteReport, RunLog, Task, execute_scene};
+pub use dexter_sim::execute::{Decider, ExecuteReport, RunLog, Task, execute_scene, execute_scene_with};
 
 use crate::infer::InferFile;
 use crate::mcap_log::{LogLevel, McapLog};
@@ -44,6 +44,9 @@ pub struct ExecuteOptions {
     pub seed: Option<u64>,
     /// Record the execution to this MCAP file.
     pub output: Option<PathBuf>,
+    /// The robot's calibration of the empty workcell, from a file (`pbd calibrate`); default: the
+    /// workcell is calibrated here (the same calibration `pbd calibrate` writes by default).
+    pub calibration: Option<PathBuf>,
     /// Serve the run live to Foxglove as well as writing the log (default: no network listener).
     #[serde(default)]
     pub live: crate::live::LiveOptions,
@@ -60,6 +63,7 @@ impl Default for ExecuteOptions {
             library: None,
             seed: None,
             output: None,
+            calibration: None,
             live: crate::live::LiveOptions::default(),
         }
     }
@@ -394,6 +398,7 @@ fn execute_impl(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execut
         ("--model", &args.model),
         ("--demo", &args.demo),
         ("--library", &args.library),
+        ("--calibration", &args.calibration),
     ] {
         if let Some(p) = p {
             io.read(what, p);
@@ -403,6 +408,21 @@ fn execute_impl(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execut
         io.write("-o", p);
     }
     io.check()?;
+    // A calibration from a file is loaded and checked against the robot's cameras before
+    // anything is written.
+    let calibration = match &args.calibration {
+        Some(path) => {
+            let sim = DexterSim::new(&scene, SimSettings::default())?;
+            let cameras = dexter_sim::hardware::SimCameras::new(&sim, &scene, seed)?;
+            Some(std::sync::Arc::new(crate::calibrate::load_for(
+                path,
+                cameras.infos(),
+                &scene,
+                progress,
+            )?))
+        }
+        None => None,
+    };
     let log = match &args.output {
         Some(p) => {
             let sim = DexterSim::new(&scene, SimSettings::default())?;
@@ -420,6 +440,9 @@ fn execute_impl(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execut
             meta.insert("scene".to_string(), args.scene.clone());
             meta.insert("seed".to_string(), seed.to_string());
             meta.insert("schema".to_string(), schema_name.clone());
+            if let Some(c) = &args.calibration {
+                meta.insert("calibration".to_string(), c.display().to_string());
+            }
             log.metadata("pbd", meta)?;
             log.log_scene(&scene, sim.header(), 0.0)?;
             log.log_robot(sim.model(), 0.0)?;
@@ -432,7 +455,7 @@ fn execute_impl(args: &ExecuteOptions, progress: &dyn Progress) -> Result<Execut
     let mut run_log = McapRunLog::new(log, sim.header().clone(), progress);
     drop(sim);
     let task = plan.task();
-    let run = execute_scene(&scene, &args.scene, &task, seed, &mut run_log);
+    let run = execute_scene_with(&scene, &args.scene, &task, seed, None, calibration, &mut run_log);
     let finished = run_log.finish();
     let mut report = run?;
     finished?;

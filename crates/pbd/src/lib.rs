@@ -17,6 +17,7 @@
 //! | execute it in a new scene | [`execute()`] | [`ExecuteOptions`] → [`ExecuteReport`] | an MCAP log |
 //! | all four on the built-in scenes | [`demo()`] | [`DemoOptions`] → [`DemoReport`] | `pbd-demo/` |
 //! | check / repair a recording | [`doctor()`] | a path → [`DoctorReport`] | a repaired copy |
+//! | calibrate the robot's eyes in the empty workcell | [`calibrate()`] | [`CalibrateOptions`] → [`CalibrateReport`] | a calibration file ([`dexter::calibration::file`]) |
 //!
 //! and the experiments of the seed: [`experiment::sorting`] (§5.1–5.3), [`experiment::execute`]
 //! (execution on random new scenes) and [`grasp`] (grasp prototypes, ch. 6). Every random choice
@@ -58,6 +59,7 @@
 
 #![warn(missing_docs)]
 
+pub mod calibrate;
 pub mod demo;
 pub mod doctor;
 pub mod error;
@@ -80,6 +82,7 @@ pub mod skills;
 pub mod table;
 
 pub use bayes::rng;
+pub use calibrate::{CalibrateOptions, CalibrateReport, calibrate};
 pub use demo::{DemoOptions, DemoReport, demo};
 pub use doctor::{DoctorReport, doctor};
 pub use error::{Error, ErrorKind, Result};

@@ -239,15 +239,15 @@ fn execute_impl(options: &Ros2ExecuteOptions, progress: &dyn Progress) -> Result
     let cfg = config(options.config.as_deref())?;
     let scene = Scene::open(&args.scene)?;
     let plan = plan_task(args, &scene)?;
-    let calibration = std::sync::Arc::new(
-        dexter::calibration::Calibration::load(cal_path)
-            .with_context(|| format!("--calibration {}", cal_path.display()))?,
-    );
     let ws = workspace(&scene);
     let wall = Instant::now();
-    progress.phase("connect", None);
-    let model = RobotModel::from_urdf_str(DEXTER_URDF)?;
-    let mut hw = Ros2Hardware::connect(cfg, model)?;
+    let mut hw = connect(cfg, progress)?;
+    let calibration = std::sync::Arc::new(crate::calibrate::load_for(
+        cal_path,
+        control_basis::Hardware::cameras(&hw),
+        &scene,
+        progress,
+    )?);
     progress.phase("execute", None);
     let task = plan.task();
     let mut sink = dexter::exec::NoSink;
@@ -264,6 +264,80 @@ fn execute_impl(options: &Ros2ExecuteOptions, progress: &dyn Progress) -> Result
         segments,
         robot_time: control_basis::Plant::time_secs(&hw),
         wall_time: wall.elapsed().as_secs_f64(),
+    })
+}
+
+/// Connects to the robot `cfg` maps (Dexter's model).
+fn connect(cfg: Ros2Config, progress: &dyn Progress) -> Result<Ros2Hardware> {
+    progress.phase("connect", None);
+    progress.message(&format!(
+        "waiting for the robot on {} (ROS 2 domain {})",
+        cfg.joint_states.topic,
+        cfg.domain()?
+    ));
+    let model = RobotModel::from_urdf_str(DEXTER_URDF)?;
+    Ok(Ros2Hardware::connect(cfg, model)?)
+}
+
+/// `pbd calibrate --hardware ros2`: the robot over ROS 2 calibrates its eyes in its workcell, which
+/// must be cleared of objects (`options.scene` gives the table and places), and the calibration is
+/// written to `options.output` (through a temporary file and a rename) and read back.
+pub fn calibrate(
+    options: &crate::calibrate::CalibrateOptions,
+    config_path: Option<&std::path::Path>,
+    progress: &dyn Progress,
+) -> crate::Result<crate::calibrate::CalibrateReport> {
+    calibrate_impl(options, config_path, progress).map_err(crate::Error::from)
+}
+
+fn calibrate_impl(
+    options: &crate::calibrate::CalibrateOptions,
+    config_path: Option<&std::path::Path>,
+    progress: &dyn Progress,
+) -> Result<crate::calibrate::CalibrateReport> {
+    let cfg = config(config_path)?;
+    let scene = Scene::open(&options.scene)?;
+    crate::files::IoPlan::new()
+        .read("--scene", &scene.path)
+        .read("the scene's catalog", &scene.catalog.path)
+        .write("-o", &options.output)
+        .check()?;
+    crate::files::check_writable(&options.output)?;
+    let mut hw = connect(cfg, progress)?;
+    progress.phase("calibrate", None);
+    let t0 = control_basis::Plant::time_secs(&hw);
+    let wall = Instant::now();
+    let calibration = crate::calibrate::calibrate_hardware(
+        &mut hw,
+        &workspace(&scene),
+        &dexter::calibration::CalibrationSettings::default(),
+    )?;
+    let wall_time = wall.elapsed().as_secs_f64();
+    let sim_time = control_basis::Plant::time_secs(&hw) - t0;
+    let t = Instant::now();
+    let bytes = calibration.to_bytes()?;
+    crate::files::write_atomic(&options.output, &bytes)?;
+    let save_time = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let back = dexter::calibration::Calibration::load(&options.output)?;
+    let load_time = t.elapsed().as_secs_f64();
+    anyhow::ensure!(
+        back == calibration,
+        "{}: the file read back differs from the calibration (a bug in pbd; please report it)",
+        options.output.display()
+    );
+    progress.finish();
+    Ok(crate::calibrate::CalibrateReport {
+        scene: options.scene.clone(),
+        seed: 0,
+        views: calibration.view_count(),
+        cameras: crate::calibrate::CalibratedCamera::of(&calibration),
+        file: options.output.display().to_string(),
+        bytes: bytes.len() as u64,
+        sim_time,
+        wall_time,
+        save_time,
+        load_time,
     })
 }
 

@@ -50,6 +50,10 @@ pub struct Ros2Hardware {
     have_state: bool,
     ref_q: Vec<f64>,
     ref_qd: Vec<f64>,
+    /// Joints the robot has sent a reference since it connected: a trajectory command names only
+    /// these (the controller keeps its own reference for the others); an array command, which
+    /// must hold every joint, holds the others at their first measured position.
+    commanded: Vec<bool>,
     ft_frames: Vec<String>,
     ft: Vec<ForceTorque>,
     ft_time: Vec<f64>,
@@ -85,7 +89,9 @@ pub fn intrinsics_from_info(info: &msg::CameraInfo, topic: &str) -> Result<Intri
     if !(fx.is_finite() && fx > 0.0) {
         return Err(bad(format!("K[0] (fx) = {fx} is not a focal length in pixels")));
     }
-    let hfov_deg = 2.0 * (f64::from(info.width) / (2.0 * fx)).atan().to_degrees();
+    // Rounded to 1e-9° (2e-11 rad): K's round trip through floating point then gives back the
+    // field of view a robot's description states exactly (60°, not 59.99999999999999°).
+    let hfov_deg = (2.0 * (f64::from(info.width) / (2.0 * fx)).atan().to_degrees() * 1e9).round() / 1e9;
     let i = Intrinsics {
         width: info.width,
         height: info.height,
@@ -225,6 +231,7 @@ impl Ros2Hardware {
             have_state: false,
             ref_q: Vec::new(),
             ref_qd: Vec::new(),
+            commanded: Vec::new(),
             ft: vec![ForceTorque::default(); n_ft],
             ft_time: vec![f64::NEG_INFINITY; n_ft],
             camera_infos: Vec::new(),
@@ -245,6 +252,7 @@ impl Ros2Hardware {
         }
         hw.ref_q = hw.q.clone();
         hw.ref_qd = vec![0.0; hw.q.len()];
+        hw.commanded = vec![false; hw.q.len()];
         hw.command_index = if hw.config.command.joints.is_empty() {
             (0..hw.joint_names.len()).collect()
         } else {
@@ -421,25 +429,26 @@ impl Ros2Hardware {
                     },
                 )
             }
-            CommandPub::Trajectory(p) => publish(
-                p,
-                topic,
-                msg::JointTrajectory {
-                    header: msg::Header::default(),
-                    joint_names: self
-                        .command_index
-                        .iter()
-                        .map(|&d| self.joint_names[d].clone())
-                        .collect(),
-                    points: vec![msg::JointTrajectoryPoint {
-                        positions: self.command_index.iter().map(|&d| self.ref_q[d]).collect(),
-                        velocities: self.command_index.iter().map(|&d| self.ref_qd[d]).collect(),
-                        accelerations: Vec::new(),
-                        effort: Vec::new(),
-                        time_from_start: msg::Duration::from_secs(dt),
-                    }],
-                },
-            ),
+            CommandPub::Trajectory(p) => {
+                // Only the joints the robot has commanded: the controller holds its own reference
+                // for the others (`allow_partial_joints_goal` in joint_trajectory_controller).
+                let dofs = self.command_index.iter().copied().filter(|&d| self.commanded[d]);
+                publish(
+                    p,
+                    topic,
+                    msg::JointTrajectory {
+                        header: msg::Header::default(),
+                        joint_names: dofs.clone().map(|d| self.joint_names[d].clone()).collect(),
+                        points: vec![msg::JointTrajectoryPoint {
+                            positions: dofs.clone().map(|d| self.ref_q[d]).collect(),
+                            velocities: dofs.map(|d| self.ref_qd[d]).collect(),
+                            accelerations: Vec::new(),
+                            effort: Vec::new(),
+                            time_from_start: msg::Duration::from_secs(dt),
+                        }],
+                    },
+                )
+            }
         }
     }
 
@@ -548,6 +557,7 @@ impl Plant for Ros2Hardware {
         }
         self.ref_q.copy_from_slice(references);
         self.ref_qd.fill(0.0);
+        self.commanded.fill(true);
         Ok(())
     }
     fn step(&mut self, dt_secs: f64) -> Result<(), CbError> {
@@ -572,6 +582,7 @@ impl Hardware for Ros2Hardware {
         if dof < self.ref_q.len() {
             self.ref_q[dof] = q;
             self.ref_qd[dof] = qd;
+            self.commanded[dof] = true;
         }
     }
     fn advance(&mut self, dt_secs: f64) -> Result<(), HardwareError> {

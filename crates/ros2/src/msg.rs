@@ -29,9 +29,10 @@ impl Time {
         }
     }
 
-    /// Seconds since the clock's origin.
+    /// Seconds since the clock's origin: the whole nanoseconds divided by 10⁹, correctly rounded
+    /// (so a clock that counts nanoseconds, like the simulator's, reads back bit for bit).
     pub fn secs(&self) -> f64 {
-        f64::from(self.sec) + f64::from(self.nanosec) * 1e-9
+        (f64::from(self.sec) * 1e9 + f64::from(self.nanosec)) / 1e9
     }
 }
 

@@ -92,11 +92,13 @@ struct Server<'a, H: Hardware + ?Sized> {
     report: ServeReport,
 }
 
-/// Serves `hw` on `config`'s topics until `options.stop` is set or the idle time passes.
+/// Serves `hw` on `config`'s topics until `stop` says so (asked every tick; Ctrl-C, SIGTERM) or the
+/// idle time passes.
 pub fn serve<H: Hardware + ?Sized>(
     hw: &mut H,
     config: &Ros2Config,
     options: &ServeOptions,
+    stop: &dyn Fn() -> bool,
 ) -> Result<ServeReport, Ros2Error> {
     if !(options.period.is_finite() && options.period > 0.0) {
         return Err(Ros2Error::Config {

@@ -121,11 +121,14 @@ def execute(
     library: Optional[PathLike] = None,
     seed: Optional[int] = None,
     output: Optional[PathLike] = None,
+    calibration: Optional[PathLike] = None,
     progress: Union[bool, ProgressCallback, None] = None,
 ) -> Report:
     """The robot does the task of a procedural model (or of an inference, ``demo=``) in a scene
     (``pbd execute``, §4.3.2): per object the decision (place, ln B₁₀ (5.19)), the arms, the
-    contingencies, and whether it ended in its place. ``output`` writes an MCAP log of the run."""
+    contingencies, and whether it ended in its place. ``output`` writes an MCAP log of the run;
+    ``calibration`` loads the robot's calibration of the empty workcell from a file (``pbd calibrate``)
+    instead of calibrating it first."""
     with tempfile.TemporaryDirectory(prefix="pbd-") as tmp:
         if isinstance(model, ProceduralModel):
             path = os.path.join(tmp, "model.json")
@@ -133,7 +136,7 @@ def execute(
             model = path
         opts = _options(
             model=model, scene=scene, demo=demo, object=object, place=place, library=library, seed=seed,
-            output=output,
+            output=output, calibration=calibration,
         )
         return _report(_pbd.execute(opts, _progress(progress)))
 

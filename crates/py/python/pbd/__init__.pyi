@@ -252,6 +252,7 @@ def execute(
     library: Optional[PathLike] = None,
     seed: Optional[int] = None,
     output: Optional[PathLike] = None,
+    calibration: Optional[PathLike] = None,
     progress: Progress = None,
 ) -> Report: ...
 def demo(out: PathLike = "pbd-demo", *, seed: Optional[int] = None, progress: Progress = None) -> Report: ...

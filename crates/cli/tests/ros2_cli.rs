@@ -1,0 +1,257 @@
+//! pbd over ROS 2 across processes, on localhost DDS: the simulated Dexter served in one process
+//! (`pbd sim serve --ros2 --lockstep`), the robot in another (`pbd calibrate --hardware ros2` with
+//! the workcell emptied, then `pbd execute --hardware ros2`) — and every object ends where the
+//! in-process run with the same calibration puts it. Bad mappings and an absent robot are refused
+//! with exit code 1 and a message naming the file, field or topic.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+use common::{refused, repo, stderr};
+use serde_json::Value;
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("pbd-ros2-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn s(p: &Path) -> String {
+    p.display().to_string()
+}
+
+/// A DDS domain of this test process's own (several test processes may run at once).
+fn domain() -> String {
+    (150 + std::process::id() % 80).to_string()
+}
+
+fn pbd_on(domain: &str, args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_pbd"))
+        .args(args)
+        .env("ROS_DOMAIN_ID", domain)
+        .output()
+        .expect("the pbd binary runs")
+}
+
+struct Server(Option<Child>);
+
+impl Server {
+    fn start(domain: &str, args: &[&str]) -> Self {
+        let child = Command::new(env!("CARGO_BIN_EXE_pbd"))
+            .args(["sim", "serve", "--ros2", "--lockstep", "--json"])
+            .args(args)
+            .env("ROS_DOMAIN_ID", domain)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("pbd sim serve starts");
+        Server(Some(child))
+    }
+
+    /// Stops it as Ctrl-C would (SIGTERM) and returns its report.
+    fn stop(mut self) -> Value {
+        let child = self.0.take().unwrap();
+        let pid = child.id().to_string();
+        let _ = Command::new("kill").args(["-TERM", &pid]).status();
+        let out = child.wait_with_output().unwrap();
+        assert!(out.status.success(), "pbd sim serve failed: {}", stderr(&out));
+        serde_json::from_slice(&out.stdout).expect("the server's report is JSON")
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        if let Some(mut c) = self.0.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+#[test]
+fn the_robot_over_ros2_places_every_object_where_the_in_process_run_places_it() {
+    if cfg!(debug_assertions) {
+        eprintln!("SKIPPED: simulation end-to-end tests run in release mode");
+        return;
+    }
+    let d = dir("execute");
+    let dom = domain();
+    let cal = d.join("workcell.cal");
+    // The workcell of `pbd demo`'s execution: three objects of the task (one handed from arm to arm) and one
+    // to leave alone.
+    let scene = "sorting-demo";
+
+    // The workcell cleared: the robot calibrates its eyes over ROS 2.
+    let server = Server::start(&dom, &["--scene", scene, "--empty"]);
+    let o = pbd_on(
+        &dom,
+        &[
+            "calibrate",
+            "--hardware",
+            "ros2",
+            "--scene",
+            scene,
+            "-o",
+            &s(&cal),
+            "--json",
+        ],
+    );
+    let served = server.stop();
+    assert!(o.status.success(), "calibrate over ROS 2: {}", stderr(&o));
+    assert!(served["objects"].as_array().unwrap().is_empty(), "{served:#}");
+    assert!(served["serve"]["images"].as_u64().unwrap() > 60, "{served:#}");
+
+    // The objects placed: the robot does the task over ROS 2.
+    let model = s(&repo().join("crates/py/tests/data/sorting-model.json"));
+    let server = Server::start(&dom, &["--scene", scene]);
+    let o = pbd_on(
+        &dom,
+        &[
+            "execute",
+            "--hardware",
+            "ros2",
+            "--scene",
+            scene,
+            "--model",
+            &model,
+            "--calibration",
+            &s(&cal),
+            "--json",
+        ],
+    );
+    let served = server.stop();
+    assert!(o.status.success(), "execute over ROS 2: {}", stderr(&o));
+    let robot: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(robot["executed"].as_u64().unwrap() >= 1, "{robot:#}");
+
+    // The same task in-process, with the same calibration.
+    let o = pbd_on(
+        &dom,
+        &[
+            "execute",
+            "--scene",
+            scene,
+            "--model",
+            &model,
+            "--calibration",
+            &s(&cal),
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let local: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let mut compared = 0;
+    for obj in local["objects"].as_array().unwrap() {
+        let label = obj["object"].as_str().unwrap();
+        let truth = served["objects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|o| o["object"] == label)
+            .unwrap_or_else(|| panic!("{label} not in the server's report: {served:#}"));
+        let want = if obj["success"].as_bool() == Some(true) {
+            obj["place"].clone()
+        } else {
+            Value::Null
+        };
+        if want.is_null() {
+            // Not placed in-process: not in a place over ROS 2 either.
+            assert!(
+                truth["place"].is_null() || truth["place"] != obj["place"],
+                "{label}: {truth:#} vs {obj:#}"
+            );
+        } else {
+            assert_eq!(
+                truth["place"], want,
+                "{label}: over ROS 2 {truth:#}, in-process {obj:#}"
+            );
+            assert!(
+                truth["speed"].as_f64().unwrap() < 0.05,
+                "{label} still moving: {truth:#}"
+            );
+        }
+        compared += 1;
+    }
+    assert!(compared >= 1 && local["placed"].as_u64().unwrap() >= 1, "{local:#}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn bad_mappings_and_an_absent_robot_are_refused_by_name() {
+    let d = dir("bad");
+    let good = std::fs::read_to_string(repo().join("assets/ros2/dexter.toml")).unwrap();
+    let bad = d.join("bad.toml");
+    std::fs::write(
+        &bad,
+        good.replace("topic = \"/joint_states\"", "topic = \"joint states\""),
+    )
+    .unwrap();
+    let cal = d.join("none.cal");
+    refused(
+        &[
+            "calibrate",
+            "--hardware",
+            "ros2",
+            "--config",
+            &s(&bad),
+            "--scene",
+            "pick-place",
+            "-o",
+            &s(&cal),
+        ],
+        &["bad.toml", "joint_states.topic"],
+    );
+    std::fs::write(&bad, good.replace("timeout_ms = 2000", "timeout_ms = 2000\nspeed = 3")).unwrap();
+    refused(
+        &["sim", "serve", "--ros2", "--config", &s(&bad)],
+        &["bad.toml", "speed"],
+    );
+    refused(
+        &["execute", "--config", &s(&bad), "--demo", "x.json"],
+        &["--hardware ros2"],
+    );
+    refused(&["sim", "serve", "--scene", "pick-place"], &["--ros2"]);
+
+    // Nobody on this domain: the robot waits `timeout_ms`, then names the topic.
+    let quick = d.join("quick.toml");
+    std::fs::write(
+        &quick,
+        good.replace("timeout_ms = 2000", "timeout_ms = 300")
+            .replace("# domain_id = 0", "domain_id = 231"),
+    )
+    .unwrap();
+    refused(
+        &[
+            "calibrate",
+            "--hardware",
+            "ros2",
+            "--config",
+            &s(&quick),
+            "--scene",
+            "pick-place",
+            "-o",
+            &s(&cal),
+        ],
+        &["/joint_states", "300 ms"],
+    );
+    assert!(!cal.exists(), "nothing is written when the robot is absent");
+    let model = s(&repo().join("crates/py/tests/data/sorting-model.json"));
+    refused(
+        &[
+            "execute",
+            "--hardware",
+            "ros2",
+            "--config",
+            &s(&quick),
+            "--scene",
+            "pick-place",
+            "--model",
+            &model,
+        ],
+        &["--calibration"],
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
