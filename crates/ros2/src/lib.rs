@@ -18,6 +18,7 @@ mod dds;
 pub mod hardware;
 pub mod msg;
 pub mod serve;
+pub mod testing;
 
 pub use config::{CommandKind, Ros2Config};
 pub use hardware::Ros2Hardware;
