@@ -26,6 +26,8 @@ if [ "$what" = all ] || [ "$what" = python ]; then
     fi
     "$venv/bin/python" -m pip install --quiet --upgrade pip
     "$venv/bin/python" -m pip install --quiet pytest numpy
+    # Cyclone DDS: the ROS 2 conformance test's peer (without it that test skips with a message).
+    "$venv/bin/python" -m pip install --quiet "cyclonedds>=0.10" || echo "WARNING: cyclonedds did not install; the ROS 2 conformance test will be SKIPPED" >&2
     # Ray is large; without it the Ray test skips with a message.
     "$venv/bin/python" -m pip install --quiet "ray>=2.40" || echo "WARNING: ray did not install; the Ray test will be SKIPPED" >&2
     # The module is built in the repository's target directory, so it reuses what the Rust tests built.

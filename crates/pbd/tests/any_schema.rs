@@ -34,6 +34,9 @@ fn recorded(script: Script, name: &str) -> std::path::PathBuf {
 
 /// Records `script` (seed 3, the pick-place scene), infers it, checks the MAP schema, and executes
 /// the demonstration in `sorting-new` on `object`; returns the report.
+/// Records `script`, infers it (`schema` must be MAP), learns a model from the inference (which must
+/// record `schema`), and executes the model on `object` in a new scene (sorting-new, seed 21):
+/// record → infer → learn → execute, as a user teaches a task.
 fn demonstrate_and_execute(script: Script, schema: &str, object: &str) -> pbd::execute::ExecuteReport {
     let demo = recorded(script, schema);
     let inferred = infer(
@@ -45,10 +48,22 @@ fn demonstrate_and_execute(script: Script, schema: &str, object: &str) -> pbd::e
     )
     .unwrap();
     assert_eq!(inferred.file.inference.posterior.map, schema, "{schema}: MAP");
+    let model_path = dir().join(format!("{schema}.builtin.model.json"));
+    pbd::learn::learn(
+        &pbd::learn::LearnOptions {
+            demos: vec![inferred.json_path.clone()],
+            output: model_path.clone(),
+            ..pbd::learn::LearnOptions::default()
+        },
+        &Quiet,
+    )
+    .unwrap();
+    let model = pbd::schema::procedural::ProceduralModel::load(&model_path).unwrap();
+    assert_eq!(model.schema(), Some(schema), "{schema}: the model's schema");
     let report = execute(
         &ExecuteOptions {
             scene: "sorting-new".into(),
-            demo: Some(inferred.json_path.clone()),
+            model: Some(model_path),
             object: Some(object.into()),
             seed: Some(21),
             ..ExecuteOptions::default()
@@ -106,7 +121,7 @@ fn assert_done(report: &pbd::execute::ExecuteReport, object: &str) {
 }
 
 #[test]
-fn pick_and_hold_is_demonstrated_inferred_and_executed() {
+fn pick_and_hold_is_demonstrated_inferred_learned_and_executed() {
     let r = demonstrate_and_execute(Script::PickHold, "pick_and_hold", "blue_block");
     assert_done(&r, "blue_block");
     // Held in the air at the end.
@@ -114,13 +129,13 @@ fn pick_and_hold_is_demonstrated_inferred_and_executed() {
 }
 
 #[test]
-fn hand_over_is_demonstrated_inferred_and_executed() {
+fn hand_over_is_demonstrated_inferred_learned_and_executed() {
     let r = demonstrate_and_execute(Script::HandOver, "hand_over", "blue_block");
     assert_done(&r, "blue_block");
 }
 
 #[test]
-fn reach_and_touch_is_demonstrated_inferred_and_executed() {
+fn reach_and_touch_is_demonstrated_inferred_learned_and_executed() {
     let r = demonstrate_and_execute(Script::Touch, "reach_and_touch", "blue_block");
     assert_done(&r, "blue_block");
     let o = &r.objects[0];
@@ -136,7 +151,7 @@ fn reach_and_touch_is_demonstrated_inferred_and_executed() {
 }
 
 #[test]
-fn pick_and_place_is_demonstrated_inferred_and_executed() {
+fn pick_and_place_is_demonstrated_inferred_learned_and_executed() {
     let r = demonstrate_and_execute(Script::PickPlace, "pick_and_place", "blue_block");
     assert_done(&r, "blue_block");
     assert!(r.objects[0].place.is_some());
