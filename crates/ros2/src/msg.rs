@@ -29,8 +29,7 @@ impl Time {
         }
     }
 
-    /// Seconds since the clock's origin: the whole nanoseconds divided by 10⁹, correctly rounded
-    /// (so a clock that counts nanoseconds, like the simulator's, reads back bit for bit).
+    /// Seconds since the clock's origin: the whole nanoseconds divided by 10⁹, correctly rounded.
     pub fn secs(&self) -> f64 {
         (f64::from(self.sec) * 1e9 + f64::from(self.nanosec)) / 1e9
     }

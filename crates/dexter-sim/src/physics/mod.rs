@@ -535,12 +535,12 @@ impl DexterSim {
         Ok(())
     }
 
-    /// Advances the physics by one step (the clock: [`clock`]).
+    /// Advances the physics by one step.
     pub fn step(&mut self) {
         self.world.step();
         self.resist_rolling();
+        self.time += self.settings.dt;
         self.steps += 1;
-        self.time = clock(self.steps, self.settings.dt);
         self.read_encoders();
     }
 
@@ -826,17 +826,5 @@ impl control_basis::Plant for DexterSim {
 
     fn time_secs(&self) -> f64 {
         self.time
-    }
-}
-
-/// The simulated time after `steps` steps of `dt` (s): counted in whole nanoseconds when `dt` is a
-/// whole number of them (`steps · dt_ns / 10⁹`, correctly rounded — no drift, and exactly the time a
-/// ROS 2 stamp of the same nanoseconds reads back as), else `steps · dt`.
-pub fn clock(steps: u64, dt: f64) -> f64 {
-    let ns = (dt * 1e9).round();
-    if ns > 0.0 && (ns / 1e9 - dt).abs() <= 4.0 * f64::EPSILON * dt {
-        (steps as f64 * ns) / 1e9
-    } else {
-        steps as f64 * dt
     }
 }
