@@ -4,13 +4,10 @@
 //! figure is the transport alone (serialisation, DDS, the two waits). Free-running at 500 Hz: the
 //! server ticks every 2 ms in real time, and a command waits for the next tick's state.
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
-
 use control_basis::{Hardware, RobotModel};
 use criterion::{Criterion, criterion_group, criterion_main};
-use pbd_ros2::testing::{TOY_URDF, ToyRobot, toy_config};
-use pbd_ros2::{CommandKind, Ros2Hardware, ServeOptions, serve};
+use pbd_ros2::testing::{ServedToy, TOY_URDF, toy_config};
+use pbd_ros2::{CommandKind, Ros2Hardware, ServeOptions};
 
 fn round_trip(c: &mut Criterion) {
     for (name, lockstep, domain) in [("lockstep", true, 201u16), ("free_500hz", false, 202)] {
@@ -19,24 +16,14 @@ fn round_trip(c: &mut Criterion) {
             CommandKind::JointTrajectory,
         );
         cfg.camera[0].trigger_topic = None;
-        let stop = Arc::new(AtomicBool::new(false));
-        let server = {
-            let (cfg, stop) = (cfg.clone(), stop.clone());
-            std::thread::spawn(move || {
-                let mut toy = ToyRobot::new();
-                serve(
-                    &mut toy,
-                    &cfg,
-                    &ServeOptions {
-                        lockstep,
-                        camera_rate_hz: 0.0,
-                        ..ServeOptions::default()
-                    },
-                    &|| stop.load(Ordering::Relaxed),
-                )
-                .expect("the toy is served")
-            })
-        };
+        let server = ServedToy::start(
+            &cfg,
+            ServeOptions {
+                lockstep,
+                camera_rate_hz: 0.0,
+                ..ServeOptions::default()
+            },
+        );
         let mut hw = Ros2Hardware::connect(cfg, RobotModel::from_urdf_str(TOY_URDF).unwrap()).unwrap();
         let mut k = 0u64;
         c.bench_function(&format!("ros2_reference_to_encoder_{name}"), |b| {
@@ -48,8 +35,7 @@ fn round_trip(c: &mut Criterion) {
             })
         });
         drop(hw);
-        stop.store(true, Ordering::Relaxed);
-        server.join().unwrap();
+        server.stop().expect("the toy was served");
     }
 }
 

@@ -4,8 +4,11 @@
 //! ROS 2 can be compared bit for bit with the same run in-process.
 
 use crate::config::{CameraConfig, CommandConfig, ForceTorqueConfig, JointStatesConfig};
+use crate::serve::{ServeOptions, ServeReport, serve};
 use crate::{CommandKind, Ros2Config};
 use control_basis::{CameraInfo, CbError, ForceTorque, Hardware, HardwareError, Image, Intrinsics, Plant, RobotModel};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The toy's URDF (joints `j1`, `j2`; links `b` with the sensor and `cam` with the camera).
 pub const TOY_URDF: &str = r#"<robot name="two">
@@ -168,5 +171,34 @@ pub fn toy_config(domain: u16, kind: CommandKind) -> Ros2Config {
             trigger_topic: Some("/toy/eye/trigger".into()),
             pixel_noise: 0.01,
         }],
+    }
+}
+
+/// A [`ToyRobot`] served on a thread of its own until [`ServedToy::stop`].
+#[derive(Debug)]
+pub struct ServedToy {
+    stop: Arc<AtomicBool>,
+    thread: std::thread::JoinHandle<Result<ServeReport, crate::Ros2Error>>,
+}
+
+impl ServedToy {
+    /// Serves a fresh toy on `config`'s topics with `options`.
+    pub fn start(config: &Ros2Config, options: ServeOptions) -> Self {
+        let stop = Arc::new(AtomicBool::new(false));
+        let (config, flag) = (config.clone(), stop.clone());
+        let thread = std::thread::spawn(move || {
+            let mut toy = ToyRobot::new();
+            serve(&mut toy, &config, &options, &|| flag.load(Ordering::Relaxed))
+        });
+        ServedToy { stop, thread }
+    }
+
+    /// Stops serving; the server's report (or its error, or a message if its thread panicked).
+    pub fn stop(self) -> Result<ServeReport, String> {
+        self.stop.store(true, Ordering::Relaxed);
+        match self.thread.join() {
+            Ok(r) => r.map_err(|e| e.to_string()),
+            Err(_) => Err("the server's thread panicked".into()),
+        }
     }
 }

@@ -1,13 +1,11 @@
 //! A robot served over ROS 2 in one thread and driven through `Ros2Hardware` in another, on
 //! localhost DDS: in lock step the driven robot sees exactly what the same robot shows in-process.
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use control_basis::{ForceTorque, Hardware, Image, Plant, RobotModel};
-use pbd_ros2::testing::{TOY_URDF as URDF, ToyRobot as Toy, toy_config as config};
-use pbd_ros2::{CommandKind, Ros2Hardware, ServeOptions, serve};
+use pbd_ros2::testing::{ServedToy, TOY_URDF as URDF, ToyRobot as Toy, toy_config as config};
+use pbd_ros2::{CommandKind, Ros2Hardware, ServeOptions};
 
 /// A domain of its own per test and process (tests of several processes may run at once).
 fn domain(k: u16) -> u16 {
@@ -42,30 +40,19 @@ fn script(hw: &mut dyn Hardware) -> Vec<Reading> {
 #[test]
 fn lock_step_over_dds_reads_what_the_robot_shows_in_process() {
     let cfg = config(domain(0), CommandKind::JointTrajectory);
-    let stop = Arc::new(AtomicBool::new(false));
-    let server = {
-        let (cfg, stop) = (cfg.clone(), stop.clone());
-        std::thread::spawn(move || {
-            let mut toy = Toy::new();
-            serve(
-                &mut toy,
-                &cfg,
-                &ServeOptions {
-                    lockstep: true,
-                    ..ServeOptions::default()
-                },
-                &|| stop.load(Ordering::Relaxed),
-            )
-            .unwrap()
-        })
-    };
+    let server = ServedToy::start(
+        &cfg,
+        ServeOptions {
+            lockstep: true,
+            ..ServeOptions::default()
+        },
+    );
     let mut remote = Ros2Hardware::connect(cfg, RobotModel::from_urdf_str(URDF).unwrap()).unwrap();
     assert_eq!(remote.joint_names(), ["j1", "j2"]);
     assert_eq!(remote.cameras()[0].intrinsics.width, 8);
     assert!((remote.cameras()[0].intrinsics.hfov_deg - 60.0).abs() < 1e-9);
     let got = script(&mut remote);
-    stop.store(true, Ordering::Relaxed);
-    let report = server.join().unwrap();
+    let report = server.stop().unwrap();
     assert_eq!(report.commands, 60);
     assert_eq!(report.images, 6);
 
@@ -82,30 +69,19 @@ fn lock_step_over_dds_reads_what_the_robot_shows_in_process() {
 #[test]
 fn a_robot_that_stops_answering_is_an_error_naming_the_topic_and_the_robot_stops_commanding() {
     let cfg = config(domain(1), CommandKind::PositionVelocity);
-    let stop = Arc::new(AtomicBool::new(false));
-    let server = {
-        let (cfg, stop) = (cfg.clone(), stop.clone());
-        std::thread::spawn(move || {
-            let mut toy = Toy::new();
-            serve(
-                &mut toy,
-                &cfg,
-                &ServeOptions {
-                    lockstep: true,
-                    ..ServeOptions::default()
-                },
-                &|| stop.load(Ordering::Relaxed),
-            )
-            .unwrap()
-        })
-    };
+    let server = ServedToy::start(
+        &cfg,
+        ServeOptions {
+            lockstep: true,
+            ..ServeOptions::default()
+        },
+    );
     let mut cfg_robot = cfg.clone();
     cfg_robot.timeout_ms = 300;
     let mut remote = Ros2Hardware::connect(cfg_robot, RobotModel::from_urdf_str(URDF).unwrap()).unwrap();
     remote.set_joint_reference(0, 0.3, 0.0);
     remote.advance(0.002).unwrap();
-    stop.store(true, Ordering::Relaxed);
-    server.join().unwrap();
+    server.stop().unwrap();
     std::thread::sleep(Duration::from_millis(100));
     let e = remote.advance(0.002).unwrap_err().to_string();
     assert!(e.contains("/toy/joint_states"), "{e}");
