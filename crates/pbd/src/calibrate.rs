@@ -150,12 +150,7 @@ pub fn calibrate(args: &CalibrateOptions, progress: &dyn Progress) -> crate::Res
 
 fn calibrate_impl(args: &CalibrateOptions, progress: &dyn Progress) -> anyhow::Result<CalibrateReport> {
     let scene = Scene::open(&args.scene)?;
-    crate::files::IoPlan::new()
-        .read("--scene", &scene.path)
-        .read("the scene's catalog", &scene.catalog.path)
-        .write("-o", &args.output)
-        .check()?;
-    crate::files::check_writable(&args.output)?;
+    check_output(&scene, &args.output)?;
     let seed = args
         .seed
         .unwrap_or_else(|| dexter_sim::calibrate::workcell_seed(&scene));
@@ -165,27 +160,58 @@ fn calibrate_impl(args: &CalibrateOptions, progress: &dyn Progress) -> anyhow::R
     let settings = CalibrationSettings::default();
     let (calibration, sim_time) = dexter_sim::calibrate::calibrate_timed(&scene, &settings, seed)?;
     let wall_time = wall.elapsed().as_secs_f64();
-    progress.message(&format!("writing {}", args.output.display()));
+    save_and_report(
+        &calibration,
+        &args.scene,
+        seed,
+        &args.output,
+        sim_time,
+        wall_time,
+        progress,
+    )
+}
+
+/// Refuses `output` when it is the scene or its catalog, or cannot be written — before any work.
+pub(crate) fn check_output(scene: &Scene, output: &std::path::Path) -> anyhow::Result<()> {
+    crate::files::IoPlan::new()
+        .read("--scene", &scene.path)
+        .read("the scene's catalog", &scene.catalog.path)
+        .write("-o", output)
+        .check()?;
+    crate::files::check_writable(output)
+}
+
+/// Writes `calibration` to `output` (a temporary file and a rename), reads it back, checks it is
+/// equal, and reports it (how the calibration was made: `scene`, `seed`, `sim_time`, `wall_time`).
+pub(crate) fn save_and_report(
+    calibration: &Calibration,
+    scene: &str,
+    seed: u64,
+    output: &std::path::Path,
+    sim_time: f64,
+    wall_time: f64,
+    progress: &dyn Progress,
+) -> anyhow::Result<CalibrateReport> {
+    progress.message(&format!("writing {}", output.display()));
     let t = Instant::now();
     let bytes = calibration.to_bytes()?;
-    crate::files::write_atomic(&args.output, &bytes)?;
+    crate::files::write_atomic(output, &bytes)?;
     let save_time = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let back = Calibration::load(&args.output)?;
+    let back = Calibration::load(output)?;
     let load_time = t.elapsed().as_secs_f64();
     anyhow::ensure!(
-        back == calibration,
+        &back == calibration,
         "{}: the file read back differs from the calibration (a bug in pbd; please report it)",
-        args.output.display()
+        output.display()
     );
     progress.finish();
-    let cameras = CalibratedCamera::of(&calibration);
     Ok(CalibrateReport {
-        scene: args.scene.clone(),
+        scene: scene.to_string(),
         seed,
         views: calibration.view_count(),
-        cameras,
-        file: args.output.display().to_string(),
+        cameras: CalibratedCamera::of(calibration),
+        file: output.display().to_string(),
         bytes: bytes.len() as u64,
         sim_time,
         wall_time,

@@ -297,12 +297,7 @@ fn calibrate_impl(
 ) -> Result<crate::calibrate::CalibrateReport> {
     let cfg = config(config_path)?;
     let scene = Scene::open(&options.scene)?;
-    crate::files::IoPlan::new()
-        .read("--scene", &scene.path)
-        .read("the scene's catalog", &scene.catalog.path)
-        .write("-o", &options.output)
-        .check()?;
-    crate::files::check_writable(&options.output)?;
+    crate::calibrate::check_output(&scene, &options.output)?;
     let mut hw = connect(cfg, progress)?;
     progress.phase("calibrate", None);
     let t0 = control_basis::Plant::time_secs(&hw);
@@ -314,31 +309,16 @@ fn calibrate_impl(
     )?;
     let wall_time = wall.elapsed().as_secs_f64();
     let sim_time = control_basis::Plant::time_secs(&hw) - t0;
-    let t = Instant::now();
-    let bytes = calibration.to_bytes()?;
-    crate::files::write_atomic(&options.output, &bytes)?;
-    let save_time = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let back = dexter::calibration::Calibration::load(&options.output)?;
-    let load_time = t.elapsed().as_secs_f64();
-    anyhow::ensure!(
-        back == calibration,
-        "{}: the file read back differs from the calibration (a bug in pbd; please report it)",
-        options.output.display()
-    );
-    progress.finish();
-    Ok(crate::calibrate::CalibrateReport {
-        scene: options.scene.clone(),
-        seed: 0,
-        views: calibration.view_count(),
-        cameras: crate::calibrate::CalibratedCamera::of(&calibration),
-        file: options.output.display().to_string(),
-        bytes: bytes.len() as u64,
+    // The robot's own noise: no seed of pbd's (reported as 0).
+    crate::calibrate::save_and_report(
+        &calibration,
+        &options.scene,
+        0,
+        &options.output,
         sim_time,
         wall_time,
-        save_time,
-        load_time,
-    })
+        progress,
+    )
 }
 
 fn segment_report(run: &dexter::task::SegmentRun) -> SegmentReport {
