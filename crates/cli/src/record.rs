@@ -54,6 +54,10 @@ pub struct RecordArgs {
     /// How images are stored: jpeg (quality 85), jpeg:QUALITY (1-100), png (lossless) or raw (rgb8).
     #[arg(long, value_name = "FORMAT", default_value = "jpeg")]
     image_format: pbd::mcap_log::ImageFormat,
+    /// Message encoding: foxglove (Foxglove's Protobuf and pbd's JSON) or ros2 (CDR with ROS 2
+    /// message definitions, profile ros2: what `ros2 bag`, rosbags and Foxglove read).
+    #[arg(long, value_name = "ENCODING", default_value = "foxglove")]
+    encoding: pbd::mcap_log::Encoding,
     #[command(flatten)]
     live: crate::output::LiveArgs,
     /// Rate of /tf, joint states and fingertips (Hz of simulated time).
@@ -91,6 +95,7 @@ pub fn main(a: RecordArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         save_teleop: a.save_teleop,
         images: a.images,
         image_format: a.image_format,
+        encoding: a.encoding,
         live: pbd::LiveOptions::bind(a.live.bind()),
         log_hz: a.log_hz,
         percept_hz: a.percept_hz,

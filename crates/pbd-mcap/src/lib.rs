@@ -3,8 +3,9 @@
 //! A demonstration or an execution is recorded as one MCAP file that opens in Foxglove: the robot's
 //! link frames and the objects move in the 3D panel (`/tf`), the table, bins and objects are drawn
 //! (`/scene`), the cameras show in image panels, text events in the log panel, and joint states and
-//! fingertip wrenches can be plotted. Every message is JSON with a JSON Schema, so the file is also
-//! easy to read back from Python or `jq`.
+//! fingertip wrenches can be plotted. Foxglove's well-known messages are Protobuf (the `foxglove`
+//! crate's typed schemas), pbd's own JSON with a JSON Schema, so they are also easy to read back
+//! from Python or `jq`.
 //!
 //! | topic                        | schema                        | written by                          |
 //! |------------------------------|-------------------------------|-------------------------------------|
@@ -19,6 +20,9 @@
 //! | `/log`                       | `foxglove.Log`                | [`McapLog::log_text`]               |
 //! | `/camera/<name>/image`       | `foxglove.CompressedImage` (JPEG or PNG) or `foxglove.RawImage` (rgb8) | [`McapLog::log_camera_image`] |
 //! | `/camera/<name>/calibration` | `foxglove.CameraCalibration`  | [`McapLog::log_camera_image`]       |
+//!
+//! In the ROS 2 encoding ([`Encoding::Ros2`], `pbd record --encoding ros2`) every channel is CDR with a
+//! `ros2msg` schema instead, as rosbag2 writes it (the types and topics: [`ros2`]).
 //!
 //! Frames: `world` is the fixed frame; each robot link is published relative to its parent link
 //! (`parent_from_child = world_from_parent⁻¹ · world_from_child`), each object as
@@ -43,6 +47,7 @@
 mod grasps;
 mod messages;
 mod robot;
+pub mod ros2;
 mod scene;
 mod schemas;
 

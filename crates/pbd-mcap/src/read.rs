@@ -9,10 +9,12 @@ use foxglove::messages as fm;
 use mcap::records::Record;
 use serde::Serialize;
 
-/// One message of a pbd log as JSON, whatever its encoding: pbd's own (`json`) as written, and
+/// One message of a pbd log as JSON, whatever its encoding: pbd's own (`json`) as written,
 /// Foxglove's (`protobuf`, by schema name) decoded with the `foxglove` crate's types and shown with
 /// that crate's field names (Foxglove's, lower-cased: a calibration's `K` is `k`; bytes as base64,
-/// enums by name) — what the tests read, and what a script can print.
+/// enums by name), and ROS 2's (`cdr`, by type name) with the field names of their definitions
+/// (pbd's own `pbd_msgs` as the JSON of the other encoding) — what the tests read, and what a
+/// script can print.
 pub fn message_json(schema_name: &str, message_encoding: &str, data: &[u8]) -> Result<serde_json::Value> {
     fn decode<T: prost::Message + Default + Serialize>(data: &[u8]) -> Result<serde_json::Value> {
         Ok(serde_json::to_value(T::decode(data)?)?)
@@ -28,6 +30,7 @@ pub fn message_json(schema_name: &str, message_encoding: &str, data: &[u8]) -> R
             "foxglove.CameraCalibration" => decode::<fm::CameraCalibration>(data),
             other => anyhow::bail!("Protobuf schema `{other}` is not one pbd writes"),
         },
+        "cdr" => crate::ros2::message_json(schema_name, data),
         other => anyhow::bail!("message encoding `{other}` is not one pbd writes"),
     }
 }
@@ -35,8 +38,10 @@ pub fn message_json(schema_name: &str, message_encoding: &str, data: &[u8]) -> R
 /// Messages of some topics read back from a log, with its metadata and attachments.
 #[derive(Debug, Clone, Default)]
 pub struct Recording {
-    /// (topic, log time ns, payload) in file order: JSON on pbd's own topics, Protobuf on
-    /// Foxglove's (JSON in recordings before 2026-11-29; [`message_json`] reads either).
+    /// (topic, log time ns, payload) in file order: JSON on pbd's own topics whatever the log's
+    /// encoding (a ROS 2 log's `pbd_msgs` are converted back), Protobuf on Foxglove's (JSON in
+    /// recordings before 2026-11-29) or CDR on their ROS 2 counterparts ([`message_json`] reads
+    /// each).
     pub messages: Vec<(String, u64, Vec<u8>)>,
     /// Metadata records by name.
     pub metadata: BTreeMap<String, BTreeMap<String, String>>,
@@ -47,7 +52,8 @@ pub struct Recording {
     /// Damaged chunks that were skipped (see [`Summary::skipped_chunks`]).
     pub skipped_chunks: Vec<String>,
     /// Channels on a wanted topic that were skipped because pbd did not write them: neither JSON
-    /// with a JSON Schema nor Protobuf with a `foxglove.*` schema (ROS 2 messages…).
+    /// with a JSON Schema, nor Protobuf with a `foxglove.*` schema, nor CDR of a ROS 2 type pbd
+    /// writes.
     pub foreign_channels: Vec<String>,
 }
 
@@ -75,7 +81,8 @@ pub fn read_recording_bytes(bytes: &[u8], topics: &[&str]) -> Result<Recording> 
 }
 
 fn record_of(source: Source<'_>, topics: &[&str]) -> Result<Recording> {
-    let mut wanted: HashMap<u16, String> = HashMap::new();
+    // Topic, and the `pbd_msgs` type to convert to JSON.
+    let mut wanted: HashMap<u16, (String, Option<String>)> = HashMap::new();
     let mut schemas: HashMap<u16, (String, String)> = HashMap::new();
     let mut rec = Recording::default();
     let scanned = scan(source, &mut |record| match record {
@@ -90,8 +97,14 @@ fn record_of(source: Source<'_>, topics: &[&str]) -> Result<Recording> {
             let foreign_schema = c.schema_id != 0 && schema.is_none_or(|(_, enc)| enc != "jsonschema");
             let foxglove_proto =
                 c.message_encoding == "protobuf" && schema.is_some_and(|(name, _)| name.starts_with("foxglove."));
+            let ros2 = c.message_encoding == "cdr"
+                && schema.is_some_and(|(name, enc)| enc == "ros2msg" && crate::ros2::schema(name).is_ok());
             if (c.message_encoding == "json" && !foreign_schema) || foxglove_proto {
-                wanted.insert(c.id, c.topic);
+                wanted.insert(c.id, (c.topic, None));
+            } else if ros2 {
+                let name = schema.map(|(name, _)| name.clone()).unwrap_or_default();
+                let pbd = name.starts_with("pbd_msgs/").then_some(name);
+                wanted.insert(c.id, (c.topic, pbd));
             } else {
                 let what = match schema {
                     Some((name, enc)) => format!("schema `{name}` ({enc})"),
@@ -99,7 +112,7 @@ fn record_of(source: Source<'_>, topics: &[&str]) -> Result<Recording> {
                     None => "no schema".into(),
                 };
                 let note = format!(
-                    "channel {} on {} has message encoding `{}` and {what}; pbd reads the JSON and Foxglove Protobuf channels it writes — skipped",
+                    "channel {} on {} has message encoding `{}` and {what}; pbd reads the JSON, Foxglove Protobuf and ROS 2 CDR channels it writes — skipped",
                     c.id, c.topic, c.message_encoding
                 );
                 if !rec.foreign_channels.contains(&note) {
@@ -108,8 +121,16 @@ fn record_of(source: Source<'_>, topics: &[&str]) -> Result<Recording> {
             }
         }
         Record::Message { header, data } => {
-            if let Some(topic) = wanted.get(&header.channel_id) {
-                rec.messages.push((topic.clone(), header.log_time, data.into_owned()));
+            if let Some((topic, pbd)) = wanted.get(&header.channel_id) {
+                let data = match pbd {
+                    // A message that does not decode is kept as it is: its reader names it.
+                    Some(ty) => match crate::ros2::pbd_json(ty, &data) {
+                        Ok(Some(json)) => json,
+                        _ => data.into_owned(),
+                    },
+                    None => data.into_owned(),
+                };
+                rec.messages.push((topic.clone(), header.log_time, data));
             }
         }
         Record::Metadata(m) => {

@@ -1022,3 +1022,141 @@ fn huge_string_lengths_are_refused_before_any_allocation() {
     let r = read_recording_bytes(&bytes, &[]).unwrap();
     assert!(r.metadata.is_empty());
 }
+
+#[test]
+fn a_ros2_log_is_cdr_with_ros2msg_schemas_throughout_and_reads_back() {
+    use pbd_ros2_msgs::msg;
+    let header = header();
+    let percept = schema::percept::Percept {
+        t: 0.1,
+        hands: Vec::new(),
+        segments: Vec::new(),
+        places: Vec::new(),
+        table_z: 0.75,
+        gaze: Some(3),
+    };
+    let view = CameraView {
+        name: "head_left",
+        frame_id: "arm",
+        focal: [100.0, 101.0],
+        principal: [1.5, 1.0],
+    };
+    let rgb: Vec<u8> = (0..4 * 3 * 3).map(|i| i as u8).collect();
+    let write = |tmp: &TempFile, encoding: Encoding| {
+        let options = McapLogOptions {
+            image_format: ImageFormat::Raw,
+            tf_keyframe_secs: 0.0,
+            encoding,
+            ..Default::default()
+        };
+        let mut log = McapLog::create_with(&tmp.0, options).unwrap();
+        log.log_scene(&scene(), &header, 0.0).unwrap();
+        for i in 0..3 {
+            log.log_snapshot(&header, &snapshot(0.05 * f64::from(i), "reach"))
+                .unwrap();
+        }
+        log.log_text(0.1, LogLevel::Warning, "grasp slipped").unwrap();
+        log.log_camera_image(0.1, &view, 4, 3, &rgb).unwrap();
+        let any = serde_json::json!({ "type": "object" });
+        log.log_json("/pbd/percept", "pbd.Percept", &any, 0.1, &percept)
+            .unwrap();
+        log.log_json(
+            "/pbd/decision",
+            "pbd.Decision",
+            &any,
+            0.1,
+            &serde_json::json!({"place": "bin-a"}),
+        )
+        .unwrap();
+        log.finish().unwrap();
+    };
+    let (ros, fox) = (TempFile::new("ros2"), TempFile::new("fox"));
+    write(&ros, Encoding::Ros2);
+    write(&fox, Encoding::Foxglove);
+    let bytes = std::fs::read(&ros.0).unwrap();
+    // The header record (opcode 1) holds the profile `ros2` (a u32 length, then the text).
+    assert_eq!(bytes[8], 1);
+    assert_eq!(&bytes[17..25], b"\x04\x00\x00\x00ros2");
+
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    for c in summary.channels.values() {
+        let s = c.schema.as_ref().unwrap();
+        assert_eq!(
+            (s.encoding.as_str(), c.message_encoding.as_str()),
+            ("ros2msg", "cdr"),
+            "{}",
+            c.topic
+        );
+        // Each schema is the type's definition and those of the types it uses.
+        let text = std::str::from_utf8(&s.data).unwrap();
+        assert!(!text.contains("MSG: ") || text.contains(&"=".repeat(80)), "{text}");
+    }
+    let by_topic = messages_by_topic(&bytes);
+    let q = |topic: &str, k: usize| -> Vec<f64> {
+        serde_json::from_value(by_topic[topic][k].1["position"].clone()).unwrap()
+    };
+    for (k, (_, w)) in by_topic["/fingertips/right/3"].iter().enumerate() {
+        let s = snapshot(0.05 * k as f64, "reach");
+        assert_eq!(q("/joint_states", k), s.q, "encoders exactly (CDR carries the doubles)");
+        assert_eq!(q("/joint_references", k), s.q_ref);
+        assert_eq!(w["wrench"]["force"]["z"], 3.0);
+        assert_eq!(w["header"]["frame_id"], "world");
+    }
+    assert_eq!(by_topic["/fingertips/left/1"].len(), 3);
+    // /tf: the same frames as the Foxglove encoding writes.
+    let fox_bytes = std::fs::read(&fox.0).unwrap();
+    let fox_topics = messages_by_topic(&fox_bytes);
+    let ros_pairs: Vec<(String, String)> = by_topic["/tf"][0].1["transforms"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| {
+            (
+                t["header"]["frame_id"].as_str().unwrap().to_owned(),
+                t["child_frame_id"].as_str().unwrap().to_owned(),
+            )
+        })
+        .collect();
+    assert_eq!(ros_pairs, tf_pairs(&fox_topics["/tf"][0].1));
+    // The scene as markers: a DELETEALL first, then the table, places and object.
+    let markers = by_topic["/scene"][0].1["markers"].as_array().unwrap();
+    assert_eq!(markers[0]["action"], msg::Marker::DELETEALL);
+    assert!(markers.len() > 4, "{}", markers.len());
+    let log = &by_topic["/log"][0].1;
+    assert_eq!(
+        (log["level"].as_u64(), log["msg"].as_str()),
+        (Some(30), Some("grasp slipped"))
+    );
+    let image = &by_topic["/camera/head_left/image"][0].1;
+    assert_eq!((image["width"].as_u64(), image["step"].as_u64()), (Some(4), Some(12)));
+    let info = &by_topic["/camera/head_left/camera_info"][0].1;
+    assert_eq!(info["k"][0], 100.0);
+    assert_eq!(info["header"]["frame_id"], "arm");
+
+    // pbd's own messages read back as the JSON of the other encoding, byte for byte.
+    let topics = ["/pbd/percept", "/pbd/decision"];
+    let (r, f) = (
+        read_recording(&ros.0, &topics).unwrap(),
+        read_recording(&fox.0, &topics).unwrap(),
+    );
+    assert!(r.foreign_channels.is_empty(), "{:?}", r.foreign_channels);
+    assert_eq!(r.messages, f.messages);
+    assert_eq!(r.messages.len(), 2);
+    // And every channel of the file is one pbd reads.
+    assert!(read_recording(&ros.0, &[]).unwrap().foreign_channels.is_empty());
+}
+
+#[test]
+fn log_encodings_parse_and_print() {
+    for (text, want) in [
+        ("foxglove", Encoding::Foxglove),
+        ("json", Encoding::Foxglove),
+        ("ros2", Encoding::Ros2),
+        ("cdr", Encoding::Ros2),
+    ] {
+        assert_eq!(text.parse::<Encoding>().unwrap(), want);
+    }
+    assert_eq!(Encoding::Ros2.to_string(), "ros2");
+    let e = "rosbag".parse::<Encoding>().unwrap_err().to_string();
+    assert!(e.contains("rosbag") && e.contains("ros2"), "{e}");
+}

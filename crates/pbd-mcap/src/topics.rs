@@ -11,6 +11,9 @@ pub const TOPIC_SCENE: &str = "/scene";
 pub const TOPIC_LOG: &str = "/log";
 /// Joint encoders, velocities and setpoints (`pbd.JointState`).
 pub const TOPIC_JOINT_STATES: &str = "/joint_states";
+/// The motor references (`sensor_msgs/JointState`, in the ROS 2 encoding only: pbd's JSON
+/// `/joint_states` holds them).
+pub const TOPIC_JOINT_REFERENCES: &str = "/joint_references";
 /// Fingertip force/torque sensors (`pbd.FingertipWrenches`).
 pub const TOPIC_FINGERTIPS: &str = "/fingertips";
 /// The task layer's activity text (`pbd.Activity`).

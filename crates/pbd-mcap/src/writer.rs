@@ -75,6 +75,55 @@ impl std::fmt::Display for ImageFormat {
     }
 }
 
+/// How a log's messages are encoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Encoding {
+    /// Foxglove's well-known messages in Protobuf (the `foxglove` crate's typed schemas), pbd's own
+    /// in JSON with JSON Schemas: what Foxglove reads best.
+    #[default]
+    Foxglove,
+    /// ROS 2: every channel CDR with a `ros2msg` schema, profile `ros2` — what rosbag2 writes, so
+    /// that `ros2 bag`, `rosbags` and Foxglove read it (the types: [`crate::ros2`]).
+    Ros2,
+}
+
+impl std::str::FromStr for Encoding {
+    type Err = anyhow::Error;
+
+    /// `foxglove` (also `json`, the name of pbd's own part) or `ros2` (also `cdr`).
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "foxglove" | "json" | "protobuf" => Ok(Self::Foxglove),
+            "ros2" | "cdr" => Ok(Self::Ros2),
+            _ => anyhow::bail!("unknown log encoding `{s}`: use foxglove or ros2"),
+        }
+    }
+}
+
+impl std::fmt::Display for Encoding {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Foxglove => "foxglove",
+            Self::Ros2 => "ros2",
+        })
+    }
+}
+
+/// What a channel carries (its schema in either [`Encoding`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Tf,
+    Scene,
+    Log,
+    JointState,
+    Fingertips,
+    Activity,
+    RawImage,
+    CompressedImage,
+    Calibration,
+}
+
 /// A camera as [`McapLog::log_camera_image`] needs it: its name (the topics), its optical frame
 /// in `/tf` (+z forward, +x right, +y down) and its pinhole calibration.
 #[derive(Debug, Clone, PartialEq)]
@@ -120,6 +169,8 @@ pub struct McapLogOptions {
     pub zstd_level: u32,
     /// How camera images are stored.
     pub image_format: ImageFormat,
+    /// How messages are encoded (Foxglove's Protobuf and pbd's JSON, or ROS 2's CDR).
+    pub encoding: Encoding,
     /// Every `/tf` frame is written at least this often (s of log time); 0 writes every frame of
     /// every snapshot.
     pub tf_keyframe_secs: f64,
@@ -138,6 +189,7 @@ impl Default for McapLogOptions {
             max_chunk_age: Duration::from_secs(2),
             zstd_level: 1,
             image_format: ImageFormat::default(),
+            encoding: Encoding::default(),
             // 50 µm and 0.1 mrad are below a pixel of the 3D panel at arm's length.
             tf_keyframe_secs: 1.0,
             tf_tolerance_m: 5e-5,
@@ -175,26 +227,19 @@ pub struct WriteStats {
 type McapWriter = Writer<NoSeek<BufWriter<File>>>;
 
 /// Channel ids of the fixed topics.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 struct Channels {
     tf: u16,
     scene: u16,
     log: u16,
     joint_states: u16,
+    /// `/fingertips` (pbd's JSON; in ROS 2 one `WrenchStamped` topic per sensor instead).
     fingertips: u16,
     activity: u16,
     robot: u16,
     arrows: u16,
-}
-
-/// Schema ids of the camera topics, and each camera's channels (image, calibration).
-#[derive(Debug, Clone)]
-struct CameraChannels {
-    /// Schema ids and texts.
-    raw: (u16, foxglove::Schema),
-    compressed: (u16, foxglove::Schema),
-    calibration: (u16, foxglove::Schema),
-    by_name: HashMap<String, (u16, u16)>,
+    /// `/joint_references` (ROS 2 only: the motor references, which pbd's JSON joint state holds).
+    references: Option<u16>,
 }
 
 /// A channel as declared: what a live view needs to declare it too.
@@ -233,7 +278,12 @@ pub struct McapLog {
     writer: Option<McapWriter>,
     options: McapLogOptions,
     channels: Channels,
-    cameras: CameraChannels,
+    /// Each camera's channels (image, calibration), by name.
+    cameras: HashMap<String, (u16, u16)>,
+    /// Schema ids by name.
+    schema_ids: HashMap<String, u16>,
+    /// ROS 2: each fingertip sensor's `WrenchStamped` channel, parallel to the snapshot's readings.
+    wrench_channels: Vec<u16>,
     tf_policy: TfPolicy,
     arrows: Arrows,
     /// Reused encoded-image buffer.
@@ -263,7 +313,7 @@ impl std::fmt::Debug for McapLog {
             .field("path", &self.path)
             .field("finished", &self.writer.is_none())
             .field("options", &self.options)
-            .field("cameras", &self.cameras.by_name.keys().collect::<Vec<_>>())
+            .field("cameras", &self.cameras.keys().collect::<Vec<_>>())
             .field("messages", &self.sequence)
             .finish_non_exhaustive()
     }
@@ -288,7 +338,8 @@ impl McapLog {
             .compression_level(options.zstd_level)
             // One thread: chunks are small and the simulator needs the other core.
             .compression_threads(0)
-            .profile("")
+            // rosbag2's profile: what ROS 2 readers check before reading on.
+            .profile(if options.encoding == Encoding::Ros2 { "ros2" } else { "" })
             .library(concat!("pbd ", env!("CARGO_PKG_VERSION")))
             // Chunks are closed by `McapLog` (size or age) and then flushed; mcap's own size limit
             // would close them without flushing.
@@ -296,103 +347,21 @@ impl McapLog {
             // Build each chunk in memory and write it whole: the file never holds a chunk header
             // that still waits for its length.
             .disable_seeking(true);
-        let mut writer = Writer::with_options(NoSeek::new(BufWriter::with_capacity(1 << 16, file)), write_options)
+        let writer = Writer::with_options(NoSeek::new(BufWriter::with_capacity(1 << 16, file)), write_options)
             .with_context(|| write_context(&path))?;
-
-        let mut declared: Vec<ChannelInfo> = Vec::new();
-        let mut declared_fox: Vec<ChannelInfo> = Vec::new();
-        // pbd's own messages: JSON with a JSON Schema.
-        let mut add_json =
-            |writer: &mut McapWriter, topic: &str, schema_name: &str, schema: serde_json::Value| -> Result<u16> {
-                let data = serde_json::to_vec(&schema)?;
-                let schema_id = writer.add_schema(schema_name, "jsonschema", &data)?;
-                let id = writer.add_channel(schema_id, topic, "json", &BTreeMap::new())?;
-                declared.push(ChannelInfo {
-                    id,
-                    topic: topic.to_owned(),
-                    schema_name: schema_name.to_owned(),
-                    schema_encoding: "jsonschema",
-                    schema: data,
-                    message_encoding: "json",
-                });
-                Ok(id)
-            };
-        let channels = (|| -> Result<Channels> {
-            // Foxglove's: Protobuf, one schema per type.
-            let mut schema_ids: HashMap<String, u16> = HashMap::new();
-            let mut fox =
-                |writer: &mut McapWriter, topic: &str, schema: foxglove::Schema| -> Result<(u16, ChannelInfo)> {
-                    let schema_id = match schema_ids.get(&schema.name) {
-                        Some(&id) => id,
-                        None => {
-                            let id = writer.add_schema(&schema.name, &schema.encoding, &schema.data)?;
-                            schema_ids.insert(schema.name.clone(), id);
-                            id
-                        }
-                    };
-                    let id = writer.add_channel(schema_id, topic, "protobuf", &BTreeMap::new())?;
-                    Ok((
-                        id,
-                        ChannelInfo {
-                            id,
-                            topic: topic.to_owned(),
-                            schema_name: schema.name,
-                            schema_encoding: "protobuf",
-                            schema: schema.data.into_owned(),
-                            message_encoding: "protobuf",
-                        },
-                    ))
-                };
-            let mut fox_channel = |writer: &mut McapWriter, topic: &str, schema: foxglove::Schema| -> Result<u16> {
-                let (id, info) = fox(writer, topic, schema)?;
-                declared_fox.push(info);
-                Ok(id)
-            };
-            let w = &mut writer;
-            Ok(Channels {
-                tf: fox_channel(w, TOPIC_TF, foxglove_schema::<fm::FrameTransforms>()?)?,
-                scene: fox_channel(w, TOPIC_SCENE, foxglove_schema::<fm::SceneUpdate>()?)?,
-                log: fox_channel(w, TOPIC_LOG, foxglove_schema::<fm::Log>()?)?,
-                joint_states: add_json(w, TOPIC_JOINT_STATES, "pbd.JointState", schemas::joint_state())?,
-                fingertips: add_json(
-                    w,
-                    TOPIC_FINGERTIPS,
-                    "pbd.FingertipWrenches",
-                    schemas::fingertip_wrenches(),
-                )?,
-                activity: add_json(w, TOPIC_ACTIVITY, "pbd.Activity", schemas::activity())?,
-                robot: fox_channel(w, TOPIC_ROBOT, foxglove_schema::<fm::SceneUpdate>()?)?,
-                arrows: fox_channel(w, TOPIC_FINGERTIP_ARROWS, foxglove_schema::<fm::SceneUpdate>()?)?,
-            })
-        })()
-        .with_context(|| write_context(&path))?;
-        declared.append(&mut declared_fox);
-        declared.sort_by_key(|c| c.id);
-        let cameras = (|| -> Result<CameraChannels> {
-            let mut schema = |s: foxglove::Schema| -> Result<(u16, foxglove::Schema)> {
-                Ok((writer.add_schema(&s.name, &s.encoding, &s.data)?, s))
-            };
-            Ok(CameraChannels {
-                raw: schema(foxglove_schema::<fm::RawImage>()?)?,
-                compressed: schema(foxglove_schema::<fm::CompressedImage>()?)?,
-                calibration: schema(foxglove_schema::<fm::CameraCalibration>()?)?,
-                by_name: HashMap::new(),
-            })
-        })()
-        .with_context(|| write_context(&path))?;
-        writer.flush().with_context(|| write_context(&path))?;
-
         let tf_policy = options.tf_policy();
-        Ok(Self {
+        let mut log = Self {
             path,
             writer: Some(writer),
             options,
-            channels,
-            cameras,
+            channels: Channels::default(),
+            cameras: HashMap::new(),
+            schema_ids: HashMap::new(),
+            wrench_channels: Vec::new(),
             tf_policy,
             arrows: Arrows::default(),
             image: Vec::new(),
-            declared,
+            declared: Vec::new(),
             live: None,
             live_channels: Vec::new(),
             json_channels: HashMap::new(),
@@ -402,7 +371,105 @@ impl McapLog {
             sequence: 0,
             open_chunk: None,
             last_time_ns: 0,
+        };
+        let ros2 = log.options.encoding == Encoding::Ros2;
+        log.channels = Channels {
+            tf: log.add_channel(TOPIC_TF, Kind::Tf)?,
+            scene: log.add_channel(TOPIC_SCENE, Kind::Scene)?,
+            log: log.add_channel(TOPIC_LOG, Kind::Log)?,
+            joint_states: log.add_channel(TOPIC_JOINT_STATES, Kind::JointState)?,
+            fingertips: if ros2 {
+                0
+            } else {
+                log.add_channel(TOPIC_FINGERTIPS, Kind::Fingertips)?
+            },
+            activity: log.add_channel(TOPIC_ACTIVITY, Kind::Activity)?,
+            robot: log.add_channel(TOPIC_ROBOT, Kind::Scene)?,
+            arrows: log.add_channel(TOPIC_FINGERTIP_ARROWS, Kind::Scene)?,
+            references: if ros2 {
+                Some(log.add_channel(TOPIC_JOINT_REFERENCES, Kind::JointState)?)
+            } else {
+                None
+            },
+        };
+        log.flush()?;
+        Ok(log)
+    }
+
+    /// The schema (name, schema encoding, data) and message encoding of a channel of `kind`.
+    fn channel_type(&self, kind: Kind) -> Result<(String, &'static str, Vec<u8>, &'static str)> {
+        if self.options.encoding == Encoding::Ros2 {
+            let name = match kind {
+                Kind::Tf => "tf2_msgs/msg/TFMessage",
+                Kind::Scene => "visualization_msgs/msg/MarkerArray",
+                Kind::Log => "rcl_interfaces/msg/Log",
+                Kind::JointState => "sensor_msgs/msg/JointState",
+                Kind::Fingertips => "geometry_msgs/msg/WrenchStamped",
+                Kind::Activity => "std_msgs/msg/String",
+                Kind::RawImage => "sensor_msgs/msg/Image",
+                Kind::CompressedImage => "sensor_msgs/msg/CompressedImage",
+                Kind::Calibration => "sensor_msgs/msg/CameraInfo",
+            };
+            return Ok((name.to_owned(), "ros2msg", crate::ros2::schema(name)?, "cdr"));
+        }
+        let fox = |s: foxglove::Schema| (s.name, "protobuf", s.data.into_owned(), "protobuf");
+        let json = |name: &str, schema: serde_json::Value| -> Result<_> {
+            Ok((name.to_owned(), "jsonschema", serde_json::to_vec(&schema)?, "json"))
+        };
+        Ok(match kind {
+            Kind::Tf => fox(foxglove_schema::<fm::FrameTransforms>()?),
+            Kind::Scene => fox(foxglove_schema::<fm::SceneUpdate>()?),
+            Kind::Log => fox(foxglove_schema::<fm::Log>()?),
+            Kind::RawImage => fox(foxglove_schema::<fm::RawImage>()?),
+            Kind::CompressedImage => fox(foxglove_schema::<fm::CompressedImage>()?),
+            Kind::Calibration => fox(foxglove_schema::<fm::CameraCalibration>()?),
+            Kind::JointState => json("pbd.JointState", schemas::joint_state())?,
+            Kind::Fingertips => json("pbd.FingertipWrenches", schemas::fingertip_wrenches())?,
+            Kind::Activity => json("pbd.Activity", schemas::activity())?,
         })
+    }
+
+    /// Declares a channel on `topic` for messages of `kind` (its schema once per log).
+    fn add_channel(&mut self, topic: &str, kind: Kind) -> Result<u16> {
+        let (name, schema_encoding, schema, message_encoding) = self.channel_type(kind)?;
+        self.add_channel_with(topic, name, schema_encoding, schema, message_encoding)
+    }
+
+    fn add_channel_with(
+        &mut self,
+        topic: &str,
+        schema_name: String,
+        schema_encoding: &'static str,
+        schema: Vec<u8>,
+        message_encoding: &'static str,
+    ) -> Result<u16> {
+        let writer = self.writer.as_mut().context("the MCAP log is finished")?;
+        let id = (|| -> Result<u16> {
+            let schema_id = match self.schema_ids.get(&schema_name) {
+                Some(&id) => id,
+                None => {
+                    let id = writer.add_schema(&schema_name, schema_encoding, &schema)?;
+                    self.schema_ids.insert(schema_name.clone(), id);
+                    id
+                }
+            };
+            Ok(writer.add_channel(schema_id, topic, message_encoding, &BTreeMap::new())?)
+        })()
+        .with_context(|| write_context(&self.path))?;
+        self.declare(ChannelInfo {
+            id,
+            topic: topic.to_owned(),
+            schema_name,
+            schema_encoding,
+            schema,
+            message_encoding,
+        })?;
+        Ok(id)
+    }
+
+    /// Encodes one of Foxglove's messages into the buffer in the log's encoding.
+    fn encode_fox<M: prost::Message + 'static>(&mut self, m: &M) -> Result<()> {
+        encode_message(&mut self.json, self.options.encoding, m)
     }
 
     /// The file being written.
@@ -490,37 +557,94 @@ impl McapLog {
             && tree.update(log_time, &snap.link_poses, &snap.objects, &self.tf_policy) > 0
         {
             tree.encode_transforms(timestamp, &mut self.json);
+            if self.options.encoding == Encoding::Ros2 {
+                let transforms =
+                    <fm::FrameTransforms as prost::Message>::decode(self.json.as_slice()).context("re-reading /tf")?;
+                self.encode_fox(&transforms)?;
+            }
             self.write_buffer(self.channels.tf, log_time)?;
         }
 
-        let msg = messages::JointState {
-            timestamp,
-            name: &header.joint_names,
-            position: messages::Rounded(&snap.q),
-            velocity: messages::Rounded(&snap.qd),
-            position_ref: messages::Rounded(&snap.q_ref),
-        };
-        encode(&mut self.json, &msg)?;
-        self.write_buffer(self.channels.joint_states, log_time)?;
-
-        encode(
-            &mut self.json,
-            &messages::FingertipWrenches {
+        if let Some(references) = self.channels.references {
+            // ROS 2: sensor_msgs/JointState for the encoders and for the motor references, and
+            // one WrenchStamped per fingertip sensor (world-aligned, at the tip link).
+            let stamp = ros2_time(timestamp);
+            for (channel, position, velocity) in [
+                (self.channels.joint_states, &snap.q, snap.qd.clone()),
+                (references, &snap.q_ref, Vec::new()),
+            ] {
+                let m = pbd_ros2_msgs::msg::JointState {
+                    header: pbd_ros2_msgs::msg::Header {
+                        stamp,
+                        frame_id: String::new(),
+                    },
+                    name: header.joint_names.clone(),
+                    position: position.clone(),
+                    velocity,
+                    effort: Vec::new(),
+                };
+                pbd_ros2_msgs::encode_into(&mut self.json, &m)?;
+                self.write_buffer(channel, log_time)?;
+            }
+            if self.wrench_channels.len() != snap.fingertips.len() {
+                self.wrench_channels.clear();
+                for id in robot::fingertip_ids(&snap.fingertips) {
+                    let topic = format!("/{}", id.replacen("fingertip/", "fingertips/", 1));
+                    let c = self.add_channel(&topic, Kind::Fingertips)?;
+                    self.wrench_channels.push(c);
+                }
+            }
+            for (f, k) in snap.fingertips.iter().zip(0..) {
+                let m = pbd_ros2_msgs::msg::WrenchStamped {
+                    header: pbd_ros2_msgs::msg::Header {
+                        stamp,
+                        frame_id: messages::WORLD_FRAME.to_owned(),
+                    },
+                    wrench: pbd_ros2_msgs::msg::Wrench {
+                        force: pbd_ros2_msgs::msg::Vector3::from_array(f.force),
+                        torque: pbd_ros2_msgs::msg::Vector3::from_array(f.torque),
+                    },
+                };
+                pbd_ros2_msgs::encode_into(&mut self.json, &m)?;
+                self.write_buffer(self.wrench_channels[k], log_time)?;
+            }
+        } else {
+            let msg = messages::JointState {
                 timestamp,
-                fingertips: &snap.fingertips,
-            },
-        )?;
-        self.write_buffer(self.channels.fingertips, log_time)?;
+                name: &header.joint_names,
+                position: messages::Rounded(&snap.q),
+                velocity: messages::Rounded(&snap.qd),
+                position_ref: messages::Rounded(&snap.q_ref),
+            };
+            encode(&mut self.json, &msg)?;
+            self.write_buffer(self.channels.joint_states, log_time)?;
+
+            encode(
+                &mut self.json,
+                &messages::FingertipWrenches {
+                    timestamp,
+                    fingertips: &snap.fingertips,
+                },
+            )?;
+            self.write_buffer(self.channels.fingertips, log_time)?;
+        }
         self.log_arrows(snap, timestamp, log_time)?;
 
         if self.last_activity.as_deref() != Some(snap.activity.as_str()) {
-            encode(
-                &mut self.json,
-                &messages::Activity {
-                    timestamp,
-                    text: &snap.activity,
-                },
-            )?;
+            if self.options.encoding == Encoding::Ros2 {
+                let m = pbd_ros2_msgs::msg::StringMsg {
+                    data: snap.activity.clone(),
+                };
+                pbd_ros2_msgs::encode_into(&mut self.json, &m)?;
+            } else {
+                encode(
+                    &mut self.json,
+                    &messages::Activity {
+                        timestamp,
+                        text: &snap.activity,
+                    },
+                )?;
+            }
             self.write_buffer(self.channels.activity, log_time)?;
             let last = self.last_activity.get_or_insert_with(String::new);
             last.clear();
@@ -556,7 +680,8 @@ impl McapLog {
             return Ok(());
         }
         a.shown = any;
-        encode_proto(&mut self.json, &robot::arrow_update(timestamp, &a.ids, &a.arrows))?;
+        let update = robot::arrow_update(timestamp, &a.ids, &a.arrows);
+        self.encode_fox(&update)?;
         self.write_buffer(self.channels.arrows, log_time)
     }
 
@@ -566,7 +691,7 @@ impl McapLog {
     pub fn log_robot(&mut self, model: &control_basis::RobotModel, time_secs: f64) -> Result<()> {
         let log_time = time_ns(time_secs);
         let update = robot::robot_update(model, Time::from_ns(log_time));
-        encode_proto(&mut self.json, &update.proto())?;
+        self.encode_fox(&update.proto())?;
         self.write_buffer(self.channels.robot, log_time)
     }
 
@@ -584,7 +709,7 @@ impl McapLog {
     pub fn log_scene(&mut self, scene: &Scene, header: &SnapshotHeader, time_secs: f64) -> Result<()> {
         let log_time = time_ns(time_secs);
         let update = scene::scene_update(scene, header, Time::from_ns(log_time))?;
-        encode_proto(&mut self.json, &update.proto())?;
+        self.encode_fox(&update.proto())?;
         self.write_buffer(self.channels.scene, log_time)
     }
 
@@ -606,7 +731,7 @@ impl McapLog {
     ) -> Result<()> {
         let log_time = time_ns(time_secs);
         let msg = messages::log(Time::from_ns(log_time), level as u8, message, name, file, line);
-        encode_proto(&mut self.json, &msg)?;
+        self.encode_fox(&msg)?;
         self.write_buffer(self.channels.log, log_time)
     }
 
@@ -661,46 +786,19 @@ impl McapLog {
             rgb.len()
         );
         let format = self.options.image_format;
-        let (image_channel, calibration_channel) = match self.cameras.by_name.get(camera_name) {
+        let (image_channel, calibration_channel) = match self.cameras.get(camera_name) {
             Some(&channels) => channels,
             None => {
-                let writer = self.writer.as_mut().context("the MCAP log is finished")?;
-                let schema = match format {
-                    ImageFormat::Raw => &self.cameras.raw,
-                    _ => &self.cameras.compressed,
+                let (image_topic, calibration_topic) = camera_topics(self.options.encoding, camera_name, format);
+                let kind = match format {
+                    ImageFormat::Raw => Kind::RawImage,
+                    _ => Kind::CompressedImage,
                 };
-                let channels = writer
-                    .add_channel(schema.0, &camera_topic(camera_name), "protobuf", &BTreeMap::new())
-                    .and_then(|image| {
-                        let calibration = writer.add_channel(
-                            self.cameras.calibration.0,
-                            &calibration_topic(camera_name),
-                            "protobuf",
-                            &BTreeMap::new(),
-                        )?;
-                        Ok((image, calibration))
-                    })
-                    .with_context(|| write_context(&self.path))?;
-                self.cameras.by_name.insert(camera_name.to_owned(), channels);
-                let image_schema = match format {
-                    ImageFormat::Raw => &self.cameras.raw.1,
-                    _ => &self.cameras.compressed.1,
-                };
-                let info = |id: u16, topic: String, schema: &foxglove::Schema| ChannelInfo {
-                    id,
-                    topic,
-                    schema_name: schema.name.clone(),
-                    schema_encoding: "protobuf",
-                    schema: schema.data.to_vec(),
-                    message_encoding: "protobuf",
-                };
-                let infos = [
-                    info(channels.0, camera_topic(camera_name), image_schema),
-                    info(channels.1, calibration_topic(camera_name), &self.cameras.calibration.1),
-                ];
-                for info in infos {
-                    self.declare(info)?;
-                }
+                let channels = (
+                    self.add_channel(&image_topic, kind)?,
+                    self.add_channel(&calibration_topic, Kind::Calibration)?,
+                );
+                self.cameras.insert(camera_name.to_owned(), channels);
                 channels
             }
         };
@@ -735,34 +833,26 @@ impl McapLog {
         };
         let data = foxglove::bytes::Bytes::copy_from_slice(data);
         match format {
-            ImageFormat::Raw => encode_proto(
-                &mut self.json,
-                &fm::RawImage {
-                    timestamp: Some(timestamp.proto()),
-                    frame_id: frame_id.to_owned(),
-                    width,
-                    height,
-                    encoding: "rgb8".into(),
-                    step,
-                    data,
-                },
-            )?,
-            ImageFormat::Jpeg { .. } | ImageFormat::Png => encode_proto(
-                &mut self.json,
-                &fm::CompressedImage {
-                    timestamp: Some(timestamp.proto()),
-                    frame_id: frame_id.to_owned(),
-                    data,
-                    format: if format == ImageFormat::Png { "png" } else { "jpeg" }.into(),
-                },
-            )?,
+            ImageFormat::Raw => self.encode_fox(&fm::RawImage {
+                timestamp: Some(timestamp.proto()),
+                frame_id: frame_id.to_owned(),
+                width,
+                height,
+                encoding: "rgb8".into(),
+                step,
+                data,
+            })?,
+            ImageFormat::Jpeg { .. } | ImageFormat::Png => self.encode_fox(&fm::CompressedImage {
+                timestamp: Some(timestamp.proto()),
+                frame_id: frame_id.to_owned(),
+                data,
+                format: if format == ImageFormat::Png { "png" } else { "jpeg" }.into(),
+            })?,
         }
         self.write_buffer(image_channel, log_time)?;
         if let Some(c) = calibration {
-            encode_proto(
-                &mut self.json,
-                &messages::pinhole_calibration(timestamp, frame_id, width, height, c.focal, c.principal),
-            )?;
+            let calibration = messages::pinhole_calibration(timestamp, frame_id, width, height, c.focal, c.principal);
+            self.encode_fox(&calibration)?;
             self.write_buffer(calibration_channel, log_time)?;
         }
         Ok(())
@@ -778,33 +868,37 @@ impl McapLog {
         time_secs: f64,
         msg: &T,
     ) -> Result<()> {
+        let ros2 = self.options.encoding == Encoding::Ros2;
         let channel = match self.json_channels.get(topic) {
             Some(&c) => c,
             None => {
-                let writer = self.writer.as_mut().context("the MCAP log is finished")?;
-                let data = serde_json::to_vec(schema)?;
-                let c = writer
-                    .add_schema(schema_name, "jsonschema", &data)
-                    .and_then(|id| writer.add_channel(id, topic, "json", &BTreeMap::new()))
-                    .with_context(|| write_context(&self.path))?;
+                let c = if ros2 {
+                    let name = crate::ros2::pbd_type(schema_name);
+                    self.add_channel_with(topic, name.to_owned(), "ros2msg", crate::ros2::schema(name)?, "cdr")?
+                } else {
+                    self.add_channel_with(
+                        topic,
+                        schema_name.to_owned(),
+                        "jsonschema",
+                        serde_json::to_vec(schema)?,
+                        "json",
+                    )?
+                };
                 self.json_channels.insert(topic.to_owned(), c);
-                self.declare(ChannelInfo {
-                    id: c,
-                    topic: topic.to_owned(),
-                    schema_name: schema_name.to_owned(),
-                    schema_encoding: "jsonschema",
-                    schema: data,
-                    message_encoding: "json",
-                })?;
                 c
             }
         };
-        encode(&mut self.json, msg)?;
+        if ros2 {
+            let value = serde_json::to_value(msg).context("cannot serialise a log message")?;
+            crate::ros2::encode_pbd(&mut self.json, schema_name, value)?;
+        } else {
+            encode(&mut self.json, msg)?;
+        }
         self.write_buffer(channel, time_ns(time_secs))
     }
 
     /// Logs a Foxglove message (Protobuf) on `topic`, whose channel is created on first use.
-    pub fn log_foxglove<T: foxglove::Encode + prost::Message>(
+    pub fn log_foxglove<T: foxglove::Encode + prost::Message + 'static>(
         &mut self,
         topic: &str,
         time_secs: f64,
@@ -813,25 +907,19 @@ impl McapLog {
         let channel = match self.json_channels.get(topic) {
             Some(&c) => c,
             None => {
-                let schema = foxglove_schema::<T>()?;
-                let writer = self.writer.as_mut().context("the MCAP log is finished")?;
-                let c = writer
-                    .add_schema(&schema.name, &schema.encoding, &schema.data)
-                    .and_then(|id| writer.add_channel(id, topic, "protobuf", &BTreeMap::new()))
-                    .with_context(|| write_context(&self.path))?;
+                let (name, schema_encoding, schema, message_encoding) = if self.options.encoding == Encoding::Ros2 {
+                    let name = ros2_type_of::<T>()?;
+                    (name.to_owned(), "ros2msg", crate::ros2::schema(name)?, "cdr")
+                } else {
+                    let schema = foxglove_schema::<T>()?;
+                    (schema.name, "protobuf", schema.data.into_owned(), "protobuf")
+                };
+                let c = self.add_channel_with(topic, name, schema_encoding, schema, message_encoding)?;
                 self.json_channels.insert(topic.to_owned(), c);
-                self.declare(ChannelInfo {
-                    id: c,
-                    topic: topic.to_owned(),
-                    schema_name: schema.name,
-                    schema_encoding: "protobuf",
-                    schema: schema.data.into_owned(),
-                    message_encoding: "protobuf",
-                })?;
                 c
             }
         };
-        encode_proto(&mut self.json, msg)?;
+        self.encode_fox(msg)?;
         self.write_buffer(channel, time_ns(time_secs))
     }
 
@@ -935,13 +1023,120 @@ fn finish_writer(mut writer: McapWriter) -> Result<WriteStats> {
     })
 }
 
-/// Serialises `msg` as JSON into the cleared buffer.
+/// The topics of a camera's image and calibration: pbd's (`/camera/<name>/image`,
+/// `/camera/<name>/calibration`), or in ROS 2 image_transport's (`…/image` raw,
+/// `…/image/compressed`, `…/camera_info`).
+fn camera_topics(encoding: Encoding, name: &str, format: ImageFormat) -> (String, String) {
+    match encoding {
+        Encoding::Foxglove => (camera_topic(name), calibration_topic(name)),
+        Encoding::Ros2 => (
+            match format {
+                ImageFormat::Raw => camera_topic(name),
+                _ => format!("{}/compressed", camera_topic(name)),
+            },
+            format!("/camera/{name}/camera_info"),
+        ),
+    }
+}
+
+/// A Foxglove timestamp of ours as `builtin_interfaces/Time`.
+fn ros2_time(t: Time) -> pbd_ros2_msgs::msg::Time {
+    pbd_ros2_msgs::msg::Time {
+        sec: i32::try_from(t.sec).unwrap_or(i32::MAX),
+        nanosec: t.nsec,
+    }
+}
+
+/// The ROS 2 type a Foxglove message type is written as.
+fn ros2_type_of<M: 'static>() -> Result<&'static str> {
+    use std::any::TypeId;
+    let t = TypeId::of::<M>();
+    Ok(if t == TypeId::of::<fm::FrameTransforms>() {
+        "tf2_msgs/msg/TFMessage"
+    } else if t == TypeId::of::<fm::SceneUpdate>() {
+        "visualization_msgs/msg/MarkerArray"
+    } else if t == TypeId::of::<fm::Log>() {
+        "rcl_interfaces/msg/Log"
+    } else if t == TypeId::of::<fm::RawImage>() {
+        "sensor_msgs/msg/Image"
+    } else if t == TypeId::of::<fm::CompressedImage>() {
+        "sensor_msgs/msg/CompressedImage"
+    } else if t == TypeId::of::<fm::CameraCalibration>() {
+        "sensor_msgs/msg/CameraInfo"
+    } else {
+        anyhow::bail!(
+            "{} has no ROS 2 counterpart in pbd's ROS 2 encoding",
+            std::any::type_name::<M>()
+        )
+    })
+}
+
+/// Encodes one of Foxglove's messages into `buf` (cleared first): Protobuf, or its ROS 2
+/// counterpart in CDR ([`crate::ros2`]).
+fn encode_message<M: prost::Message + 'static>(buf: &mut Vec<u8>, encoding: Encoding, m: &M) -> Result<()> {
+    use pbd_ros2_msgs::{encode_into, msg};
+    if encoding == Encoding::Foxglove {
+        return encode_proto(buf, m);
+    }
+    let any = m as &dyn std::any::Any;
+    let cdr = if let Some(m) = any.downcast_ref::<fm::FrameTransforms>() {
+        encode_into(buf, &crate::ros2::tf(m))
+    } else if let Some(m) = any.downcast_ref::<fm::SceneUpdate>() {
+        encode_into(buf, &crate::ros2::markers(m))
+    } else if let Some(m) = any.downcast_ref::<fm::Log>() {
+        encode_into(buf, &crate::ros2::log(m))
+    } else if let Some(m) = any.downcast_ref::<fm::CameraCalibration>() {
+        encode_into(buf, &crate::ros2::camera_info(m))
+    } else if let Some(m) = any.downcast_ref::<fm::RawImage>() {
+        encode_into(
+            buf,
+            &msg::Image {
+                header: msg::Header {
+                    stamp: ros2_time(m.timestamp.map_or(Time::from_ns(0), |t| Time {
+                        sec: t.sec(),
+                        nsec: t.nsec(),
+                    })),
+                    frame_id: m.frame_id.clone(),
+                },
+                height: m.height,
+                width: m.width,
+                encoding: m.encoding.clone(),
+                is_bigendian: 0,
+                step: m.step,
+                data: m.data.to_vec(),
+            },
+        )
+    } else if let Some(m) = any.downcast_ref::<fm::CompressedImage>() {
+        encode_into(
+            buf,
+            &msg::CompressedImage {
+                header: msg::Header {
+                    stamp: ros2_time(m.timestamp.map_or(Time::from_ns(0), |t| Time {
+                        sec: t.sec(),
+                        nsec: t.nsec(),
+                    })),
+                    frame_id: m.frame_id.clone(),
+                },
+                format: m.format.clone(),
+                data: m.data.to_vec(),
+            },
+        )
+    } else {
+        anyhow::bail!(
+            "{} has no ROS 2 counterpart in pbd's ROS 2 encoding",
+            std::any::type_name::<M>()
+        )
+    };
+    cdr.context("CDR encoding")
+}
+
 /// Encodes a Protobuf message into `buf` (cleared first).
 pub(crate) fn encode_proto<M: prost::Message>(buf: &mut Vec<u8>, msg: &M) -> Result<()> {
     buf.clear();
     msg.encode(buf).context("Protobuf encoding")
 }
 
+/// Serialises `msg` as JSON into the cleared buffer.
 pub(crate) fn encode<T: Serialize>(buf: &mut Vec<u8>, msg: &T) -> Result<()> {
     buf.clear();
     serde_json::to_writer(&mut *buf, msg).context("cannot serialise a log message")

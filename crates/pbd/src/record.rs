@@ -88,6 +88,10 @@ pub struct RecordOptions {
     /// How images are stored: JPEG (default, quality 85), PNG or raw `rgb8`.
     #[serde(default)]
     pub image_format: crate::mcap_log::ImageFormat,
+    /// How messages are encoded: Foxglove's Protobuf with pbd's JSON (default), or ROS 2's CDR
+    /// (`ros2`, what `ros2 bag` and `rosbags` read; `pbd infer` reads both).
+    #[serde(default)]
+    pub encoding: crate::mcap_log::Encoding,
     /// Rate of /tf, joint states and fingertips (Hz of simulated time).
     pub log_hz: f64,
     /// Rate of the robot's percepts (Hz).
@@ -115,6 +119,7 @@ impl Default for RecordOptions {
             save_teleop: None,
             images: false,
             image_format: crate::mcap_log::ImageFormat::default(),
+            encoding: crate::mcap_log::Encoding::default(),
             log_hz: 30.0,
             percept_hz: 10.0,
             max_seconds: 600.0,
@@ -591,6 +596,7 @@ fn record_impl(args: &RecordOptions, progress: &dyn Progress) -> Result<RecordRe
         &args.output,
         crate::mcap_log::McapLogOptions {
             image_format: args.image_format,
+            encoding: args.encoding,
             ..Default::default()
         },
     )?;

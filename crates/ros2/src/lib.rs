@@ -16,7 +16,8 @@
 pub mod config;
 mod dds;
 pub mod hardware;
-pub mod msg;
+/// The wire types (the `pbd-ros2-msgs` crate's).
+pub use pbd_ros2_msgs::msg;
 pub mod serve;
 pub mod testing;
 

@@ -62,7 +62,9 @@ def record(
 
     ``script`` is the scripted teacher's task (``pick-place``, ``sort``, ``pick-hold``,
     ``hand-over``, ``touch``, ``wander``); other options as ``pbd record`` (``object``, ``place``,
-    ``assign``, ``arm``, ``retry``, ``teleop``, ``images``, ``percept_hz``, ``max_seconds``, …).
+    ``assign``, ``arm``, ``retry``, ``teleop``, ``images``, ``image_format``, ``percept_hz``,
+    ``max_seconds``, …; ``encoding="ros2"`` writes CDR with ROS 2 message definitions, which
+    ``ros2 bag`` and ``rosbags`` read).
     Ctrl-C finishes the file with what was captured and raises ``KeyboardInterrupt``.
     """
     opts = _options(output=output, scene=scene, script=script, seed=seed, **options)

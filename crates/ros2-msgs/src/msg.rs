@@ -1,9 +1,9 @@
-//! The ROS 2 messages pbd speaks, as serde structs in the field order of their `.msg` definitions
-//! (CDR, the encoding of every ROS 2 rmw, serialises fields in declaration order, so these structs
-//! are wire-compatible with `sensor_msgs`, `geometry_msgs`, `std_msgs`, `trajectory_msgs` and
-//! `builtin_interfaces` of Humble, Iron and Jazzy).
+//! The ROS 2 messages pbd speaks and records, as serde structs in the field order of their `.msg`
+//! definitions (CDR, the encoding of every ROS 2 rmw, serialises fields in declaration order, so
+//! these structs are wire-compatible with `sensor_msgs`, `geometry_msgs`, `std_msgs`,
+//! `trajectory_msgs`, `tf2_msgs`, `visualization_msgs`, `rcl_interfaces` and `builtin_interfaces`
+//! of Humble, Iron and Jazzy). Each has its definition in [`crate::definitions`].
 
-use ros2_client::Message;
 use serde::{Deserialize, Serialize};
 
 /// `builtin_interfaces/Time`.
@@ -68,7 +68,6 @@ pub struct Header {
     /// The frame the data is expressed in.
     pub frame_id: String,
 }
-impl Message for Header {}
 
 /// `sensor_msgs/JointState`.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -84,7 +83,6 @@ pub struct JointState {
     /// Efforts (N·m or N).
     pub effort: Vec<f64>,
 }
-impl Message for JointState {}
 
 /// `geometry_msgs/Vector3`.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -129,7 +127,6 @@ pub struct WrenchStamped {
     /// The wrench.
     pub wrench: Wrench,
 }
-impl Message for WrenchStamped {}
 
 /// `sensor_msgs/Image`.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -150,7 +147,6 @@ pub struct Image {
     #[serde(with = "serde_bytes")]
     pub data: Vec<u8>,
 }
-impl Message for Image {}
 
 /// `sensor_msgs/RegionOfInterest`.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -193,7 +189,6 @@ pub struct CameraInfo {
     /// Region of interest.
     pub roi: RegionOfInterest,
 }
-impl Message for CameraInfo {}
 
 /// `std_msgs/MultiArrayDimension`.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -223,7 +218,6 @@ pub struct Float64MultiArray {
     /// Values.
     pub data: Vec<f64>,
 }
-impl Message for Float64MultiArray {}
 
 /// `trajectory_msgs/JointTrajectoryPoint`.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -250,7 +244,205 @@ pub struct JointTrajectory {
     /// Points.
     pub points: Vec<JointTrajectoryPoint>,
 }
-impl Message for JointTrajectory {}
+
+/// `geometry_msgs/Quaternion`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Quaternion {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+    /// w (the scalar part).
+    pub w: f64,
+}
+
+impl Default for Quaternion {
+    /// The identity rotation.
+    fn default() -> Self {
+        Quaternion {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 1.0,
+        }
+    }
+}
+
+/// `geometry_msgs/Transform`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Transform {
+    /// Translation (m).
+    pub translation: Vector3,
+    /// Rotation.
+    pub rotation: Quaternion,
+}
+
+/// `geometry_msgs/TransformStamped`: `child_frame_id`'s pose in `header.frame_id`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct TransformStamped {
+    /// Stamp and the parent frame.
+    pub header: Header,
+    /// The child frame.
+    pub child_frame_id: String,
+    /// The child's pose in the parent.
+    pub transform: Transform,
+}
+
+/// `tf2_msgs/TFMessage` (`/tf`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct TfMessage {
+    /// The transforms.
+    pub transforms: Vec<TransformStamped>,
+}
+
+/// `geometry_msgs/Point`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Point {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+}
+
+/// `geometry_msgs/Pose`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Pose {
+    /// Position (m).
+    pub position: Point,
+    /// Orientation.
+    pub orientation: Quaternion,
+}
+
+/// `std_msgs/ColorRGBA` (each 0–1).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct ColorRgba {
+    /// Red.
+    pub r: f32,
+    /// Green.
+    pub g: f32,
+    /// Blue.
+    pub b: f32,
+    /// Opacity.
+    pub a: f32,
+}
+
+/// `visualization_msgs/Marker` (the Humble definition, which Iron and Jazzy readers accept from
+/// the schema a recording carries).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Marker {
+    /// Stamp and the frame `pose` is in.
+    pub header: Header,
+    /// Namespace (with `id`, the marker's identity).
+    pub ns: String,
+    /// Id within the namespace.
+    pub id: i32,
+    /// Shape: [`Marker::ARROW`], [`Marker::CUBE`], … .
+    #[serde(rename = "type")]
+    pub kind: i32,
+    /// [`Marker::ADD`], [`Marker::DELETE`] or [`Marker::DELETEALL`].
+    pub action: i32,
+    /// Pose in `header.frame_id`.
+    pub pose: Pose,
+    /// Size (m; per shape).
+    pub scale: Vector3,
+    /// Colour.
+    pub color: ColorRgba,
+    /// How long it stays (zero: until replaced).
+    pub lifetime: Duration,
+    /// Whether it moves with its frame after it was received.
+    pub frame_locked: bool,
+    /// Points (line and list shapes).
+    pub points: Vec<Point>,
+    /// Per-point colours.
+    pub colors: Vec<ColorRgba>,
+    /// Text ([`Marker::TEXT_VIEW_FACING`]).
+    pub text: String,
+    /// Mesh URI ([`Marker::MESH_RESOURCE`]).
+    pub mesh_resource: String,
+    /// Whether the mesh's own materials are used.
+    pub mesh_use_embedded_materials: bool,
+}
+
+impl Marker {
+    /// An arrow along the pose's x axis: `scale` = length, shaft and head diameters.
+    pub const ARROW: i32 = 0;
+    /// A box.
+    pub const CUBE: i32 = 1;
+    /// A sphere (an ellipsoid).
+    pub const SPHERE: i32 = 2;
+    /// A cylinder along z.
+    pub const CYLINDER: i32 = 3;
+    /// Text facing the viewer.
+    pub const TEXT_VIEW_FACING: i32 = 9;
+    /// Add or replace.
+    pub const ADD: i32 = 0;
+    /// Delete the marker `ns`/`id`.
+    pub const DELETE: i32 = 2;
+    /// Delete every marker of the topic.
+    pub const DELETEALL: i32 = 3;
+}
+
+/// `visualization_msgs/MarkerArray`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct MarkerArray {
+    /// The markers, applied in order.
+    pub markers: Vec<Marker>,
+}
+
+/// `rcl_interfaces/Log` (`/rosout`'s type; Foxglove's Log panel reads it).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Log {
+    /// When.
+    pub stamp: Time,
+    /// [`Log::DEBUG`] … [`Log::FATAL`].
+    pub level: u8,
+    /// The logger (node) name.
+    pub name: String,
+    /// The message.
+    pub msg: String,
+    /// Source file.
+    pub file: String,
+    /// Function.
+    pub function: String,
+    /// Source line.
+    pub line: u32,
+}
+
+impl Log {
+    /// Debug.
+    pub const DEBUG: u8 = 10;
+    /// Info.
+    pub const INFO: u8 = 20;
+    /// Warning.
+    pub const WARN: u8 = 30;
+    /// Error.
+    pub const ERROR: u8 = 40;
+    /// Fatal.
+    pub const FATAL: u8 = 50;
+}
+
+/// `sensor_msgs/CompressedImage` (`format` `jpeg` or `png`, image_transport's `compressed`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct CompressedImage {
+    /// Stamp and the camera's optical frame.
+    pub header: Header,
+    /// `jpeg` or `png`.
+    pub format: String,
+    /// The compressed image.
+    #[serde(with = "serde_bytes")]
+    pub data: Vec<u8>,
+}
+
+/// `std_msgs/String`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct StringMsg {
+    /// The text.
+    pub data: String,
+}
 
 /// ROS 2 type names (`package/msg/Type` → DDS `package::msg::dds_::Type_`, which ros2-client forms).
 pub mod types {
@@ -268,6 +460,29 @@ pub mod types {
     pub const JOINT_TRAJECTORY: (&str, &str) = ("trajectory_msgs", "JointTrajectory");
     /// `std_msgs/Header` (camera triggers).
     pub const HEADER: (&str, &str) = ("std_msgs", "Header");
+}
+
+/// `ros2_client::Message` for each message (what `pbd-ros2` publishes and subscribes).
+#[cfg(feature = "ros2-client")]
+mod dds {
+    use super::*;
+    macro_rules! messages {
+        ($($t:ty),*) => { $(impl ros2_client::Message for $t {})* };
+    }
+    messages!(
+        Header,
+        JointState,
+        WrenchStamped,
+        Image,
+        CameraInfo,
+        Float64MultiArray,
+        JointTrajectory,
+        TfMessage,
+        MarkerArray,
+        Log,
+        CompressedImage,
+        StringMsg
+    );
 }
 
 #[cfg(test)]
