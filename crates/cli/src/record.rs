@@ -69,6 +69,24 @@ pub struct RecordArgs {
     /// Longest recording (s of simulated time).
     #[arg(long, default_value_t = 600.0)]
     max_seconds: f64,
+    /// The robot: the simulated Dexter in-process, or a robot over ROS 2 whose hands follow a
+    /// teacher's glove on the mapping's [[teleop]] topics (--scene then names only its workcell,
+    /// --calibration is required; the teacher and the seed are the other side's).
+    #[arg(long, value_enum, default_value_t = crate::execute::Hardware::Sim)]
+    hardware: crate::execute::Hardware,
+    /// Short for --hardware ros2.
+    #[arg(long, conflicts_with = "hardware")]
+    ros2: bool,
+    /// With --hardware ros2: the topic mapping (TOML; default: Dexter's built-in assets/ros2/dexter.toml).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// With --hardware ros2: the robot's calibration of its empty workcell (`pbd calibrate --hardware ros2`).
+    #[arg(long, value_name = "FILE")]
+    calibration: Option<PathBuf>,
+    /// With --hardware ros2: the demonstration is over once no hand has sent a new sample for this
+    /// long (s; 0: only --max-seconds or Ctrl-C end it).
+    #[arg(long, default_value_t = 1.0)]
+    idle_seconds: f64,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
@@ -81,6 +99,60 @@ pub fn main(a: RecordArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         ("--percept-hz", a.percept_hz),
         ("--max-seconds", a.max_seconds),
     ])?;
+    let ros2 = a.ros2 || a.hardware == crate::execute::Hardware::Ros2;
+    if !ros2 {
+        for (given, flag) in [
+            (a.config.is_some(), "--config"),
+            (a.calibration.is_some(), "--calibration"),
+        ] {
+            anyhow::ensure!(!given, "{flag} is for a robot over ROS 2: pass --hardware ros2 too");
+        }
+    }
+    if ros2 {
+        // What the simulator's teacher would choose has no meaning for a robot whose teacher is
+        // on the other side.
+        for (given, flag) in [
+            (a.teleop.is_some(), "--teleop"),
+            (a.object.is_some(), "--object"),
+            (a.place.is_some(), "--place"),
+            (a.assign.is_some(), "--assign"),
+            (a.seed.is_some(), "--seed"),
+            (a.save_teleop.is_some(), "--save-teleop"),
+            (a.retry, "--retry"),
+        ] {
+            anyhow::ensure!(
+                !given,
+                "{flag}: with --hardware ros2 the teacher is at the robot (its glove's topics), not pbd's"
+            );
+        }
+        anyhow::ensure!(
+            a.live.bind().is_none(),
+            "--live: a recording over ROS 2 is not served live yet (open the file in Foxglove)"
+        );
+        let options = pbd::ros2::Ros2RecordOptions {
+            scene: a.scene,
+            calibration: a.calibration,
+            config: a.config,
+            output: a.output,
+            images: a.images,
+            image_format: a.image_format,
+            encoding: a.encoding,
+            log_hz: a.log_hz,
+            percept_hz: a.percept_hz,
+            max_seconds: a.max_seconds,
+            idle_seconds: a.idle_seconds,
+        };
+        let report = pbd::ros2::record(&options, &Bars::new(a.json, true)?)?;
+        emit(a.json, &report, out)?;
+        if report.demo.interrupted {
+            anyhow::bail!(
+                "interrupted after {:.1} s; {} holds what was captured",
+                report.demo.sim_time,
+                report.output
+            );
+        }
+        return Ok(());
+    }
     let options = RecordOptions {
         scene: a.scene,
         script: a.script,

@@ -47,6 +47,14 @@ pub struct ServeArgs {
     /// Serve the workcell without its objects (to run `pbd calibrate --hardware ros2` against).
     #[arg(long)]
     empty: bool,
+    /// A scripted teacher at the robot's side demonstrates this task on the mapping's [[teleop]]
+    /// topics (to run `pbd record --hardware ros2` against).
+    #[arg(long, value_enum, value_name = "TASK", conflicts_with = "empty")]
+    teach: Option<pbd::record::Script>,
+    /// Publish the fingertip wrenches in their sensors' own frames (as real force/torque sensors
+    /// do) instead of world-aligned.
+    #[arg(long)]
+    sensor_frames: bool,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
@@ -123,6 +131,8 @@ fn serve(a: ServeArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         period: a.period,
         idle_exit: a.idle_exit,
         empty: a.empty,
+        teach: a.teach,
+        sensor_frames: a.sensor_frames,
     };
     // The first Ctrl-C / SIGTERM ends serving at the next tick, and the report is printed.
     let report = pbd::ros2::serve_sim(&options, &Bars::new(a.json, true)?)?;

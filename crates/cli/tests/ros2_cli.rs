@@ -23,9 +23,14 @@ fn s(p: &Path) -> String {
     p.display().to_string()
 }
 
-/// A DDS domain of this test process's own (several test processes may run at once).
+/// A DDS domain of this test process's own (several test processes may run at once); `k` keeps
+/// the tests of one process apart.
+fn domain_k(k: u32) -> String {
+    (100 + (std::process::id() % 40) * 3 + k).to_string()
+}
+
 fn domain() -> String {
-    (150 + std::process::id() % 80).to_string()
+    domain_k(0)
 }
 
 fn pbd_on(domain: &str, args: &[&str]) -> std::process::Output {
@@ -104,9 +109,10 @@ fn the_robot_over_ros2_places_every_object_where_the_in_process_run_places_it() 
     assert!(served["objects"].as_array().unwrap().is_empty(), "{served:#}");
     assert!(served["serve"]["images"].as_u64().unwrap() > 60, "{served:#}");
 
-    // The objects placed: the robot does the task over ROS 2.
+    // The objects placed: the robot does the task over ROS 2, its fingertip sensors publishing in
+    // their own frames as real force/torque sensors do.
     let model = s(&repo().join("crates/py/tests/data/sorting-model.json"));
-    let server = Server::start(&dom, &["--scene", scene]);
+    let server = Server::start(&dom, &["--scene", scene, "--sensor-frames"]);
     let o = pbd_on(
         &dom,
         &[
@@ -176,6 +182,85 @@ fn the_robot_over_ros2_places_every_object_where_the_in_process_run_places_it() 
         compared += 1;
     }
     assert!(compared >= 1 && local["placed"].as_u64().unwrap() >= 1, "{local:#}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// `pbd record --hardware ros2`: the served world's scripted teacher publishes its glove samples,
+/// the robot's hands follow them over ROS 2 and its own eyes watch; the recording (in ROS 2's
+/// encoding) infers to the task the in-process recording infers to.
+#[test]
+fn a_demonstration_recorded_over_ros2_infers_like_the_in_process_one() {
+    if cfg!(debug_assertions) {
+        eprintln!("SKIPPED: simulation end-to-end tests run in release mode");
+        return;
+    }
+    let d = dir("record");
+    let dom = domain_k(1);
+    let (cal, demo, local) = (d.join("pp.cal"), d.join("ros2.mcap"), d.join("local.mcap"));
+    let server = Server::start(&dom, &["--scene", "pick-place", "--empty"]);
+    let o = pbd_on(
+        &dom,
+        &[
+            "calibrate",
+            "--hardware",
+            "ros2",
+            "--scene",
+            "pick-place",
+            "-o",
+            &s(&cal),
+        ],
+    );
+    server.stop();
+    assert!(o.status.success(), "calibrate over ROS 2: {}", stderr(&o));
+
+    let server = Server::start(&dom, &["--scene", "pick-place", "--teach", "pick-place"]);
+    let o = pbd_on(
+        &dom,
+        &[
+            "record",
+            "--ros2",
+            "--scene",
+            "pick-place",
+            "--calibration",
+            &s(&cal),
+            "--encoding",
+            "ros2",
+            "-o",
+            &s(&demo),
+            "--json",
+        ],
+    );
+    let served = server.stop();
+    assert!(o.status.success(), "record over ROS 2: {}", stderr(&o));
+    let rec: Value = serde_json::from_slice(&o.stdout).unwrap();
+    // It ended by itself (the teacher put the glove down), not at --max-seconds.
+    let secs = rec["sim_time"].as_f64().unwrap();
+    assert!((10.0..40.0).contains(&secs), "{rec:#}");
+    assert!(
+        rec["percepts"].as_u64().unwrap() > 100 && rec["commands"].as_u64().unwrap() > 100,
+        "{rec:#}"
+    );
+    let jif = &served["objects"][0];
+    assert_eq!(
+        jif["place"], "bin-left",
+        "the robot's hand, following the glove, placed it: {served:#}"
+    );
+
+    let o = pbd_on(&dom, &["record", "--scene", "pick-place", "-o", &s(&local)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut instances = Vec::new();
+    for m in [&demo, &local] {
+        let o = pbd_on(&dom, &["infer", &s(m), "--json"]);
+        assert!(o.status.success(), "infer {}: {}", m.display(), stderr(&o));
+        let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+        let inf = &v["inference"];
+        assert_eq!(inf["posterior"]["map"], "pick_and_place", "{}: {inf:#}", m.display());
+        let i = &inf["instances"][0];
+        let n = inf["instances"].as_array().unwrap().len();
+        instances.push((i["place"].clone(), i["arm"].clone(), i["object"].clone(), n));
+    }
+    assert_eq!(instances[0], instances[1]);
+    assert_eq!(instances[0].0, "bin-left");
     let _ = std::fs::remove_dir_all(&d);
 }
 

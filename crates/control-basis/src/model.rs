@@ -551,6 +551,46 @@ impl RobotModel {
         out
     }
 
+    /// Every link's pose in the root's frame (in [`RobotModel::links`]' order) for joint values
+    /// given by name (`q` of a joint that is not given is 0; a mimic joint follows its root,
+    /// `multiplier · q_root + offset`), written into `out` (resized). The whole tree at once: what a
+    /// robot's own `/tf` is made from.
+    pub fn link_poses(&self, q: &dyn Fn(&str) -> Option<f64>, out: &mut Vec<Iso3>) {
+        out.clear();
+        out.resize(self.links.len(), Iso3::identity());
+        let mut done = vec![false; self.links.len()];
+        done[self.root] = true;
+        // Parents before children: repeat over the joints until every reachable link is placed.
+        let mut placed = 1;
+        while placed < self.links.len() {
+            let before = placed;
+            for j in &self.joints {
+                if done[j.child] || !done[j.parent] {
+                    continue;
+                }
+                let value = |name: &str| q(name).filter(|v| v.is_finite()).unwrap_or(0.0);
+                let theta = match &j.mimic {
+                    Some(m) => m.multiplier * value(&m.joint) + m.offset,
+                    None => value(&j.name),
+                };
+                let motion = match j.kind {
+                    JointKind::Fixed => Iso3::identity(),
+                    JointKind::Prismatic => Iso3::translation(j.axis.x * theta, j.axis.y * theta, j.axis.z * theta),
+                    JointKind::Revolute | JointKind::Continuous => Iso3::from_parts(
+                        nalgebra::Translation3::identity(),
+                        nalgebra::UnitQuaternion::from_axis_angle(&j.axis, theta),
+                    ),
+                };
+                out[j.child] = out[j.parent] * j.origin * motion;
+                done[j.child] = true;
+                placed += 1;
+            }
+            if placed == before {
+                break; // links no joint reaches stay at the root
+            }
+        }
+    }
+
     /// Path from the root to `link`: the joints crossed, root first.
     pub fn joints_from_root(&self, link: usize) -> Vec<usize> {
         let mut out = Vec::new();

@@ -138,3 +138,35 @@ fn bad_input_is_an_error_not_a_panic() {
         Err(CbError::Io { .. })
     ));
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// The whole tree's link poses agree with each chain's forward kinematics (Dexter: both arms,
+    /// fingers with their mimic couplings, the head).
+    #[test]
+    fn whole_tree_link_poses_match_the_chains(q in proptest::collection::vec(-1.0f64..1.0, 40)) {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/dexter.urdf");
+        let model = RobotModel::from_urdf_file(path).unwrap();
+        let values: std::collections::HashMap<String, f64> = model
+            .actuated_joints()
+            .zip(q.iter().cycle())
+            .map(|(j, &v)| (j.name.clone(), v))
+            .collect();
+        let mut poses = Vec::new();
+        model.link_poses(&|name| values.get(name).copied(), &mut poses);
+        prop_assert_eq!(poses.len(), model.links.len());
+        let root = model.links[model.root].name.clone();
+        for tip in ["left/bhand/finger_2/tip_link", "right/bhand/finger_3/tip_link", "head/left_camera_optical_frame"] {
+            let chain = Chain::new(&model, &root, tip).unwrap();
+            let mut state = chain.new_state();
+            let qv: Vec<f64> = chain.dofs().iter().map(|d| values[&d.name]).collect();
+            state.set_q(&chain, &qv).unwrap();
+            forward_kinematics(&chain, &mut state);
+            let want = *state.tip_pose();
+            let got = poses[model.link(tip).unwrap()];
+            prop_assert!((got.translation.vector - want.translation.vector).norm() < 1e-12, "{tip}");
+            prop_assert!(got.rotation.angle_to(&want.rotation) < 1e-12, "{tip}");
+        }
+    }
+}

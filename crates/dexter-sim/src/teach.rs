@@ -2,9 +2,9 @@
 //! glove stream) drives Dexter's hands through the robot's own Reach and hand controllers, and the
 //! robot watches with its own senses ([`dexter::watch::Watcher`] on [`SimRobot`]).
 
-use control_basis::Hardware;
-use control_basis::math::Vec3;
 use dexter::eyes::Eyes;
+use dexter::teach::{DemoObserver, HandSource, WatchSettings, watch_demonstration};
+use dexter::teleop::HandCommand;
 use dexter::watch::Watcher;
 use schema::Percept;
 
@@ -12,7 +12,6 @@ use crate::error::{SimError, from_robot};
 use crate::hardware::{SimRobot, workspace};
 use crate::physics::DexterSim;
 use crate::scene::Scene;
-use crate::snapshot::Arm;
 
 /// Where the teacher's hand commands come from.
 #[derive(Debug)]
@@ -78,9 +77,63 @@ pub trait DemoSink {
     }
 }
 
+/// The scripted teacher or a replayed stream, as the robot's [`HandSource`]: the teacher sees the
+/// world ([`SimRobot::sim_mut`]) as a person at a glove does.
+struct SimSource<'a> {
+    source: &'a mut TeleopSource,
+    scene: &'a Scene,
+    finished_at: Option<f64>,
+}
+
+impl HandSource<SimRobot<'_>> for SimSource<'_> {
+    type Error = SimError;
+
+    fn commands(&mut self, hw: &mut SimRobot<'_>, t: f64) -> Result<[Option<HandCommand>; 2], SimError> {
+        Ok(match &mut *self.source {
+            TeleopSource::Script(teacher) => {
+                let c = teacher.command(hw.sim_mut(), self.scene, t)?;
+                if teacher.finished() && self.finished_at.is_none() {
+                    self.finished_at = Some(t);
+                }
+                c
+            }
+            TeleopSource::Replay(r) => {
+                let c = r.at(t);
+                if r.finished() && self.finished_at.is_none() {
+                    self.finished_at = Some(t.max(r.duration()));
+                }
+                c
+            }
+        })
+    }
+
+    fn finished_at(&self) -> Option<f64> {
+        self.finished_at
+    }
+}
+
+/// A [`DemoSink`] as the robot's [`DemoObserver`] on the simulator.
+struct SinkAdapter<'a>(&'a mut dyn DemoSink);
+
+impl DemoObserver<SimRobot<'_>> for SinkAdapter<'_> {
+    fn tick(&mut self, hw: &SimRobot<'_>, t: f64) {
+        self.0.tick(hw.sim(), t);
+    }
+    fn command(&mut self, command: &HandCommand) {
+        self.0.command(command);
+    }
+    fn percept(&mut self, hw: &SimRobot<'_>, eyes: &Eyes, percept: &Percept) {
+        self.0.percept(hw.sim(), eyes, percept);
+    }
+    fn should_stop(&mut self) -> bool {
+        self.0.should_stop()
+    }
+}
+
 /// Runs a teleoperated demonstration on `sim` (already parked) in `scene`: the source's hand
 /// commands drive the hands at 200 Hz, the head follows the working hand, and a percept is made at
-/// `settings.percept_hz`.
+/// `settings.percept_hz` — the robot's own loop ([`dexter::teach::watch_demonstration`]) on
+/// [`SimRobot`], the robot's eyes calibrated in the scene's empty workcell.
 pub fn run_demonstration(
     sim: &mut DexterSim,
     scene: &Scene,
@@ -88,85 +141,34 @@ pub fn run_demonstration(
     settings: &DemoSettings,
     sink: &mut dyn DemoSink,
 ) -> Result<DemoReport, SimError> {
-    let dt_c = 1.0 / dexter::skills::CONTROL_HZ;
-    let t0 = sim.time();
     let s0 = sim.steps();
     let ws = workspace(scene);
     let calibration = crate::calibrate::workcell_calibration(scene)?;
     let mut hw = SimRobot::new(sim, scene, settings.seed)?;
-    let mut driver = crate::teleop::TeleopDriver::new(&hw)?;
     let mut watcher = Watcher::new(&hw, ws.place_percepts(), ws.table_z, calibration).map_err(from_robot)?;
-    let percept_every = ((dexter::skills::CONTROL_HZ / settings.percept_hz).round() as usize).max(1);
-    let mut tick = 0usize;
-    let mut percepts = 0usize;
-    let mut commands = 0usize;
-    let mut last_cmd: [Option<f64>; 2] = [None, None];
-    let mut finished_at: Option<f64> = None;
-    let mut interrupted = false;
-    let mut working = Arm::Left;
-    loop {
-        let t = hw.sim().time() - t0;
-        if t > settings.max_seconds {
-            break;
-        }
-        if sink.should_stop() {
-            interrupted = true;
-            break;
-        }
-        let cmds = match &mut source {
-            TeleopSource::Script(teacher) => {
-                let c = teacher.command(hw.sim_mut(), scene, t)?;
-                if teacher.finished() && finished_at.is_none() {
-                    finished_at = Some(t);
-                }
-                c
-            }
-            TeleopSource::Replay(r) => {
-                let c = r.at(t);
-                if r.finished() && finished_at.is_none() {
-                    finished_at = Some(t.max(r.duration()));
-                }
-                c
-            }
+    let watch = WatchSettings {
+        percept_hz: settings.percept_hz,
+        max_seconds: settings.max_seconds,
+        tail_seconds: settings.tail_seconds,
+    };
+    let report = {
+        let mut hands = SimSource {
+            source: &mut source,
+            scene,
+            finished_at: None,
         };
-        if finished_at.is_some_and(|f| t > f + settings.tail_seconds) {
-            break;
-        }
-        for (k, c) in cmds.iter().enumerate() {
-            if let Some(c) = c
-                && last_cmd[k] != Some(c.t)
-            {
-                last_cmd[k] = Some(c.t);
-                commands += 1;
-                working = c.hand;
-                sink.command(c);
-            }
-        }
-        driver.tick(&mut hw, &cmds, dt_c);
-        hw.advance(dt_c)?;
-        sink.tick(hw.sim(), t);
-        if tick.is_multiple_of(percept_every) {
-            // The head follows the working hand (the robot watches the teacher's hand at work).
-            let palm = driver.palm_pose(&hw, working).translation.vector;
-            let target = Vec3::new(palm.x, palm.y, palm.z.max(watcher.table_z() + 0.03));
-            watcher.look_at(&mut hw, &target).map_err(from_robot)?;
-            let now = hw.sim().time() - t0;
-            let p = watcher.percept(&mut hw, now).map_err(from_robot)?;
-            percepts += 1;
-            sink.percept(hw.sim(), watcher.eyes(), &p);
-        }
-        tick += 1;
-    }
+        watch_demonstration(&mut hw, &mut watcher, &mut hands, &watch, &mut SinkAdapter(sink))?
+    };
     let notes = match &source {
         TeleopSource::Script(teacher) => teacher.notes.clone(),
         TeleopSource::Replay(_) => Vec::new(),
     };
     Ok(DemoReport {
-        sim_time: hw.sim().time() - t0,
+        sim_time: report.seconds,
         steps: hw.sim().steps() - s0,
-        percepts,
-        commands,
-        interrupted,
+        percepts: report.percepts,
+        commands: report.commands,
+        interrupted: report.interrupted,
         notes,
     })
 }

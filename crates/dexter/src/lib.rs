@@ -42,6 +42,8 @@ pub mod route;
 pub mod skills;
 pub mod sweep;
 pub mod task;
+pub mod teach;
+pub mod teleop;
 pub mod vision;
 pub mod watch;
 

@@ -258,7 +258,7 @@ fn choose_arm(sim: &DexterSim, scene: &Scene, object: &str, place: Option<&str>,
     }
 }
 
-fn tasks(args: &RecordOptions, sim: &DexterSim, scene: &Scene) -> Result<Vec<TeachTask>> {
+pub(crate) fn tasks(args: &RecordOptions, sim: &DexterSim, scene: &Scene) -> Result<Vec<TeachTask>> {
     let first_object = || {
         scene.resolved.first().map(|o| o.label.clone()).with_context(|| {
             format!(
@@ -431,7 +431,7 @@ impl Sink<'_> {
     }
 }
 
-fn any_schema() -> serde_json::Value {
+pub(crate) fn any_schema() -> serde_json::Value {
     serde_json::json!({ "type": "object" })
 }
 

@@ -22,6 +22,9 @@ use crate::progress::Progress;
 
 pub use pbd_ros2::{CommandKind, ServeReport};
 
+mod record;
+pub use record::{Ros2RecordOptions, record};
+
 /// The mapping named by `path`, or Dexter's built-in one (`assets/ros2/dexter.toml`).
 pub fn config(path: Option<&std::path::Path>) -> Result<Ros2Config> {
     Ok(match path {
@@ -48,6 +51,13 @@ pub struct ServeOptions {
     pub idle_exit: Option<f64>,
     /// Serve the workcell without its objects (for `pbd calibrate --hardware ros2`).
     pub empty: bool,
+    /// A scripted teacher at the robot's side, demonstrating this task on the mapping's
+    /// `[[teleop]]` topics (for `pbd record --hardware ros2`); the task's object, place and arm as
+    /// `pbd record` chooses them by default.
+    pub teach: Option<crate::record::Script>,
+    /// Publish the fingertip wrenches in their sensors' own frames, as real force/torque sensors do
+    /// (the robot turns them with its kinematics), instead of world-aligned.
+    pub sensor_frames: bool,
 }
 
 impl Default for ServeOptions {
@@ -60,6 +70,8 @@ impl Default for ServeOptions {
             period: 0.002,
             idle_exit: None,
             empty: false,
+            teach: None,
+            sensor_frames: false,
         }
     }
 }
@@ -126,18 +138,44 @@ fn serve_sim_impl(options: &ServeOptions, progress: &dyn Progress) -> Result<Ser
         cfg.domain()?,
         if options.lockstep { "lock step" } else { "real time" }
     ));
+    let mut teacher = match options.teach {
+        Some(script) => {
+            anyhow::ensure!(
+                !cfg.teleop.is_empty(),
+                "--teach: the ROS 2 mapping has no [[teleop]] hands to publish the teacher's samples on"
+            );
+            let args = crate::record::RecordOptions {
+                scene: options.scene.clone(),
+                script,
+                seed: Some(seed),
+                ..Default::default()
+            };
+            let tasks = crate::record::tasks(&args, &sim, &scene)?;
+            Some(SimTeacher {
+                teacher: dexter_sim::teleop::Teacher::with_tasks(&sim, &scene, &tasks, seed)?,
+                scene: &scene,
+                t0: sim.time(),
+                last: [None, None],
+            })
+        }
+        None => None,
+    };
     let serve = {
         let mut hw = SimRobot::new(&mut sim, &scene, seed)?;
-        pbd_ros2::serve(
+        pbd_ros2::serve_with(
             &mut hw,
             &cfg,
             &pbd_ros2::ServeOptions {
                 lockstep: options.lockstep,
                 period: options.period,
                 idle_exit: options.idle_exit.map(Duration::from_secs_f64),
+                sensor_frames: options.sensor_frames,
                 ..pbd_ros2::ServeOptions::default()
             },
             &|| progress.should_stop(),
+            teacher
+                .as_mut()
+                .map(|t| t as &mut dyn pbd_ros2::Teleoperator<SimRobot<'_>>),
         )?
     };
     let table_z = scene.spec.table.height;
@@ -167,6 +205,47 @@ fn serve_sim_impl(options: &ServeOptions, progress: &dyn Progress) -> Result<Ser
         serve,
         objects,
     })
+}
+
+/// The scripted teacher beside the served world: it sees the world (as a person at a glove does)
+/// and publishes its new samples, stamped with the world's clock, until it has finished.
+struct SimTeacher<'s> {
+    teacher: dexter_sim::teleop::Teacher,
+    scene: &'s Scene,
+    t0: f64,
+    last: [Option<f64>; 2],
+}
+
+impl pbd_ros2::Teleoperator<SimRobot<'_>> for SimTeacher<'_> {
+    fn samples(
+        &mut self,
+        hw: &mut SimRobot<'_>,
+        out: &mut Vec<pbd_ros2::HandSample>,
+    ) -> Result<(), pbd_ros2::Ros2Error> {
+        let t = hw.sim().time() - self.t0;
+        if self.teacher.finished() {
+            // The teacher is done and puts the glove down: nothing more is published.
+            return Ok(());
+        }
+        let commands = self
+            .teacher
+            .command(hw.sim_mut(), self.scene, t)
+            .map_err(|e| pbd_ros2::Ros2Error::Teacher(e.to_string()))?;
+        for c in commands.iter().flatten() {
+            let k = c.hand.index();
+            if self.last[k] != Some(c.t) {
+                self.last[k] = Some(c.t);
+                out.push(pbd_ros2::HandSample {
+                    hand: c.hand.prefix().to_owned(),
+                    stamp: self.t0 + c.t,
+                    position: c.position,
+                    orientation: c.orientation,
+                    flexion: c.flexion,
+                });
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Options of [`execute`]: the task as for an in-process run (`execute.scene` names the

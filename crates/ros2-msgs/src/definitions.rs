@@ -16,6 +16,7 @@ pub const STANDARD: &[(&str, &str)] = &[
         "builtin_interfaces/Time stamp\nstring frame_id\n",
     ),
     ("std_msgs/msg/String", "string data\n"),
+    ("std_msgs/msg/Float64", "float64 data\n"),
     ("std_msgs/msg/ColorRGBA", "float32 r\nfloat32 g\nfloat32 b\nfloat32 a\n"),
     (
         "std_msgs/msg/MultiArrayDimension",
@@ -38,6 +39,10 @@ pub const STANDARD: &[(&str, &str)] = &[
     (
         "geometry_msgs/msg/Pose",
         "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n",
+    ),
+    (
+        "geometry_msgs/msg/PoseStamped",
+        "std_msgs/Header header\ngeometry_msgs/Pose pose\n",
     ),
     (
         "geometry_msgs/msg/Transform",

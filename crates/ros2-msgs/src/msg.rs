@@ -437,6 +437,22 @@ pub struct CompressedImage {
     pub data: Vec<u8>,
 }
 
+/// `geometry_msgs/PoseStamped`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct PoseStamped {
+    /// Stamp and the frame the pose is in.
+    pub header: Header,
+    /// The pose.
+    pub pose: Pose,
+}
+
+/// `std_msgs/Float64`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Float64 {
+    /// The value.
+    pub data: f64,
+}
+
 /// `std_msgs/String`.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct StringMsg {
@@ -460,6 +476,10 @@ pub mod types {
     pub const JOINT_TRAJECTORY: (&str, &str) = ("trajectory_msgs", "JointTrajectory");
     /// `std_msgs/Header` (camera triggers).
     pub const HEADER: (&str, &str) = ("std_msgs", "Header");
+    /// `geometry_msgs/PoseStamped` (a teleoperated hand's palm pose).
+    pub const POSE_STAMPED: (&str, &str) = ("geometry_msgs", "PoseStamped");
+    /// `std_msgs/Float64` (a teleoperated hand's finger flexion).
+    pub const FLOAT64: (&str, &str) = ("std_msgs", "Float64");
 }
 
 /// `ros2_client::Message` for each message (what `pbd-ros2` publishes and subscribes).

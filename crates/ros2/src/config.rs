@@ -52,8 +52,9 @@ pub struct CommandConfig {
 pub struct ForceTorqueConfig {
     /// The sensor's link in the robot model (the robot side's name for it).
     pub frame: String,
-    /// Topic of `geometry_msgs/WrenchStamped`. Its `header.frame_id` must be `world_frame`
-    /// (a world-aligned reading); readings in other frames are refused by name.
+    /// Topic of `geometry_msgs/WrenchStamped`, with `header.frame_id` either `world_frame` (a
+    /// world-aligned reading) or a link of the robot's model (the sensor's own frame: the robot turns
+    /// it into the world's axes with its own kinematics); any other frame is refused by name.
     pub topic: String,
 }
 
@@ -77,6 +78,21 @@ pub struct CameraConfig {
     /// Per-channel pixel noise (standard deviation, [0, 1]) a calibration measured.
     #[serde(default = "default_pixel_noise")]
     pub pixel_noise: f64,
+}
+
+/// One teleoperated hand: the teacher's palm pose and finger flexion, as a glove or tracker
+/// publishes them (`pbd record --hardware ros2` drives the robot's hand from them; a served
+/// simulator with a scripted teacher publishes them).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TeleopConfig {
+    /// The robot side's hand (`left`, `right`).
+    pub hand: String,
+    /// Topic of `geometry_msgs/PoseStamped`: the palm surface's pose in `world_frame` (the stamp is
+    /// the sample's time).
+    pub pose_topic: String,
+    /// Topic of `std_msgs/Float64`: the mean finger flexion (rad, 0 open).
+    pub flexion_topic: String,
 }
 
 fn default_pixel_noise() -> f64 {
@@ -132,6 +148,9 @@ pub struct Ros2Config {
     /// Cameras, in the robot side's order.
     #[serde(default)]
     pub camera: Vec<CameraConfig>,
+    /// Teleoperated hands (for recording demonstrations).
+    #[serde(default)]
+    pub teleop: Vec<TeleopConfig>,
 }
 
 /// Dexter's mapping (`assets/ros2/dexter.toml`), built in.
@@ -231,6 +250,14 @@ impl Ros2Config {
                 return Err(format!("camera[{i}].pixel_noise: {} is not in [0, 1]", c.pixel_noise));
             }
         }
+        let mut hands = std::collections::BTreeSet::new();
+        for (i, t) in self.teleop.iter().enumerate() {
+            topic(&format!("teleop[{i}].pose_topic"), &t.pose_topic)?;
+            topic(&format!("teleop[{i}].flexion_topic"), &t.flexion_topic)?;
+            if t.hand.is_empty() || !hands.insert(&t.hand) {
+                return Err(format!("teleop[{i}].hand: `{}` is empty or listed twice", t.hand));
+            }
+        }
         let mut seen = std::collections::BTreeSet::new();
         for j in &self.command.joints {
             if !seen.insert(j) {
@@ -251,6 +278,7 @@ mod tests {
         assert_eq!(c.force_torque.len(), 6);
         assert_eq!(c.camera.len(), 4);
         assert_eq!(c.command.kind, CommandKind::JointTrajectory);
+        assert_eq!(c.teleop.len(), 2);
     }
 
     #[test]

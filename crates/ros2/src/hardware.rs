@@ -58,6 +58,13 @@ pub struct Ros2Hardware {
     ft: Vec<ForceTorque>,
     ft_time: Vec<f64>,
     camera_infos: Vec<CameraInfo>,
+    /// The teleoperated hands' topics (empty unless the mapping has `[[teleop]]`).
+    teleop: crate::teleop::TeleopInput,
+    /// Every link's pose (wrenches in a sensor's own frame are turned with it).
+    fk: Vec<control_basis::math::Iso3>,
+    /// Each sensor's last reading as sent, and the link it is in (`None`: world-aligned).
+    ft_raw: Vec<[[f64; 3]; 2]>,
+    ft_link: Vec<Option<usize>>,
     failed: Option<String>,
 }
 
@@ -212,6 +219,7 @@ impl Ros2Hardware {
                 })
             })
             .collect::<Result<Vec<_>, _>>()?;
+        let teleop = crate::teleop::TeleopInput::new(&mut endpoint, &config.teleop)?;
         let n_ft = config.force_torque.len();
         let mut hw = Ros2Hardware {
             ft_frames: config.force_torque.iter().map(|f| f.frame.clone()).collect(),
@@ -235,6 +243,10 @@ impl Ros2Hardware {
             ft: vec![ForceTorque::default(); n_ft],
             ft_time: vec![f64::NEG_INFINITY; n_ft],
             camera_infos: Vec::new(),
+            teleop,
+            fk: Vec::new(),
+            ft_raw: vec![[[0.0; 3]; 2]; n_ft],
+            ft_link: vec![None; n_ft],
             failed: None,
             config,
         };
@@ -313,23 +325,29 @@ impl Ros2Hardware {
         &self.config
     }
 
+    /// The newest sample of each teleoperated hand of the mapping's `[[teleop]]` (in its order;
+    /// `None` until a hand's first pose arrives): what arrived since the last call is taken now.
+    /// A pose in another frame than `world_frame`, or not finite, is an error naming its topic.
+    pub fn teleop(&mut self) -> Result<&[Option<crate::HandSample>], Ros2Error> {
+        self.teleop.poll(&self.config.world_frame)
+    }
+
+    /// The motor-unit references last sent (position, velocity per joint of the joint states;
+    /// the measured position of a joint never commanded).
+    pub fn references(&self) -> (&[f64], &[f64]) {
+        (&self.ref_q, &self.ref_qd)
+    }
+
     /// Reads every sample that has arrived.
     fn drain(&mut self) -> Result<(), Ros2Error> {
+        let mut turn = false;
         while let Some(m) = take(&self.joint_states, &self.config.joint_states.topic)? {
             self.apply_state(m)?;
+            turn = true;
         }
         for k in 0..self.wrenches.len() {
             let topic = &self.config.force_torque[k].topic;
             while let Some(m) = take(&self.wrenches[k], topic)? {
-                if m.header.frame_id != self.config.world_frame {
-                    return Err(Ros2Error::Message {
-                        topic: topic.clone(),
-                        message: format!(
-                            "a wrench in frame `{}`: pbd reads world-aligned wrenches (frame `{}`)",
-                            m.header.frame_id, self.config.world_frame
-                        ),
-                    });
-                }
                 let (f, t) = (m.wrench.force.to_array(), m.wrench.torque.to_array());
                 if f.iter().chain(&t).any(|v| !v.is_finite()) {
                     return Err(Ros2Error::Message {
@@ -337,13 +355,46 @@ impl Ros2Hardware {
                         message: "a wrench that is not finite".into(),
                     });
                 }
+                let mut link = None;
+                if m.header.frame_id != self.config.world_frame {
+                    // In a link's own frame (a real sensor's): turned into the world's axes below.
+                    let Ok(l) = self.model.link(&m.header.frame_id) else {
+                        return Err(Ros2Error::Message {
+                            topic: topic.clone(),
+                            message: format!(
+                                "a wrench in frame `{}`, which is neither `{}` nor a link of the robot's model",
+                                m.header.frame_id, self.config.world_frame
+                            ),
+                        });
+                    };
+                    link = Some(l);
+                }
+                self.ft_link[k] = link;
+                turn = turn || link.is_some();
                 let norm = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+                self.ft_raw[k] = [f, t];
                 self.ft[k] = ForceTorque {
                     force: f,
                     torque: t,
                     in_contact: norm > self.config.contact_force,
                 };
                 self.ft_time[k] = m.header.stamp.secs();
+            }
+        }
+        if turn && self.ft_link.iter().any(Option::is_some) {
+            // Readings in their sensors' own frames, in the world's axes at the newest measured
+            // joint angles (a state and the wrenches of its instant arrive in either order: this
+            // runs again when the other comes). The torque stays about the sensor's origin.
+            let (names, q) = (&self.joint_names, &self.q);
+            self.model
+                .link_poses(&|j| names.iter().position(|n| n == j).map(|i| q[i]), &mut self.fk);
+            for k in 0..self.ft.len() {
+                if let Some(link) = self.ft_link[k] {
+                    let r = self.fk[link].rotation;
+                    let [f, t] = self.ft_raw[k];
+                    self.ft[k].force = (r * control_basis::math::Vec3::from(f)).into();
+                    self.ft[k].torque = (r * control_basis::math::Vec3::from(t)).into();
+                }
             }
         }
         for k in 0..self.cameras.len() {

@@ -19,11 +19,13 @@ pub mod hardware;
 /// The wire types (the `pbd-ros2-msgs` crate's).
 pub use pbd_ros2_msgs::msg;
 pub mod serve;
+pub mod teleop;
 pub mod testing;
 
 pub use config::{CommandKind, Ros2Config};
 pub use hardware::Ros2Hardware;
-pub use serve::{ServeOptions, ServeReport, serve};
+pub use serve::{ServeOptions, ServeReport, serve, serve_with};
+pub use teleop::{HandSample, Teleoperator};
 
 /// What can go wrong between pbd and ROS 2.
 #[derive(Debug, thiserror::Error)]
@@ -65,6 +67,9 @@ pub enum Ros2Error {
     /// The hardware behind a server failed.
     #[error(transparent)]
     Hardware(#[from] control_basis::HardwareError),
+    /// The teacher beside a served robot failed.
+    #[error("the teacher: {0}")]
+    Teacher(String),
 }
 
 impl From<Ros2Error> for control_basis::HardwareError {

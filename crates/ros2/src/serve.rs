@@ -20,6 +20,7 @@ use crate::config::{CommandKind, Ros2Config};
 use crate::dds::{Endpoint, publish, take};
 use crate::hardware::info_from_intrinsics;
 use crate::msg::{self, types};
+use crate::teleop::{HandSample, Teleoperator};
 
 /// How [`serve`] runs.
 #[derive(Debug, Clone)]
@@ -32,6 +33,9 @@ pub struct ServeOptions {
     pub camera_rate_hz: f64,
     /// End after this long without a command, once one has arrived.
     pub idle_exit: Option<Duration>,
+    /// Publish each wrench in its sensor's own frame (as a real force/torque sensor does) instead
+    /// of world-aligned.
+    pub sensor_frames: bool,
 }
 
 impl Default for ServeOptions {
@@ -41,6 +45,7 @@ impl Default for ServeOptions {
             period: 0.002,
             camera_rate_hz: 15.0,
             idle_exit: None,
+            sensor_frames: false,
         }
     }
 }
@@ -76,8 +81,18 @@ struct ServedCamera {
     next_free: f64,
 }
 
+struct TeleopOut {
+    pose_topic: String,
+    flexion_topic: String,
+    pose: Publisher<msg::PoseStamped>,
+    flexion: Publisher<msg::Float64>,
+}
+
 struct Server<'a, H: Hardware + ?Sized> {
     hw: &'a mut H,
+    teacher: Option<&'a mut dyn Teleoperator<H>>,
+    teleop: Vec<(String, TeleopOut)>,
+    samples: Vec<HandSample>,
     config: &'a Ros2Config,
     endpoint: Endpoint,
     joint_states: Publisher<msg::JointState>,
@@ -88,6 +103,8 @@ struct Server<'a, H: Hardware + ?Sized> {
     traj_names: Vec<String>,
     traj_dofs: Vec<usize>,
     ft: Vec<ForceTorque>,
+    /// Link poses, for wrenches in sensor frames (`None`: world-aligned).
+    fk: Option<Vec<control_basis::math::Iso3>>,
     image: Image,
     report: ServeReport,
 }
@@ -99,6 +116,20 @@ pub fn serve<H: Hardware + ?Sized>(
     config: &Ros2Config,
     options: &ServeOptions,
     stop: &dyn Fn() -> bool,
+) -> Result<ServeReport, Ros2Error> {
+    serve_with(hw, config, options, stop, None)
+}
+
+/// [`serve`] with a teacher at the robot's side: after each advance of the world (and once at the
+/// start) `teacher`'s new hand samples are published on the mapping's `[[teleop]]` topics — each
+/// hand's flexion, then its pose — before the state of that instant, so that a robot that has the
+/// state finds the samples of the same instant waiting.
+pub fn serve_with<'a, H: Hardware + ?Sized>(
+    hw: &'a mut H,
+    config: &'a Ros2Config,
+    options: &ServeOptions,
+    stop: &dyn Fn() -> bool,
+    teacher: Option<&'a mut dyn Teleoperator<H>>,
 ) -> Result<ServeReport, Ros2Error> {
     if !(options.period.is_finite() && options.period > 0.0) {
         return Err(Ros2Error::Config {
@@ -166,9 +197,26 @@ pub fn serve<H: Hardware + ?Sized>(
             })
             .collect::<Result<_, _>>()?
     };
+    let mut teleop = Vec::new();
+    if teacher.is_some() {
+        for t in &config.teleop {
+            teleop.push((
+                t.hand.clone(),
+                TeleopOut {
+                    pose_topic: t.pose_topic.clone(),
+                    flexion_topic: t.flexion_topic.clone(),
+                    pose: endpoint.publisher(&t.pose_topic, types::POSE_STAMPED)?,
+                    flexion: endpoint.publisher(&t.flexion_topic, types::FLOAT64)?,
+                },
+            ));
+        }
+    }
     let n_ft = hw.force_torque_frames().len();
     let mut s = Server {
         hw,
+        teacher,
+        teleop,
+        samples: Vec::new(),
         config,
         endpoint,
         joint_states,
@@ -179,6 +227,7 @@ pub fn serve<H: Hardware + ?Sized>(
         traj_names: Vec::new(),
         traj_dofs: Vec::new(),
         ft: vec![ForceTorque::default(); n_ft],
+        fk: options.sensor_frames.then(Vec::new),
         image: Image::default(),
         report: ServeReport {
             commands: 0,
@@ -198,6 +247,7 @@ impl<H: Hardware + ?Sized> Server<'_, H> {
         for k in 0..self.cameras.len() {
             self.publish_info(k)?;
         }
+        self.publish_teleop()?;
         self.publish_state()?;
         let mut last_command = Instant::now();
         let mut commanded = false;
@@ -229,6 +279,7 @@ impl<H: Hardware + ?Sized> Server<'_, H> {
             if now >= next_tick {
                 self.hw.advance(options.period)?;
                 self.report.advances += 1;
+                self.publish_teleop()?;
                 self.publish_state()?;
                 self.free_cameras(options)?;
                 next_tick += tick;
@@ -270,6 +321,7 @@ impl<H: Hardware + ?Sized> Server<'_, H> {
             if options.lockstep {
                 self.hw.advance(dt)?;
                 self.report.advances += 1;
+                self.publish_teleop()?;
                 self.publish_state()?;
             }
         }
@@ -374,15 +426,68 @@ impl<H: Hardware + ?Sized> Server<'_, H> {
         }
     }
 
+    /// The teacher's new samples, if there is a teacher.
+    fn publish_teleop(&mut self) -> Result<(), Ros2Error> {
+        let Some(teacher) = self.teacher.as_deref_mut() else {
+            return Ok(());
+        };
+        self.samples.clear();
+        teacher.samples(self.hw, &mut self.samples)?;
+        for sample in &self.samples {
+            let Some((_, out)) = self.teleop.iter().find(|(hand, _)| *hand == sample.hand) else {
+                return Err(Ros2Error::Config {
+                    file: "teleop.hand".into(),
+                    message: format!("the mapping has no teleoperated hand `{}`", sample.hand),
+                });
+            };
+            publish(&out.flexion, &out.flexion_topic, msg::Float64 { data: sample.flexion })?;
+            let [x, y, z] = sample.position;
+            let [qx, qy, qz, qw] = sample.orientation;
+            let pose = msg::PoseStamped {
+                header: msg::Header {
+                    stamp: msg::Time::from_secs(sample.stamp),
+                    frame_id: self.config.world_frame.clone(),
+                },
+                pose: msg::Pose {
+                    position: msg::Point { x, y, z },
+                    orientation: msg::Quaternion {
+                        x: qx,
+                        y: qy,
+                        z: qz,
+                        w: qw,
+                    },
+                },
+            };
+            publish(&out.pose, &out.pose_topic, pose)?;
+        }
+        Ok(())
+    }
+
     fn publish_state(&mut self) -> Result<(), Ros2Error> {
         self.hw.read_force_torque(&mut self.ft);
+        if let Some(fk) = &mut self.fk {
+            let (names, q) = (self.hw.joint_names(), self.hw.joint_positions());
+            self.hw
+                .model()
+                .link_poses(&|j| names.iter().position(|n| n == j).map(|i| q[i]), fk);
+        }
         for (k, p) in &self.wrenches {
             let f = self.ft[*k];
+            let sensor = &self.hw.force_torque_frames()[*k];
+            let (frame, force, torque) = match (&self.fk, self.hw.model().link(sensor)) {
+                // The sensor's own frame: the world-aligned reading turned into its axes.
+                (Some(fk), Ok(link)) => {
+                    let r = fk[link].rotation.inverse();
+                    let turn = |v: [f64; 3]| (r * control_basis::math::Vec3::from(v)).into();
+                    (sensor.as_str(), turn(f.force), turn(f.torque))
+                }
+                _ => (self.config.world_frame.as_str(), f.force, f.torque),
+            };
             let m = msg::WrenchStamped {
-                header: self.stamp(&self.config.world_frame),
+                header: self.stamp(frame),
                 wrench: msg::Wrench {
-                    force: msg::Vector3::from_array(f.force),
-                    torque: msg::Vector3::from_array(f.torque),
+                    force: msg::Vector3::from_array(force),
+                    torque: msg::Vector3::from_array(torque),
                 },
             };
             publish(

@@ -3,8 +3,9 @@
 //! its camera's 8 × 6 image encodes the time — everything deterministic, so a run served over
 //! ROS 2 can be compared bit for bit with the same run in-process.
 
-use crate::config::{CameraConfig, CommandConfig, ForceTorqueConfig, JointStatesConfig};
-use crate::serve::{ServeOptions, ServeReport, serve};
+use crate::config::{CameraConfig, CommandConfig, ForceTorqueConfig, JointStatesConfig, TeleopConfig};
+use crate::serve::{ServeOptions, ServeReport, serve_with};
+use crate::teleop::{HandSample, Teleoperator};
 use crate::{CommandKind, Ros2Config};
 use control_basis::{CameraInfo, CbError, ForceTorque, Hardware, HardwareError, Image, Intrinsics, Plant, RobotModel};
 use std::sync::Arc;
@@ -140,6 +141,25 @@ impl std::fmt::Debug for ToyRobot {
     }
 }
 
+/// A teacher at the toy's hand `tip`: after each advance one sample stamped with the toy's time
+/// `t`, at `[t, 2t, 0]` with flexion `t` and the identity orientation.
+#[derive(Debug)]
+pub struct ToyTeacher;
+
+impl Teleoperator<ToyRobot> for ToyTeacher {
+    fn samples(&mut self, hw: &mut ToyRobot, out: &mut Vec<HandSample>) -> Result<(), crate::Ros2Error> {
+        let t = hw.time_secs();
+        out.push(HandSample {
+            hand: "tip".into(),
+            stamp: t,
+            position: [t, 2.0 * t, 0.0],
+            orientation: [0.0, 0.0, 0.0, 1.0],
+            flexion: t,
+        });
+        Ok(())
+    }
+}
+
 /// The toy's topics (`/toy/…`) on DDS domain `domain`, commanded with `kind`; its camera takes
 /// software triggers.
 pub fn toy_config(domain: u16, kind: CommandKind) -> Ros2Config {
@@ -171,6 +191,11 @@ pub fn toy_config(domain: u16, kind: CommandKind) -> Ros2Config {
             trigger_topic: Some("/toy/eye/trigger".into()),
             pixel_noise: 0.01,
         }],
+        teleop: vec![TeleopConfig {
+            hand: "tip".into(),
+            pose_topic: "/toy/teleop/pose".into(),
+            flexion_topic: "/toy/teleop/flexion".into(),
+        }],
     }
 }
 
@@ -184,11 +209,22 @@ pub struct ServedToy {
 impl ServedToy {
     /// Serves a fresh toy on `config`'s topics with `options`.
     pub fn start(config: &Ros2Config, options: ServeOptions) -> Self {
+        Self::spawn(config, options, false)
+    }
+
+    /// [`ServedToy::start`] with a [`ToyTeacher`] at the toy's side.
+    pub fn start_with_teacher(config: &Ros2Config, options: ServeOptions) -> Self {
+        Self::spawn(config, options, true)
+    }
+
+    fn spawn(config: &Ros2Config, options: ServeOptions, teach: bool) -> Self {
         let stop = Arc::new(AtomicBool::new(false));
         let (config, flag) = (config.clone(), stop.clone());
         let thread = std::thread::spawn(move || {
             let mut toy = ToyRobot::new();
-            serve(&mut toy, &config, &options, &|| flag.load(Ordering::Relaxed))
+            let mut teacher = ToyTeacher;
+            let teacher: Option<&mut dyn Teleoperator<ToyRobot>> = if teach { Some(&mut teacher) } else { None };
+            serve_with(&mut toy, &config, &options, &|| flag.load(Ordering::Relaxed), teacher)
         });
         ServedToy { stop, thread }
     }

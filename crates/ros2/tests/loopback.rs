@@ -98,3 +98,57 @@ fn no_robot_on_the_domain_is_a_timeout_naming_the_joint_state_topic() {
         .to_string();
     assert!(e.contains("/toy/joint_states") && e.contains("300 ms"), "{e}");
 }
+
+#[test]
+fn a_teachers_samples_of_an_instant_arrive_with_its_state() {
+    let cfg = config(domain(2), CommandKind::JointTrajectory);
+    let server = ServedToy::start_with_teacher(
+        &cfg,
+        ServeOptions {
+            lockstep: true,
+            ..ServeOptions::default()
+        },
+    );
+    let mut hw = Ros2Hardware::connect(cfg, RobotModel::from_urdf_str(URDF).unwrap()).unwrap();
+    for k in 0..40 {
+        hw.set_joint_reference(0, 0.01 * k as f64, 0.0);
+        hw.advance(0.002).unwrap();
+        let t = hw.time_secs();
+        let s = hw.teleop().unwrap()[0].clone().expect("a sample");
+        // The sample the teacher gave at this instant, not an older one.
+        assert!(
+            (s.stamp - t).abs() < 1e-9,
+            "step {k}: sample at {} for state at {t}",
+            s.stamp
+        );
+        assert_eq!(s.hand, "tip");
+        assert!((s.position[1] - 2.0 * s.stamp).abs() < 1e-9 && (s.flexion - s.stamp).abs() < 1e-9);
+        assert_eq!(s.orientation, [0.0, 0.0, 0.0, 1.0]);
+    }
+    server.stop().unwrap();
+}
+
+#[test]
+fn wrenches_in_their_sensors_frames_are_turned_into_the_worlds_axes() {
+    let cfg = config(domain(1), CommandKind::JointTrajectory);
+    let server = ServedToy::start(
+        &cfg,
+        ServeOptions {
+            lockstep: true,
+            sensor_frames: true,
+            ..ServeOptions::default()
+        },
+    );
+    let mut remote = Ros2Hardware::connect(cfg, RobotModel::from_urdf_str(URDF).unwrap()).unwrap();
+    let got = script(&mut remote);
+    server.stop().unwrap();
+    let want = script(&mut Toy::new());
+    let mut turned = 0;
+    for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+        for i in 0..3 {
+            assert!((g.2[i] - w.2[i]).abs() < 1e-12, "step {k}: {:?} vs {:?}", g.2, w.2);
+        }
+        turned += usize::from(w.2[0].abs() > 1e-3);
+    }
+    assert!(turned > 10, "the toy's link turned with a force on it: {turned} steps");
+}

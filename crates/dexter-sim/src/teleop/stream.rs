@@ -4,53 +4,12 @@
 
 use std::path::Path;
 
-use control_basis::math::Iso3;
-use nalgebra::{Quaternion, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
 use crate::error::SimError;
 use crate::snapshot::Arm;
 use dexter::control::FLEX_CLOSED;
-
-/// One glove sample for one hand.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct HandCommand {
-    /// Time (s).
-    pub t: f64,
-    /// Which hand.
-    pub hand: Arm,
-    /// Palm-surface position (m, world).
-    pub position: [f64; 3],
-    /// Palm-surface orientation, unit quaternion `[x, y, z, w]`.
-    pub orientation: [f64; 4],
-    /// Mean finger flexion (rad).
-    pub flexion: f64,
-}
-
-impl HandCommand {
-    /// A command from a pose.
-    pub fn new(t: f64, hand: Arm, pose: &Iso3, flexion: f64) -> HandCommand {
-        let q = pose.rotation.quaternion();
-        let p = pose.translation.vector;
-        HandCommand {
-            t,
-            hand,
-            position: [p.x, p.y, p.z],
-            orientation: [q.i, q.j, q.k, q.w],
-            flexion,
-        }
-    }
-
-    /// The commanded palm pose.
-    pub fn pose(&self) -> Iso3 {
-        let [x, y, z, w] = self.orientation;
-        let q = UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z));
-        Iso3::from_parts(
-            Translation3::new(self.position[0], self.position[1], self.position[2]),
-            q,
-        )
-    }
-}
+pub use dexter::teleop::HandCommand;
 
 /// Latest sample time (s) a teleop stream may hold: an hour (a recording stops at 600 s).
 pub const MAX_STREAM_SECS: f64 = 3600.0;
@@ -335,6 +294,7 @@ impl Replay {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use control_basis::math::Iso3;
 
     fn write(name: &str, text: &str) -> std::path::PathBuf {
         let dir = std::env::temp_dir().join(format!("pbd-teleop-{}", std::process::id()));
