@@ -28,8 +28,9 @@ if [ "$what" = all ] || [ "$what" = python ]; then
     "$venv/bin/python" -m pip install --quiet pytest numpy
     # Cyclone DDS: the ROS 2 conformance test's peer (without it that test skips with a message).
     "$venv/bin/python" -m pip install --quiet "cyclonedds>=0.10" || echo "WARNING: cyclonedds did not install; the ROS 2 conformance test will be SKIPPED" >&2
-    # rosbags (rosbag2 in pure Python) and Foxglove's mcap reader: the ROS 2 recording test's readers.
-    "$venv/bin/python" -m pip install --quiet "rosbags>=0.10" "mcap>=1.1" || echo "WARNING: rosbags/mcap did not install; the ROS 2 recording test will be SKIPPED" >&2
+    # rosbags (rosbag2 in pure Python), Foxglove's mcap reader and its ROS 2 decoder: the ROS 2
+    # recording test's readers.
+    "$venv/bin/python" -m pip install --quiet "rosbags>=0.10" "mcap>=1.1" "mcap-ros2-support>=0.5" || echo "WARNING: rosbags/mcap did not install; the ROS 2 recording test will be SKIPPED" >&2
     # Ray is large; without it the Ray test skips with a message.
     "$venv/bin/python" -m pip install --quiet "ray>=2.40" || echo "WARNING: ray did not install; the Ray test will be SKIPPED" >&2
     # The module is built in the repository's target directory, so it reuses what the Rust tests built.

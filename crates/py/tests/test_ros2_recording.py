@@ -2,7 +2,9 @@
 `rosbags` (rosbag2 in pure Python) opens it as a rosbag2 MCAP file and deserialises its
 `sensor_msgs/JointState`, `geometry_msgs/WrenchStamped`, `sensor_msgs/Image` and `CameraInfo` with the
 definitions the file carries; the values are those of the same run recorded in pbd's default encoding,
-read with Foxglove's `mcap` package. `pbd infer` reads both files to the same inference.
+read with Foxglove's `mcap` package. Foxglove's own ROS 2 decoder (`mcap-ros2-support`) decodes every
+message of every channel from the schemas the file carries. `pbd infer` reads both files to the same
+inference.
 """
 
 import json
@@ -103,3 +105,27 @@ def test_infer_reads_both_encodings_alike(recordings, tmp_path):
         results[encoding] = json.loads((tmp_path / f"{encoding}.infer.json").read_text())["inference"]
     assert results["foxglove"] == results["ros2"]
     assert results["ros2"]["posterior"]["hypotheses"], demo
+
+
+def test_foxglove_ros2_decoder_decodes_every_message(recordings):
+    decoder = pytest.importorskip("mcap_ros2.decoder", reason="the mcap-ros2-support package is not installed")
+    counts = {}
+    with open(recordings["ros2"], "rb") as f:
+        reader = mcap_reader.make_reader(f, decoder_factories=[decoder.DecoderFactory()])
+        assert reader.get_header().profile == "ros2"
+        for schema, channel, _, msg in reader.iter_decoded_messages():
+            counts[(channel.topic, schema.name)] = counts.get((channel.topic, schema.name), 0) + 1
+            if schema.name == "visualization_msgs/msg/MarkerArray" and channel.topic == "/scene":
+                kinds = {m.type for m in msg.markers}
+                assert {1, 3} <= kinds, kinds  # cubes (table, bins) and cylinders (the object's bands)
+            if schema.name == "pbd_msgs/msg/Percept":
+                assert len(msg.hands) == 2 and msg.table_z > 0.5
+    for topic, ty in [
+        ("/tf", "tf2_msgs/msg/TFMessage"),
+        ("/robot", "visualization_msgs/msg/MarkerArray"),
+        ("/scene", "visualization_msgs/msg/MarkerArray"),
+        ("/pbd/percept", "pbd_msgs/msg/Percept"),
+        ("/teleop/command", "pbd_msgs/msg/HandCommand"),
+        ("/pbd/truth", "pbd_msgs/msg/Truth"),
+    ]:
+        assert counts.get((topic, ty), 0) >= 1, (topic, ty, sorted(counts))
