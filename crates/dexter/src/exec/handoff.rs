@@ -1,0 +1,323 @@
+//! Where the two hands meet and how they get there: the place spot, the handoff spot a transfer
+//! uses and the ways clear of what the robot has seen (a second `impl` block of [`RobotPlant`]).
+
+use control_basis::math::Vec3;
+
+use crate::arm::Arm;
+use crate::error::RobotError;
+use crate::skills::{Held, park_pose};
+
+use super::plant::*;
+use super::workspace::*;
+
+impl RobotPlant<'_> {
+    /// Where in `place` to put a carried object: looks into the place first (the head sees a part
+    /// of the table at a time, and tracks out of view are soon forgotten, so what was seen while
+    /// grasping says little about the bin), then [`free_spot`] among the objects seen in it.
+    pub(super) fn place_spot(&mut self, place: &Place, held: &Held, arm: Arm) -> Result<[f64; 2], RobotError> {
+        let table_z = self.workspace.table_z;
+        self.look(
+            &Vec3::new(place.center[0], place.center[1], table_z + 0.03),
+            PLACE_LOOK_SECS,
+        )?;
+        let palm = self.percepts.last().map(|q| q.hands[arm.index()].palm);
+        let others = self.seen_in_place(place, palm);
+        // Objects come from the table: an empty place fills from its end away from the table's middle.
+        let from = Some(self.workspace.table_center);
+        let spot = free_spot(place.center, place.size, held.radius, &others, from);
+        tracing::debug!("place spot {spot:?} in {} among {others:?}", place.name);
+        Ok(spot)
+    }
+
+    /// The handoff spot (x, y).
+    pub fn handoff(&self) -> [f64; 2] {
+        self.handoff
+    }
+
+    /// The place the object is to end up in (`None`, or a name the workspace does not know: no
+    /// destination). A handoff spot keeps the way from it to there clear of failed reaches.
+    pub fn set_destination(&mut self, place: Option<&str>) {
+        self.destination = place.and_then(|p| self.workspace.place(p).ok()).map(|p| p.center);
+    }
+
+    /// Chooses the handoff spot for a transfer of the object seen near `object_at` (5.32): a free
+    /// patch of table that both arms reach pointing down, as seen now — at least
+    /// [`HANDOFF_CLEARANCE`] (at least [`HANDOFF_MIN_CLEARANCE`]) from every other segment the cameras see and clear of the places'
+    /// walls, and one the head can look at — preferring spots the object can be carried to in a
+    /// straight line without passing another seen segment ([`CARRY_PATH_ROOM`]), then spots clear
+    /// of where a reach failed
+    /// ([`UNREACHED_CLEARANCE`], and the failed arm's ways there from its parked pose and on to the
+    /// destination, [`RobotPlant::set_destination`]), then the table's centre line at a
+    /// comfortable reach (x = 0.55 m); when no spot is clear, one whose ways are clear, farthest
+    /// from the failed reaches; failing that, the one with the clearest ways. Candidates lie on a
+    /// 5 cm grid; the first both arms reach is taken. Keeps the previous spot and returns `None` if
+    /// none is free.
+    pub fn plan_handoff(&mut self, object_at: &Vec3) -> Result<Option<[f64; 2]>, RobotError> {
+        self.plan_handoff_among(object_at, &[])
+    }
+
+    /// [`RobotPlant::plan_handoff`] keeping clear also of `also_seen` (segments seen elsewhere,
+    /// [`RobotPlant::scan_handoff_region`]).
+    pub(super) fn plan_handoff_among(
+        &mut self,
+        object_at: &Vec3,
+        also_seen: &[SeenThing],
+    ) -> Result<Option<[f64; 2]>, RobotError> {
+        // Whether an arm's forearm, from its palm over spot `c` back towards its shoulder, would
+        // lie on a tall thing there (a post beside the spot: the descending forearm rests on it).
+        let tall = self.tall_things();
+        let mut body = crate::body::Body::new();
+        let mut shoulders = Vec::with_capacity(2);
+        for a in Arm::BOTH {
+            // On the base yaw axis: where it is does not depend on the joint angles.
+            let p = body.pose(self.hw, &format!("{}/shoulder_pitch_link", a.prefix()))?;
+            shoulders.push([p.translation.x, p.translation.y]);
+        }
+        tracing::debug!("shoulders {shoulders:?}, tall things {tall:?}");
+        let ws = self.workspace;
+        let table_z = ws.table_z;
+        // Other segments, as seen.
+        let sized: Vec<SeenThing> = self
+            .percepts
+            .last()
+            .map(|p| p.segments.iter().map(SeenThing::of).collect::<Vec<_>>())
+            .unwrap_or_default()
+            .into_iter()
+            .chain(also_seen.iter().copied())
+            .filter(|t| (t.at[0] - object_at.x).hypot(t.at[1] - object_at.y) > MERGE_RADIUS)
+            .collect();
+        let others: Vec<[f64; 2]> = sized.iter().map(|t| t.at).collect();
+        // Whether the straight carry from `object_at` to spot `c` (low: 8 cm above the table,
+        // below most things' tops) passes a seen thing (nearer than it started: an object picked up
+        // beside a thing may be carried away from it), or a failed arm's way from its parked pose
+        // to `c` (at hover height) passes a thing taller than that.
+        let carry_blocked = |c: [f64; 2]| {
+            sized.iter().any(|t| {
+                let room = t.radius + CARRY_PATH_ROOM;
+                let start = (t.at[0] - object_at.x).hypot(t.at[1] - object_at.y);
+                let path = distance_to_segment(t.at, [object_at.x, object_at.y], c);
+                (path < room && path < start - 0.01)
+                    || (t.height > TALL_THING
+                        && self.unreached.iter().any(|(arm, _)| {
+                            let park = park_pose(*arm, table_z).translation.vector;
+                            distance_to_segment(t.at, [park.x, park.y], c) < room
+                        }))
+            })
+        };
+        // How far the nearer forearm keeps from a tall thing, up to [`FOREARM_CLEARANCE`].
+        let forearm_room = |c: [f64; 2]| {
+            shoulders
+                .iter()
+                .map(|s| {
+                    let (dx, dy) = (s[0] - c[0], s[1] - c[1]);
+                    let l = dx.hypot(dy).max(1e-9);
+                    let reach = FOREARM_LENGTH.min(l);
+                    let end = [c[0] + dx / l * reach, c[1] + dy / l * reach];
+                    crate::route::clearance_of(c, end, &tall, FOREARM_CLEARANCE)
+                })
+                .fold(FOREARM_CLEARANCE, f64::min)
+        };
+        let margin = 0.12;
+        let (x0, x1) = (
+            ws.table_center[0] - ws.table_size[0] / 2.0 + margin,
+            ws.table_center[0] + ws.table_size[0] / 2.0 - HANDOFF_FAR_MARGIN,
+        );
+        // Per candidate, how far it keeps clear of the failed reaches, each relative to its bound
+        // (≥ 0: clear): `(ways, spot)` — the failed arm's ways (from its parked pose to the spot and
+        // on from the spot to the destination; an arm that cannot pass there cannot carry the
+        // object past it either) and the spot's own distance from them.
+        let clearance = |c: [f64; 2]| -> (f64, f64) {
+            self.unreached
+                .iter()
+                .fold((f64::INFINITY, f64::INFINITY), |(ways, spot), (arm, o)| {
+                    let park = park_pose(*arm, table_z).translation.vector;
+                    let path = distance_to_segment(*o, [park.x, park.y], c) - UNREACHED_PATH_CLEARANCE;
+                    let onward = self.destination.map_or(f64::INFINITY, |d| {
+                        distance_to_segment(*o, c, d) - UNREACHED_PATH_CLEARANCE
+                    });
+                    let away = (o[0] - c[0]).hypot(o[1] - c[1]) - UNREACHED_CLEARANCE;
+                    (ways.min(path).min(onward), spot.min(away))
+                })
+        };
+        let mut candidates = Vec::new();
+        for i in 0..=((x1 - x0) / 0.05).floor() as i32 {
+            for j in -6..=6 {
+                let c = [x0 + 0.05 * f64::from(i), ws.table_center[1] + 0.05 * f64::from(j)];
+                let room = others
+                    .iter()
+                    .map(|o| (o[0] - c[0]).hypot(o[1] - c[1]))
+                    .fold(f64::INFINITY, f64::min);
+                let free = room >= HANDOFF_MIN_CLEARANCE
+                    && ws.places.iter().all(|p| {
+                        (c[0] - p.center[0]).abs() > p.size[0] / 2.0 + p.wall_thickness + 0.08
+                            || (c[1] - p.center[1]).abs() > p.size[1] / 2.0 + p.wall_thickness + 0.08
+                    });
+                if free {
+                    candidates.push((
+                        c,
+                        clearance(c),
+                        (forearm_room(c), carry_blocked(c), room < HANDOFF_CLEARANCE),
+                    ));
+                }
+            }
+        }
+        // Spots clear of the failed reaches in every respect first, by comfort; then those whose
+        // ways are clear, the farthest from the failed reaches first; then the rest, the clearest
+        // ways first (the failed reach lay where the arms meet). Within each, spots with the full
+        // room around them ([`HANDOFF_CLEARANCE`]) before those with less. Spots the object can be
+        // carried to without passing a seen thing come before all others, and before those, spots
+        // where neither arm's forearm would lie on a tall thing (when there are none, the spots
+        // whose forearms keep farthest from one).
+        let cost = |c: &[f64; 2]| (c[1] - ws.table_center[1]).abs() + 0.5 * (c[0] - 0.55).abs();
+        let rank = |&(ways, spot): &(f64, f64)| u8::from(ways < 0.0) + u8::from(spot < 0.0 || ways < 0.0);
+        candidates.sort_by(|a, b| {
+            b.2.0
+                .total_cmp(&a.2.0)
+                .then(a.2.1.cmp(&b.2.1))
+                .then(rank(&a.1).cmp(&rank(&b.1)))
+                .then(a.2.2.cmp(&b.2.2))
+                .then_with(|| match rank(&a.1) {
+                    0 => cost(&a.0).total_cmp(&cost(&b.0)),
+                    1 => b.1.1.total_cmp(&a.1.1),
+                    _ => b.1.0.total_cmp(&a.1.0),
+                })
+        });
+        if tracing::enabled!(tracing::Level::DEBUG) {
+            let blocked = candidates.iter().filter(|c| c.2.1).count();
+            let forearms = candidates.iter().filter(|c| c.2.0 < FOREARM_CLEARANCE).count();
+            tracing::debug!(
+                "handoff candidates {} ({forearms} with a forearm on a tall thing, {blocked} with a seen thing on the way), things seen {sized:?}",
+                candidates.len(),
+            );
+        }
+        // Whether a seen thing stands between a head camera and the top of the object put down on
+        // spot `c` (a tall box in front of it): the object there would be hidden from the head
+        // whole, and the receiving hand would not find it. (The cameras move a few cm as the head
+        // turns to the spot; the thing's footprint is its seen radius; the object's top is twice
+        // its centroid's height.)
+        let mut eyes = [Vec3::zeros(); 2];
+        for (eye, link) in eyes.iter_mut().zip(HEAD_CAMERA_FRAMES) {
+            *eye = body.pose(self.hw, link)?.translation.vector;
+        }
+        let top_z = table_z + (2.0 * (object_at.z - table_z)).max(0.01);
+        let hidden = |c: [f64; 2]| {
+            let p = Vec3::new(c[0], c[1], top_z);
+            eyes.iter().any(|e| {
+                sized.iter().any(|t| {
+                    (1..SIGHT_SAMPLES).any(|i| {
+                        let q = e + (p - e) * (i as f64 / SIGHT_SAMPLES as f64);
+                        (q.x - t.at[0]).hypot(q.y - t.at[1]) < t.radius && q.z < table_z + t.height
+                    })
+                })
+            })
+        };
+        // Spots the head sees the object on first, to which both arms have a way clear of the
+        // tall things (the holding arm's carry, the other's reach; [`crate::skills::plan_way`]);
+        // then seen spots; then spots with clear ways; then any.
+        for (must_see, must_clear) in [(true, true), (true, false), (false, true), (false, false)] {
+            if must_clear && tall.is_empty() {
+                continue;
+            }
+            for (c, _, _) in &candidates {
+                let c = *c;
+                // The head must turn to the spot (both cameras, for stereo) to find the object there.
+                let seen_at = Vec3::new(c[0], c[1], table_z + 0.05);
+                if (must_see && hidden(c)) || !self.watcher.can_look_at(self.hw, &seen_at, HEAD_LIMIT_MARGIN)? {
+                    continue;
+                }
+                if arms_reaching(self.hw, table_z, &Vec3::new(c[0], c[1], table_z))?.len() == 2
+                    && (!must_clear || self.ways_to_spot_clear(c, &tall))
+                {
+                    tracing::debug!(
+                        "handoff spot {c:?}{}{}",
+                        if must_see { "" } else { " (hidden from the head)" },
+                        if must_clear || tall.is_empty() {
+                            ""
+                        } else {
+                            " (an arm's way passes a tall thing)"
+                        }
+                    );
+                    self.handoff = c;
+                    return Ok(Some(c));
+                }
+            }
+        }
+        Ok(None)
+    }
+
+    /// Whether both arms have a way to the handoff spot `c` that keeps the whole arm clear of the
+    /// `tall` things ([`crate::skills::plan_way`], rolled out from where each arm is now): the arm
+    /// that holds the object carrying it over the spot (its bottom [`Held::below`] the palm), the
+    /// other reaching above the spot, each at its present height or higher — and on down to the
+    /// spot; and no tall thing between the spot and the destination ([`RobotPlant::set_destination`]).
+    pub(super) fn ways_to_spot_clear(&mut self, c: [f64; 2], tall: &[crate::route::Obstacle]) -> bool {
+        let table_z = self.workspace.table_z;
+        // The receiving hand carries the object on to the destination: a spot beyond a tall thing
+        // from there has it carried round (or over) the thing again, high and far.
+        if let Some(d) = self.destination
+            && !crate::route::clear_of(c, d, tall, crate::skills::ROUTE_CLEARANCE)
+        {
+            tracing::trace!("handoff spot {c:?}: a tall thing between it and the destination");
+            return false;
+        }
+        for arm in Arm::BOTH {
+            let held = self.held.filter(|_| self.touch(arm).holding());
+            let (below, offset) = held.map_or((crate::sweep::HAND_LENGTH, [0.0; 2]), |h| (h.below, h.offset_xy));
+            let reach = &mut self.reach[arm.index()];
+            let mut goal = reach.tool_pose(self.hw);
+            let q0 = reach.chain_configuration(self.hw);
+            let z = goal.translation.z.max(table_z + below + 0.10);
+            goal.translation.vector = Vec3::new(c[0] - offset[0], c[1] - offset[1], z);
+            let saved = std::mem::replace(&mut reach.avoid, tall.to_vec());
+            let way = crate::skills::plan_way(reach, q0.as_slice(), &goal, crate::skills::ROUTE_CLEARANCE, below);
+            // Then down to the spot: the holding hand puts the object on the table, the other
+            // grasps it there (its palm about an object's height above the table) — a forearm
+            // that comes down onto a post beside the spot stops the hand short.
+            let down = way.as_ref().filter(|w| w.clear).map(|w| {
+                let mut low = goal;
+                low.translation.vector.z = table_z + below.max(0.10);
+                let mut poses = w.poses.clone();
+                poses.push(low);
+                let chain = reach.chain().clone();
+                let sweep = reach.sweep(q0.as_slice(), &poses, 5.0, &mut |st| {
+                    crate::sweep::arm_clearance(&chain, st, tall, f64::NEG_INFINITY, below)
+                });
+                sweep.reached && sweep.clearance >= w.clearance.min(crate::skills::SWEEP_MARGIN) - 1e-9
+            });
+            reach.avoid = saved;
+            if way.is_some_and(|w| !w.clear) || down == Some(false) {
+                tracing::trace!("handoff spot {c:?}: no clear way for the {arm} arm (down: {down:?})");
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Looks over the middle of the table, where handoff spots lie (the scan points within
+    /// [`HANDOFF_SCAN_HALF_WIDTH`] of its centre line), and returns the centres (x, y), horizontal
+    /// radii and heights (m; measured, or [`SEEN_RADIUS`] and 0) of the segments seen there on
+    /// the table, but not the one carried by the palm at `carrying_palm`:
+    /// the head sees a part of the table at a time (tracks out of view are soon forgotten), and a
+    /// spot chosen from the latest view alone may lie on an object out of it.
+    pub(super) fn scan_handoff_region(&mut self, carrying_palm: &Vec3) -> Result<Vec<SeenThing>, RobotError> {
+        let table_z = self.workspace.table_z;
+        let cy = self.workspace.table_center[1];
+        let mut seen = Vec::new();
+        for at in self.workspace.scan_points() {
+            if (at.y - cy).abs() > HANDOFF_SCAN_HALF_WIDTH {
+                continue;
+            }
+            self.look(&at, 0.6)?;
+            let Some(p) = self.percepts.last() else {
+                continue;
+            };
+            for s in p.segments.iter().filter(|s| s.seen) {
+                let c = Vec3::from(s.centroid);
+                if c.z > table_z - 0.02 && (c - carrying_palm).norm() > CARRIED_CLEARANCE {
+                    seen.push(SeenThing::of(s));
+                }
+            }
+        }
+        Ok(seen)
+    }
+}

@@ -1,0 +1,122 @@
+//! Dexter as a [`schema::SchemaPlant`]: the executive's abstract actions bound to Dexter's arms,
+//! hands and the objects it sees, run with the control-basis skills of [`crate::skills`], observed
+//! through the same monitors that watch a teacher (§4.2) — so the robot knows which state of the
+//! schema it is in from its own sensors. Objects are the segments the robot tracks (their ids);
+//! it knows its table and its places ([`Workspace`]), nothing else of the world.
+//!
+//! | abstract action | what runs |
+//! |---|---|
+//! | `reach_object` | Reach ◁ Manipulability to the pre-grasp above the seen object (its measured footprint and height), then down |
+//! | `grasp` | close until the fingertips squeeze from opposite sides and the fingers are still |
+//! | `hold` | lift 10 cm and weigh on the fingertips |
+//! | `place` | Reach ◁ Place: carry over the place, lower until the support takes the load; for a transfer, onto the handoff spot and open |
+//! | `release` | open and retreat |
+//! | `search_track` | look at the object |
+//!
+//! One concern per file: `workspace.rs` (the table, places and spots), `plant.rs` (the robot as
+//! the plant: state, memory, search), `handoff.rs` (the place spot, handoff spots and ways), `act.rs` (the actions), `policy.rs` (ψ).
+
+mod act;
+mod handoff;
+mod plant;
+mod policy;
+mod workspace;
+
+pub use plant::*;
+pub use policy::*;
+pub use workspace::*;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::actions::SkillMap;
+    use schema::Library;
+
+    /// Red against red-and-orange overlaps by the shared red; red against blue not at all.
+    #[test]
+    fn colour_overlap_is_the_shared_share() {
+        let red = [(3u8, 1.0)];
+        let red_orange = [(3u8, 0.6), (4, 0.4)];
+        let blue = [(7u8, 0.9), (1, 0.1)];
+        assert!((colour_overlap(&red, &red_orange) - 0.6).abs() < 1e-12);
+        assert!((colour_overlap(&red_orange, &red_orange) - 1.0).abs() < 1e-12);
+        assert_eq!(colour_overlap(&red, &blue), 0.0);
+        assert!(colour_overlap(&red_orange, &red) >= LOOKS_ALIKE);
+        assert!(colour_overlap(&blue, &red) < LOOKS_ALIKE);
+    }
+
+    /// Pick-And-Place's transfer is a contingency: no pass on its main path. The user-written
+    /// `pass_and_place` puts the object down in `carrying`; every state from `put_down` on belongs to
+    /// the other hand, none before it (its first-half drop and re-grasp included).
+    #[test]
+    fn the_pass_is_read_from_the_schema_graph() {
+        let lib = Library::builtin();
+        let skills = SkillMap::new(&lib);
+        for s in &lib.schemas {
+            assert!(!Passing::of(s, &skills).passes(), "{}", s.name);
+        }
+        let text = include_str!("../../../../assets/schemas/examples/pass-and-place.toml");
+        let lib = Library::parse(text, "pass-and-place.toml").unwrap();
+        let skills = SkillMap::new(&lib);
+        let schema = lib.schema("pass_and_place").unwrap();
+        let p = Passing::of(schema, &skills);
+        let named = |v: &[bool]| -> Vec<&str> {
+            v.iter()
+                .enumerate()
+                .filter(|(_, b)| **b)
+                .map(|(i, _)| schema.states[i].name.as_str())
+                .collect()
+        };
+        assert_eq!(named(&p.handoff), ["carrying"]);
+        let mut after = named(&p.after);
+        after.sort();
+        assert_eq!(
+            after,
+            [
+                "at_object_again",
+                "carrying_again",
+                "done",
+                "dropped_again",
+                "grasped_again",
+                "placed",
+                "put_down",
+                "released",
+                "waiting"
+            ]
+        );
+    }
+
+    /// A 20 × 25 cm bin: an empty one takes the object at the end of its long side away from the
+    /// hand (its middle when the hand is not known); with a can (radius 3 cm)
+    /// already in the middle, a 3 cm object goes where the gap between them is widest (a corner:
+    /// the bin is small), inside the walls; with objects larger than the room left, the middle stands.
+    #[test]
+    fn a_free_spot_keeps_clear_of_what_is_seen_in_the_bin() {
+        let (center, size) = ([0.55, -0.45], [0.2, 0.25]);
+        assert_eq!(free_spot(center, size, 0.03, &[], None), center);
+        // The hand comes from the table's middle (y > the bin's): the far end, 6 cm from the middle
+        // (12.5 − 3 − 3 cm of room, to the centimetre).
+        let first = free_spot(center, size, 0.03, &[], Some([0.5, 0.0]));
+        assert!(
+            (first[0] - center[0]).abs() < 1e-12 && (first[1] - (center[1] - 0.06)).abs() < 1e-9,
+            "{first:?}"
+        );
+        // The next, as large, then fits at the other end, clear of it.
+        let next = free_spot(center, size, 0.03, &[(first, 0.03)], Some([0.5, 0.0]));
+        assert!((next[0] - first[0]).hypot(next[1] - first[1]) - 0.06 > 0.05, "{next:?}");
+        let spot = free_spot(center, size, 0.03, &[(center, 0.03)], None);
+        let gap = (spot[0] - center[0]).hypot(spot[1] - center[1]) - 0.06;
+        assert!(gap > 0.005, "spot {spot:?}, gap {gap}");
+        for i in 0..2 {
+            assert!(
+                (spot[i] - center[i]).abs() <= size[i] / 2.0 - 0.03 - WALL_ROOM + 1e-9,
+                "{spot:?}"
+            );
+        }
+        // A can near one wall: the spot is on the other side.
+        let can = [center[0], center[1] + 0.07];
+        let spot = free_spot(center, size, 0.03, &[(can, 0.03)], None);
+        assert!(spot[1] < center[1] - 0.02, "{spot:?}");
+        assert_eq!(free_spot(center, size, 0.08, &[(can, 0.03)], None), center);
+    }
+}

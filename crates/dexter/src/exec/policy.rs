@@ -1,0 +1,316 @@
+//! ψ, the procedural policy of a run ([`ArmPolicy`]): which arm for the object and the place, when
+//! to pass from hand to hand ([`Passing`]), and how to rebind on a failure's cause.
+
+use control_basis::Hardware;
+use control_basis::math::Vec3;
+use schema::{Binding, Failure, FailureCause, Library};
+
+use crate::actions::{Skill, SkillMap};
+use crate::arm::Arm;
+use crate::error::RobotError;
+
+use super::plant::*;
+use super::workspace::*;
+
+/// Descents to the grasp pose by one arm that stop short before ψ binds another arm.
+pub(super) const SHORT_DESCENTS: usize = 2;
+
+/// The hand-to-hand pass a schema's graph spells out on its main path: a state whose action is a
+/// Place and from which the schema's plain edges lead (before any goal) to a state whose action is a
+/// reach to the object puts the object down for the other hand (a user's `pass_and_place`); the
+/// states reachable after it, and not before it, belong to the other hand. Pick-And-Place's Place
+/// leads by plain edges only to its goal (its transfer is a contingency), so it has none.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Passing {
+    /// Per state of the schema: its Place puts the object down for the other hand.
+    pub handoff: Vec<bool>,
+    /// Per state: the other hand acts (after a pass).
+    pub after: Vec<bool>,
+}
+
+impl Passing {
+    /// Reads the pass of `schema` from its graph, its actions bound by `skills`.
+    pub fn of(schema: &schema::Schema, skills: &SkillMap) -> Passing {
+        let n = schema.states.len();
+        let skill = |s: usize| skills.at(schema.policy[s]);
+        // States reachable from `from`'s successors (`plain`: by edges without a contingency label
+        // only, not going on from a goal).
+        let reach = |from: usize, plain: bool| -> Vec<bool> {
+            let mut seen = vec![false; n];
+            let mut stack: Vec<usize> = vec![from];
+            let mut first = true;
+            while let Some(s) = stack.pop() {
+                if !first && plain && schema.is_goal(s) {
+                    continue;
+                }
+                first = false;
+                for t in schema.successors(s) {
+                    if (!plain || t.contingency.is_none()) && !seen[t.to] {
+                        seen[t.to] = true;
+                        stack.push(t.to);
+                    }
+                }
+            }
+            seen
+        };
+        let handoff: Vec<bool> = (0..n)
+            .map(|s| {
+                skill(s) == Some(Skill::Place)
+                    && reach(s, true)
+                        .iter()
+                        .enumerate()
+                        .any(|(t, &r)| r && skill(t) == Some(Skill::ReachObject))
+            })
+            .collect();
+        let mut after = vec![false; n];
+        for h in (0..n).filter(|&h| handoff[h]) {
+            let later = reach(h, false);
+            for (t, a) in after.iter_mut().enumerate() {
+                // Not a state the pass can come back to (one before it, or the pass itself).
+                let before = t == h || reach(t, false)[h];
+                *a |= later[t] && !before;
+            }
+        }
+        Passing { handoff, after }
+    }
+
+    /// Whether the schema passes the object from one hand to the other on its main path.
+    pub fn passes(&self) -> bool {
+        self.handoff.iter().any(|&h| h)
+    }
+}
+
+/// ψ on Dexter (5.31–5.32) for any schema over its skills: the arm whose workspace holds the
+/// object — and the place, when the schema has one — on the object's side first; if no arm reaches
+/// both, a transfer: the arm that reaches the object puts it on the handoff spot, and the arm that
+/// reaches the place takes it from there. Actions bind by their skill ([`Skill`]), not their names.
+#[derive(Debug, Clone)]
+pub struct ArmPolicy {
+    /// The object (the tracked segment's id, as text).
+    pub object: String,
+    /// The place, for a schema that puts the object somewhere.
+    pub place: Option<String>,
+    /// The arm that picks first.
+    pub pick_arm: Arm,
+    /// The arm that places (differs from `pick_arm` for a transfer).
+    pub place_arm: Arm,
+    pub(super) skills: SkillMap,
+    pub(super) transferred: bool,
+    /// Arms whose palm reaches above the object, the place and the handoff spot (when decided).
+    pub(super) at_object: Vec<Arm>,
+    pub(super) at_place: Vec<Arm>,
+    pub(super) at_handoff: Vec<Arm>,
+    /// The pass the schema's graph spells out (if any): then the arms are always two.
+    pub(super) passing: Passing,
+    /// Arms whose reach to the object did not converge.
+    pub(super) failed_arms: Vec<Arm>,
+    /// Per arm (left, right): its descents to the grasp pose that stopped short.
+    pub(super) short_descents: [usize; 2],
+    /// ψ's rebindings after failures, in order (`other_arm`, `hand_over`, `gave_up: …`).
+    pub rebindings: Vec<String>,
+}
+
+/// ψ for Pick-And-Place: [`ArmPolicy`] with a place.
+pub type PickPlacePolicy = ArmPolicy;
+
+impl ArmPolicy {
+    /// Decides the arms for `object` at `object_at` (and `place`, if the schema has one) for the
+    /// skills of `library` and the graph of `schema`: one arm if one reaches both, else a transfer
+    /// — always two arms for a schema that passes the object from hand to hand ([`Passing`]).
+    /// `None` if no arm (pair) reaches what the schema needs.
+    #[allow(clippy::too_many_arguments)]
+    pub fn decide(
+        hw: &dyn Hardware,
+        workspace: &Workspace,
+        library: &Library,
+        schema: &schema::Schema,
+        object: &str,
+        object_at: &Vec3,
+        place: Option<&str>,
+        handoff: [f64; 2],
+    ) -> Result<Option<ArmPolicy>, RobotError> {
+        let table_z = workspace.table_z;
+        let at_object = arms_reaching(hw, table_z, object_at)?;
+        let at_place = match place {
+            Some(place) => {
+                let p = workspace.place(place)?;
+                arms_reaching(
+                    hw,
+                    table_z,
+                    &Vec3::new(p.center[0], p.center[1], table_z + p.wall_height),
+                )?
+            }
+            None => Arm::BOTH.to_vec(),
+        };
+        let hand_spot = Vec3::new(handoff[0], handoff[1], table_z);
+        let at_handoff = arms_reaching(hw, table_z, &hand_spot)?;
+        let skills = SkillMap::new(library);
+        let mut policy = ArmPolicy {
+            object: object.into(),
+            place: place.map(str::to_string),
+            pick_arm: Arm::Left,
+            place_arm: Arm::Left,
+            passing: Passing::of(schema, &skills),
+            skills,
+            transferred: false,
+            at_object,
+            at_place,
+            at_handoff,
+            failed_arms: Vec::new(),
+            short_descents: [0; 2],
+            rebindings: Vec::new(),
+        };
+        // Prefer the arm on the object's side.
+        let side = if object_at.y >= 0.0 { Arm::Left } else { Arm::Right };
+        Ok(policy.assign(side).map(|_| policy))
+    }
+
+    /// The same policy with `arm` picking first when it reaches what the task needs (the arm a
+    /// model expects the teacher would have used); else unchanged.
+    pub fn prefer(mut self, arm: Arm) -> Self {
+        let (pick, place) = (self.pick_arm, self.place_arm);
+        if self.assign(arm).is_none() || self.pick_arm != arm {
+            self.pick_arm = pick;
+            self.place_arm = place;
+        }
+        self
+    }
+
+    /// The same policy restricted to the arms in `free` (the others hold something): `None` if
+    /// the arms it would need are not among them.
+    pub fn among(mut self, free: &[Arm]) -> Option<Self> {
+        if free.len() == Arm::BOTH.len() {
+            return Some(self);
+        }
+        self.at_object.retain(|a| free.contains(a));
+        self.at_place.retain(|a| free.contains(a));
+        self.at_handoff.retain(|a| free.contains(a));
+        let side = self.pick_arm;
+        self.assign(side).map(|_| self)
+    }
+
+    /// Assigns the arms among those not known to fail: one arm that reaches both the object and the
+    /// place (`side`'s first), else a transfer through the handoff spot. `None` if neither exists.
+    pub(super) fn assign(&mut self, side: Arm) -> Option<()> {
+        let usable: Vec<Arm> = self
+            .at_object
+            .iter()
+            .copied()
+            .filter(|a| !self.failed_arms.contains(a))
+            .collect();
+        if self.passing.passes() {
+            // Two arms, whatever one alone reaches: `side` picks if it can.
+            let mut picks: Vec<Arm> = usable.iter().copied().filter(|a| self.at_handoff.contains(a)).collect();
+            picks.sort_by_key(|&a| a != side);
+            let (a, b) = picks.iter().find_map(|&a| {
+                let b = a.other();
+                (self.at_place.contains(&b) && self.at_handoff.contains(&b)).then_some((a, b))
+            })?;
+            self.pick_arm = a;
+            self.place_arm = b;
+            return Some(());
+        }
+        let both: Vec<Arm> = usable.iter().copied().filter(|a| self.at_place.contains(a)).collect();
+        if let Some(arm) = both
+            .iter()
+            .copied()
+            .find(|&a| a == side)
+            .or_else(|| both.first().copied())
+        {
+            self.pick_arm = arm;
+            self.place_arm = arm;
+            return Some(());
+        }
+        let a = usable.iter().copied().find(|a| self.at_handoff.contains(a))?;
+        let b = self.at_place.iter().copied().find(|b| self.at_handoff.contains(b))?;
+        self.pick_arm = a;
+        self.place_arm = b;
+        Some(())
+    }
+
+    /// Whether this assignment needs a transfer.
+    pub fn is_transfer(&self) -> bool {
+        self.pick_arm != self.place_arm
+    }
+
+    /// Whether the object has passed to the placing arm in `state`: a `transfer` contingency was
+    /// taken, or the state comes after the schema's own pass ([`Passing`]).
+    pub(super) fn handed(&self, schema: &schema::Schema, state: &str) -> bool {
+        self.transferred
+            || schema
+                .state(state)
+                .is_some_and(|s| self.passing.after.get(s).copied().unwrap_or(false))
+    }
+}
+
+impl schema::ProceduralPolicy for ArmPolicy {
+    /// A reach to the object that did not converge (the arm could not get there: its path is
+    /// blocked, or the object is out of its reach) binds another arm that reaches the object — the
+    /// same arm for the place if it reaches that too, else a hand-over through the handoff spot to
+    /// an arm that reaches the place (§3.3.3, 5.31–5.32).
+    fn failed(&mut self, schema: &schema::Schema, state: &str, action: &str, binding: &Binding, why: &Failure) {
+        // The approach (hover, pre-grasp) failed; a descent stopped short (on the object) is not the
+        // arm's failure.
+        if self.skills.skill(action) != Some(Skill::ReachObject) || self.handed(schema, state) {
+            return;
+        }
+        let Some(arm) = binding.arm.as_deref().and_then(Arm::parse) else {
+            return;
+        };
+        // … unless it stops short again: the second descent of one arm that stops short
+        // (after the first, the arm backed off and looked again) is the arm not getting there —
+        // an object knocked over near the edge of its workspace.
+        let short = why.cause == FailureCause::StoppedShort;
+        if short {
+            self.short_descents[arm.index()] += 1;
+        }
+        let not_reached = why.effector_blocked() || (short && self.short_descents[arm.index()] >= SHORT_DESCENTS);
+        if !not_reached {
+            return;
+        }
+        if arm != self.pick_arm || self.failed_arms.contains(&arm) {
+            return;
+        }
+        self.failed_arms.push(arm);
+        let (pick, place) = (self.pick_arm, self.place_arm);
+        match self.assign(arm) {
+            Some(()) if self.pick_arm == self.place_arm => self.rebindings.push("other_arm".into()),
+            Some(()) => self.rebindings.push("hand_over".into()),
+            None => {
+                self.pick_arm = pick;
+                self.place_arm = place;
+                self.rebindings
+                    .push(format!("gave_up: no other arm reaches the object ({why})"));
+            }
+        }
+    }
+
+    fn bind(&mut self, schema: &schema::Schema, state: &str, action: &str) -> Binding {
+        // The object was put down on the handoff spot: the state is entered by a `transfer`
+        // contingency from a state whose action is a Place (Pick-And-Place's `transfer_placed`,
+        // whatever a library calls it).
+        let handed = schema.state(state).is_some_and(|s| {
+            schema.transitions.iter().any(|t| {
+                t.to == s
+                    && t.contingency.as_deref() == Some("transfer")
+                    && self.skills.at(schema.policy[t.from]) == Some(Skill::Place)
+            })
+        });
+        if handed {
+            self.transferred = true;
+        }
+        let after = self.handed(schema, state);
+        let arm = if after { self.place_arm } else { self.pick_arm };
+        let transfer = self.skills.skill(action) == Some(Skill::Place) && self.is_transfer() && !after;
+        Binding {
+            arm: Some(arm.prefix().to_string()),
+            object: Some(self.object.clone()),
+            place: if transfer {
+                Some(HANDOFF.to_string())
+            } else {
+                self.place.clone()
+            },
+            transfer,
+        }
+    }
+}

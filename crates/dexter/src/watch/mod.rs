@@ -1,0 +1,605 @@
+//! What Dexter perceives while it is being taught: one [`schema::Percept`] per observation step, from
+//! its own sensors only — kinematics and encoders for the palms, the fingertip force/torque sensors
+//! for contact and carried load, and the head's stereo cameras for segments (tracked across frames)
+//! and the foveated stimulus. The robot is told its places (it knows its bins) and the table height,
+//! never object poses.
+
+//!
+//! `tracker.rs` holds the tracker, `images.rs` the image geometry it uses; the [`Watcher`] is here.
+
+use control_basis::Hardware;
+use control_basis::hardware::ForceTorque;
+use control_basis::math::Vec3;
+use schema::{HandPercept, Percept, PlacePercept, SegmentPercept};
+
+use crate::arm::Arm;
+use crate::body::Body;
+use crate::error::RobotError;
+use crate::eyes::{Eyes, Pair, SearchTrack};
+
+mod images;
+mod tracker;
+
+use images::*;
+use tracker::*;
+
+/// Builds percepts from the robot's sensors at the observation rate.
+#[derive(Debug)]
+pub struct Watcher {
+    eyes: Eyes,
+    body: Body,
+    head: SearchTrack,
+    tracker: Tracker,
+    places: Vec<PlacePercept>,
+    table_z: f64,
+    last: Option<(f64, [[f64; 3]; 2])>,
+    tips: Vec<ForceTorque>,
+    flex: [[usize; 3]; 2],
+    /// Where the head looked last.
+    pub gaze_point: Option<Vec3>,
+}
+
+impl Watcher {
+    /// A watcher on `hw`, told its `places` and the table height `table_z`, seeing with the
+    /// backgrounds of `calibration`.
+    pub fn new(
+        hw: &dyn Hardware,
+        places: Vec<PlacePercept>,
+        table_z: f64,
+        calibration: std::sync::Arc<crate::calibration::Calibration>,
+    ) -> Result<Watcher, RobotError> {
+        let dof = |arm: Arm, f: u8| hw.dof_index(&format!("{}/bhand/finger_{f}/med_joint", arm.prefix()));
+        Ok(Watcher {
+            eyes: Eyes::new(hw, table_z, calibration)?,
+            body: Body::new(),
+            head: SearchTrack::new(hw)?,
+            tracker: Tracker::default(),
+            places,
+            table_z,
+            last: None,
+            tips: vec![ForceTorque::default(); hw.force_torque_frames().len()],
+            flex: [
+                [dof(Arm::Left, 1)?, dof(Arm::Left, 2)?, dof(Arm::Left, 3)?],
+                [dof(Arm::Right, 1)?, dof(Arm::Right, 2)?, dof(Arm::Right, 3)?],
+            ],
+            gaze_point: None,
+        })
+    }
+
+    /// The eyes (for logging images).
+    pub fn eyes(&self) -> &Eyes {
+        &self.eyes
+    }
+
+    /// The eyes, mutable (a skill that looks itself).
+    pub fn eyes_mut(&mut self) -> &mut Eyes {
+        &mut self.eyes
+    }
+
+    /// The table height the robot was told.
+    pub fn table_z(&self) -> f64 {
+        self.table_z
+    }
+
+    /// Moves track `id` to where its latest view puts it (keeping what it looked like whole), even
+    /// a view cut by the robot's body that the tracker kept apart from what it saw whole — from
+    /// the view's one uncut camera at the track's height, or its stereo centroid if that lies at
+    /// the track's height ([`MOVED_DZ`]). For the robot's own decision after it looked again, hand
+    /// out of the way, at a [doubted](Self::doubted) track. Whether it moved the track.
+    pub fn accept_view(&mut self, id: u32) -> bool {
+        let t = &mut self.tracker;
+        let Some(j) = t.tracks.iter().position(|tr| tr.id == id) else {
+            return false;
+        };
+        let track = &mut t.tracks[j];
+        match t.latest[j].take() {
+            Some(c) if (c[2] - track.centroid[2]).abs() < MOVED_DZ => {
+                let (dx, dy) = (c[0] - track.centroid[0], c[1] - track.centroid[1]);
+                tracing::trace!("ACCEPT track {id}: moved by ({dx:.3}, {dy:.3})");
+                track.centroid[0] += dx;
+                track.centroid[1] += dy;
+                if let Some(e) = track.extent.as_mut() {
+                    e.center = [e.center[0] + dx, e.center[1] + dy];
+                }
+                t.doubt[j] = 0;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Whether the last [`DOUBT_FRAMES`] views of track `id` were partial views at its height
+    /// but outside its footprint: it may have moved while an arm hid part of it (a push as the
+    /// hand arrived). Only a look with the arm out of the way tells.
+    pub fn doubted(&self, id: u32) -> bool {
+        let t = &self.tracker;
+        t.tracks
+            .iter()
+            .zip(&t.doubt)
+            .any(|(tr, &d)| tr.id == id && d >= DOUBT_FRAMES)
+    }
+
+    /// Whether track `id` was ever seen whole — in both cameras, cut by neither the image border
+    /// nor the robot's body. A track born of a cut view has a centroid biased towards its visible
+    /// part (the border-cut edge of an object can put it 8 cm off and its top 10 cm too high).
+    pub fn seen_whole(&self, id: u32) -> bool {
+        let t = &self.tracker;
+        t.tracks.iter().zip(&t.whole).any(|(tr, &w)| tr.id == id && w)
+    }
+
+    /// The places the robot was told.
+    pub fn places(&self) -> &[PlacePercept] {
+        &self.places
+    }
+
+    /// Points the head at `target` (where the teacher's hand is working).
+    pub fn look_at(&mut self, hw: &mut dyn Hardware, target: &Vec3) -> Result<(), RobotError> {
+        self.gaze_point = Some(*target);
+        self.head.look_at(hw, &mut self.body, target)
+    }
+
+    /// Whether the head can look at `target` with pan and tilt `margin` (rad) inside their limits
+    /// ([`SearchTrack::can_look_at`]).
+    pub fn can_look_at(&mut self, hw: &dyn Hardware, target: &Vec3, margin: f64) -> Result<bool, RobotError> {
+        self.head.can_look_at(hw, &mut self.body, target, margin)
+    }
+
+    /// One percept at time `t` (s since the start of the run): captures the head's stereo pair,
+    /// segments it, updates the tracks.
+    pub fn percept(&mut self, hw: &mut dyn Hardware, t: f64) -> Result<Percept, RobotError> {
+        // Hands, from the encoders.
+        let mut palms = [[0.0; 3]; 2];
+        let mut elbows = [Vec3::zeros(); 2];
+        for arm in Arm::BOTH {
+            let p = self
+                .body
+                .pose(hw, &format!("{}/bhand/palm_surface_link", arm.prefix()))?
+                .translation
+                .vector;
+            palms[arm.index()] = [p.x, p.y, p.z];
+            elbows[arm.index()] = self
+                .body
+                .pose(hw, &format!("{}/forearm_link", arm.prefix()))?
+                .translation
+                .vector;
+        }
+        self.tips.resize(hw.force_torque_frames().len(), ForceTorque::default());
+        hw.read_force_torque(&mut self.tips);
+        if self.tips.len() < 6 {
+            return Err(RobotError::invalid(
+                "<hardware>",
+                "force_torque_frames",
+                format!(
+                    "Dexter has six fingertip sensors; the hardware reports {}",
+                    self.tips.len()
+                ),
+            ));
+        }
+        let q = hw.joint_positions();
+        let mut hands = Vec::with_capacity(2);
+        for (k, arm) in Arm::BOTH.into_iter().enumerate() {
+            let speed = match self.last {
+                Some((t0, prev)) if t > t0 => dist(&palms[k], &prev[k]) / (t - t0),
+                _ => 0.0,
+            };
+            let tips = &self.tips[3 * k..3 * k + 3];
+            let finger_force = std::array::from_fn(|f| {
+                let v = tips[f].force;
+                (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+            });
+            let load = -tips.iter().map(|w| w.force[2]).sum::<f64>();
+            let flexion = self.flex[k].iter().map(|&i| q[i]).sum::<f64>() / 3.0;
+            hands.push(HandPercept {
+                arm: arm.prefix().to_string(),
+                palm: palms[k],
+                palm_speed: speed,
+                flexion,
+                finger_force,
+                load,
+            });
+        }
+        self.last = Some((t, palms));
+        // A hand holds something when two fingers are loaded and the hand is closed.
+        let holding: [bool; 2] = std::array::from_fn(|k| {
+            let h = &hands[k];
+            h.flexion > 0.8 && h.finger_force.iter().filter(|&&f| f > 0.25).count() >= 2
+        });
+        self.tracker.predict(&palms, holding);
+        // Vision.
+        let cams = self.eyes.cameras(hw, Pair::Head)?;
+        let table_z = self.table_z;
+        let blobs = self.eyes.perceive(hw, Pair::Head)?;
+        let mut seen = Vec::new();
+        let mut cut = Vec::new();
+        let mut boxes = Vec::new();
+        let mut views = Vec::new();
+        let mut mono = Vec::new();
+        let mut gaze_candidates = Vec::new();
+        for b in blobs {
+            tracing::trace!(
+                "BLOB t={t:.2} centroid {:?} left {:?} right {:?}",
+                b.centroid.map(|c| [c.x, c.y, c.z]),
+                b.left.map(|s| (s.features.pixel_count, s.features.centroid)),
+                b.right.map(|s| (s.features.pixel_count, s.features.centroid))
+            );
+            // A stereo pair whose centroid lies below the table top matched two different things
+            // (or one whole and one cut view): only its single views count.
+            let centroid = b.centroid.filter(|c| c.z > table_z - BELOW_TABLE);
+            let (Some(c), Some(l), Some(r)) = (centroid, b.left, b.right) else {
+                if centroid.is_none()
+                    && let (Some(l), Some(r)) = (b.left, b.right)
+                {
+                    for (camera, s) in [(0, l), (1, r)] {
+                        mono.push(MonoView {
+                            camera,
+                            centroid: s.features.centroid,
+                            term: dominant_term(&crate::vision::color::kept_color_terms(&s.features.color_terms)),
+                        });
+                    }
+                    continue;
+                }
+                let one = match (b.left, b.right) {
+                    (Some(l), None) => Some((0, l)),
+                    (None, Some(r)) => Some((1, r)),
+                    _ => None,
+                };
+                if let Some((camera, s)) = one {
+                    mono.push(MonoView {
+                        camera,
+                        centroid: s.features.centroid,
+                        term: dominant_term(&crate::vision::color::kept_color_terms(&s.features.color_terms)),
+                    });
+                }
+                continue;
+            };
+            let mut histogram: Vec<(u8, f64)> = Vec::new();
+            let h = &l.features.histogram;
+            let kept: Vec<usize> = h.kept_bins().collect();
+            let total: f64 = kept.iter().map(|&i| h.counts[i] as f64).sum();
+            if total > 0.0 {
+                for i in kept {
+                    histogram.push((i as u8, h.counts[i] as f64 / total));
+                }
+            }
+            let cov = b.mean_covariance();
+            let seg = SegmentPercept {
+                id: 0,
+                centroid: [c.x, c.y, c.z],
+                seen: true,
+                pixels: [l.features.pixel_count as u32, r.features.pixel_count as u32],
+                histogram,
+                covariance: [cov[0][0], cov[0][1], cov[1][0], cov[1][1]],
+                colors: crate::vision::color::kept_color_terms(&l.features.color_terms),
+                extent: crate::skills::extent_of(b, &cams, table_z),
+            };
+            // Foveated: the segment's image centroid near the principal point in both cameras.
+            let off = |s: &crate::vision::Segment, cam: &crate::vision::Camera| {
+                let u = (s.features.centroid[0] - cam.cx) / cam.width as f64;
+                let v = (s.features.centroid[1] - cam.cy) / cam.height as f64;
+                (u * u + v * v).sqrt()
+            };
+            let o = off(&l, &cams.left).max(off(&r, &cams.right));
+            gaze_candidates.push((o, seg.centroid));
+            views.push([l.features.centroid, r.features.centroid]);
+            cut.push(l.cut_off() || r.cut_off());
+            // The box of a view cut by the border or the body says less than a whole one: with
+            // one whole view, only its box explains other tracks.
+            const NO_BOX: [u32; 4] = [1, 0, 0, 0];
+            boxes.push(match (l.cut_off(), r.cut_off()) {
+                (true, false) => [NO_BOX, r.bbox],
+                (false, true) => [l.bbox, NO_BOX],
+                _ => [l.bbox, r.bbox],
+            });
+            seen.push(seg);
+        }
+        let mut occluders: Vec<([f64; 3], f64)> = Vec::with_capacity(10);
+        for (palm, e) in palms.iter().zip(&elbows) {
+            occluders.push((*palm, OCCLUSION_RADIUS));
+            for i in 0..4 {
+                let s = f64::from(i) / 4.0;
+                occluders.push((std::array::from_fn(|j| e[j] + s * (palm[j] - e[j])), FOREARM_RADIUS));
+            }
+        }
+        let masks = self.eyes.self_masks(Pair::Head);
+        self.tracker.update(
+            seen,
+            &cut,
+            &views,
+            &boxes,
+            &mono,
+            [&cams.left, &cams.right],
+            [masks.0, masks.1],
+            t,
+            &occluders,
+        );
+        let gaze = gaze_candidates
+            .iter()
+            .filter(|(o, _)| *o < 0.12)
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .and_then(|(_, c)| self.tracker.tracks.iter().find(|t| t.seen && t.centroid == *c))
+            .map(|t| t.id);
+        Ok(Percept {
+            t,
+            hands,
+            segments: self.tracker.tracks.clone(),
+            places: self.places.clone(),
+            table_z: self.table_z,
+            gaze,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vision::Camera;
+    use control_basis::math::Iso3;
+    use nalgebra::Point3;
+
+    /// A head camera (160 × 120, the head's focal length) at `eye`, looking at the table.
+    fn camera(eye: [f64; 3]) -> Camera {
+        let world_from_optical = Iso3::face_towards(
+            &Point3::from(eye),
+            &Point3::new(0.6, 0.0, 0.75),
+            &Vec3::new(0.0, 0.0, -1.0),
+        );
+        Camera {
+            world_from_optical,
+            width: 160,
+            height: 120,
+            fx: 160.0,
+            fy: 160.0,
+            cx: 80.0,
+            cy: 60.0,
+        }
+    }
+
+    /// A can of radius 2.4 cm, 4.7 cm high, seen standing at (0.6, 0) on a table at 0.75 m.
+    fn track() -> SegmentPercept {
+        SegmentPercept {
+            id: 0,
+            centroid: [0.6, 0.0, 0.7735],
+            seen: true,
+            pixels: [80, 80],
+            histogram: Vec::new(),
+            covariance: [0.0; 4],
+            colors: Vec::new(),
+            extent: Some(schema::SeenExtent {
+                height: 0.047,
+                center: [0.6, 0.0],
+                major_axis: [1.0, 0.0],
+                half_major: 0.024,
+                half_minor: 0.024,
+                model: "round".into(),
+            }),
+        }
+    }
+
+    fn views(cams: [&Camera; 2], p: Vec3) -> [[f64; 2]; 2] {
+        cams.map(|c| {
+            let (u, v) = project(c, &p).expect("in front of the camera");
+            [u, v]
+        })
+    }
+
+    /// The bounding box (px) of a 20 × 16 px silhouette centred on `p`'s projection in each camera.
+    fn boxes_around(cams: [&Camera; 2], p: Vec3) -> [[u32; 4]; 2] {
+        views(cams, p).map(|[u, v]| [(u - 10.0) as u32, (v - 8.0) as u32, (u + 10.0) as u32, (v + 8.0) as u32])
+    }
+
+    #[test]
+    fn a_cut_view_far_from_a_whole_track_is_that_object_when_its_image_holds_it() {
+        let (l, r) = (camera([0.05, 0.03, 1.45]), camera([0.05, -0.03, 1.45]));
+        let cams = [&l, &r];
+        let no_mask: [&[bool]; 2] = [&[], &[]];
+        let mut tracker = Tracker::default();
+        let whole = track();
+        let at = Vec3::from(whole.centroid);
+        tracker.update(
+            vec![whole.clone()],
+            &[false],
+            &[views(cams, at)],
+            &[boxes_around(cams, at)],
+            &[],
+            cams,
+            no_mask,
+            0.0,
+            &[],
+        );
+        assert_eq!(tracker.tracks.len(), 1);
+        // The arm hides most of it in one camera: the pair triangulates 14 cm off, above the table.
+        let cut = SegmentPercept {
+            centroid: [0.52, 0.05, 0.88],
+            pixels: [20, 80],
+            ..whole.clone()
+        };
+        tracker.update(
+            vec![cut.clone()],
+            &[true],
+            &[views(cams, at)],
+            &[boxes_around(cams, at)],
+            &[],
+            cams,
+            no_mask,
+            0.1,
+            &[],
+        );
+        assert_eq!(
+            tracker.tracks.len(),
+            1,
+            "a cut view of a tracked object starts no track"
+        );
+        assert_eq!(tracker.tracks[0].centroid, whole.centroid, "nor moves the whole view");
+        assert!(tracker.tracks[0].seen);
+        // A whole view that far is another object.
+        let other = Vec3::new(0.52, 0.05, 0.7735);
+        let far = SegmentPercept {
+            centroid: [0.52, 0.05, 0.7735],
+            ..whole.clone()
+        };
+        tracker.update(
+            vec![far],
+            &[false],
+            &[views(cams, other)],
+            &[boxes_around(cams, other)],
+            &[],
+            cams,
+            no_mask,
+            0.2,
+            &[],
+        );
+        assert_eq!(tracker.tracks.len(), 2);
+    }
+
+    #[test]
+    fn a_partial_view_outside_the_tracks_box_in_both_images_casts_doubt_and_its_uncut_camera_relocates_it() {
+        let (l, r) = (camera([0.05, 0.03, 1.45]), camera([0.05, -0.03, 1.45]));
+        let cams = [&l, &r];
+        let no_mask: [&[bool]; 2] = [&[], &[]];
+        let mut tracker = Tracker::default();
+        let whole = track();
+        let at = Vec3::from(whole.centroid);
+        let update =
+            |tracker: &mut Tracker, seg: &SegmentPercept, cut: bool, p: Vec3, t: f64, palm: &[([f64; 3], f64)]| {
+                let mut b = boxes_around(cams, p);
+                if cut {
+                    b[1] = [1, 0, 0, 0];
+                }
+                tracker.update(
+                    vec![seg.clone()],
+                    &[cut],
+                    &[views(cams, p)],
+                    &[b],
+                    &[],
+                    cams,
+                    no_mask,
+                    t,
+                    palm,
+                );
+            };
+        update(&mut tracker, &whole, false, at, 0.0, &[]);
+        // A hand over it (a palm 10 cm above) hides half of it: a partial view inside its box is
+        // no doubt, however many frames.
+        let palm = [([0.6, 0.0, 0.87], OCCLUSION_RADIUS)];
+        let half = SegmentPercept {
+            pixels: [40, 40],
+            ..whole.clone()
+        };
+        for k in 1..=5 {
+            update(
+                &mut tracker,
+                &half,
+                false,
+                at + Vec3::new(0.0, 0.01, 0.0),
+                0.1 * f64::from(k),
+                &palm,
+            );
+        }
+        assert_eq!(tracker.doubt[0], 0, "a part of it where it stands");
+        // Pushed 4 cm sideways under the hand: what is seen lies outside its box in both images.
+        let moved = at + Vec3::new(0.0, 0.045, 0.0);
+        let pushed = SegmentPercept {
+            centroid: [moved.x, moved.y, moved.z + 0.04],
+            pixels: [40, 40],
+            ..whole.clone()
+        };
+        for k in 6..=7 {
+            update(&mut tracker, &pushed, false, moved, 0.1 * f64::from(k), &palm);
+        }
+        assert!(tracker.doubt[0] < DOUBT_FRAMES, "two frames are not yet a doubt");
+        update(&mut tracker, &pushed, false, moved, 0.8, &palm);
+        assert!(tracker.doubt[0] >= DOUBT_FRAMES);
+        assert_eq!(
+            tracker.tracks[0].centroid, whole.centroid,
+            "the track keeps what it saw whole"
+        );
+        // The hand gone, the right view cut by the robot's body: its stereo centroid is 4 cm high,
+        // the uncut left view at the track's height is where it is.
+        update(&mut tracker, &pushed, true, moved, 0.9, &[]);
+        let c = tracker.latest[0].expect("a view this frame");
+        assert!(
+            (c[1] - moved.y).abs() < 0.005 && (c[2] - whole.centroid[2]).abs() < 1e-9,
+            "{c:?}"
+        );
+    }
+
+    #[test]
+    fn a_track_out_of_view_is_kept_and_one_in_view_unseen_is_forgotten() {
+        let (l, r) = (camera([0.05, 0.03, 1.45]), camera([0.05, -0.03, 1.45]));
+        let cams = [&l, &r];
+        let no_mask: [&[bool]; 2] = [&[], &[]];
+        let mut tracker = Tracker::default();
+        // One object in view, one behind the cameras' field (far to the side).
+        let seen = track();
+        let aside = SegmentPercept {
+            centroid: [0.6, 1.5, 0.7735],
+            ..track()
+        };
+        let segs = vec![seen.clone(), aside.clone()];
+        let v = [views(cams, Vec3::from(seen.centroid)), [[0.0; 2]; 2]];
+        let b = [boxes_around(cams, Vec3::from(seen.centroid)), [[0; 4]; 2]];
+        tracker.update(segs, &[false, false], &v, &b, &[], cams, no_mask, 0.0, &[]);
+        assert_eq!(tracker.tracks.len(), 2);
+        // Nothing seen for 5 s: the one in view goes after 1 s, the one out of view stays.
+        for k in 1..=50 {
+            tracker.update(Vec::new(), &[], &[], &[], &[], cams, no_mask, 0.1 * f64::from(k), &[]);
+        }
+        assert_eq!(tracker.tracks.len(), 1);
+        assert_eq!(tracker.tracks[0].centroid, aside.centroid);
+        // Behind the robot's body (its self-mask over the whole image) a track is out of view too.
+        let mask = vec![true; 160 * 120];
+        let mut tracker = Tracker::default();
+        tracker.update(
+            vec![seen.clone()],
+            &[false],
+            &v[..1],
+            &b[..1],
+            &[],
+            cams,
+            no_mask,
+            0.0,
+            &[],
+        );
+        for k in 1..=50 {
+            tracker.update(
+                Vec::new(),
+                &[],
+                &[],
+                &[],
+                &[],
+                cams,
+                [&mask, &mask],
+                0.1 * f64::from(k),
+                &[],
+            );
+        }
+        assert_eq!(tracker.tracks.len(), 1);
+    }
+
+    #[test]
+    fn a_view_outside_the_tracks_silhouette_in_both_images_is_a_move() {
+        let (l, r) = (camera([0.05, 0.03, 1.45]), camera([0.05, -0.03, 1.45]));
+        let cams = [&l, &r];
+        let t = track();
+        // Its stereo centroid is 5 cm too high (the 3-D test rejects it); its image centroids are
+        // those of the can pushed 7 cm away.
+        let blob = SegmentPercept {
+            centroid: [0.61, 0.05, 0.8235],
+            pixels: [70, 66],
+            ..t.clone()
+        };
+        assert!(!moved_clear(&t, &blob, 0.85));
+        let pushed = views(cams, Vec3::new(0.635, 0.06, 0.7735));
+        assert!(moved_in_images(&t, &blob, pushed, cams, 0.85));
+        // A part of the can where it stands (the hand hides the rest): not a move.
+        let part = views(cams, Vec3::new(0.61, 0.015, 0.785));
+        assert!(!moved_in_images(&t, &blob, part, cams, 0.6));
+        // Too little of it seen, or unlike in the two cameras: not trusted.
+        assert!(!moved_in_images(&t, &blob, pushed, cams, 0.4));
+        let lopsided = SegmentPercept {
+            pixels: [80, 40],
+            ..blob.clone()
+        };
+        assert!(!moved_in_images(&t, &lopsided, pushed, cams, 0.85));
+    }
+}
