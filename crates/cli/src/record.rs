@@ -143,15 +143,7 @@ pub fn main(a: RecordArgs, out: &mut dyn Write) -> anyhow::Result<()> {
             idle_seconds: a.idle_seconds,
         };
         let report = pbd::ros2::record(&options, &Bars::new(a.json, true)?)?;
-        emit(a.json, &report, out)?;
-        if report.demo.interrupted {
-            anyhow::bail!(
-                "interrupted after {:.1} s; {} holds what was captured",
-                report.demo.sim_time,
-                report.output
-            );
-        }
-        return Ok(());
+        return finish(a.json, &report, out);
     }
     let options = RecordOptions {
         scene: a.scene,
@@ -174,9 +166,13 @@ pub fn main(a: RecordArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         max_seconds: a.max_seconds,
     };
     let report = record(&options, &Bars::new(a.json, true)?)?;
-    emit(a.json, &report, out)?;
+    finish(a.json, &report, out)
+}
+
+/// Prints the report; an interrupted recording is a complete file, but the exit status says so.
+fn finish(json: bool, report: &pbd::record::RecordReport, out: &mut dyn Write) -> anyhow::Result<()> {
+    emit(json, report, out)?;
     if report.demo.interrupted {
-        // Interrupted: the file is complete, but say so in the exit status.
         anyhow::bail!(
             "interrupted after {:.1} s; {} holds what was captured",
             report.demo.sim_time,

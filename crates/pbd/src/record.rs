@@ -431,6 +431,28 @@ impl Sink<'_> {
     }
 }
 
+/// Logs a hand command on [`TOPIC_TELEOP`].
+pub(crate) fn log_command(log: &mut McapLog, command: &HandCommand) -> Result<()> {
+    log.log_json(TOPIC_TELEOP, "pbd.HandCommand", &any_schema(), command.t, command)
+}
+
+/// Logs a percept on [`TOPIC_PERCEPT`] and, when asked, the head cameras' images of the eyes that
+/// made it (left, right) with their calibrations.
+pub(crate) fn log_percept(
+    log: &mut McapLog,
+    p: &Percept,
+    images: Option<(&Eyes, &[crate::mcap_log::CameraView<'_>])>,
+) -> Result<()> {
+    log.log_json(TOPIC_PERCEPT, "pbd.Percept", &any_schema(), p.t, p)?;
+    if let Some((eyes, views)) = images {
+        let (l, r) = eyes.images(dexter::eyes::Pair::Head);
+        for (view, img) in views.iter().zip([l, r]) {
+            log.log_camera_image(p.t, view, img.width, img.height, &img.rgb)?;
+        }
+    }
+    Ok(())
+}
+
 pub(crate) fn any_schema() -> serde_json::Value {
     serde_json::json!({ "type": "object" })
 }
@@ -446,15 +468,11 @@ impl DemoSink for Sink<'_> {
     }
 
     fn command(&mut self, command: &HandCommand) {
-        let r = self
-            .log
-            .log_json(TOPIC_TELEOP, "pbd.HandCommand", &any_schema(), command.t, command);
+        let r = log_command(&mut self.log, command);
         self.keep(r);
     }
 
     fn percept(&mut self, sim: &DexterSim, eyes: &Eyes, p: &Percept) {
-        let r = self.log.log_json(TOPIC_PERCEPT, "pbd.Percept", &any_schema(), p.t, p);
-        self.keep(r);
         let truth = Truth {
             t: p.t,
             objects: self
@@ -469,19 +487,14 @@ impl DemoSink for Sink<'_> {
         };
         let r = self.log.log_json(TOPIC_TRUTH, "pbd.Truth", &any_schema(), p.t, &truth);
         self.keep(r);
-        if self.images {
-            let (l, rt) = eyes.images(dexter::eyes::Pair::Head);
-            for ((name, frame_id), img) in self.cameras.into_iter().zip([l, rt]) {
-                let view = crate::mcap_log::CameraView {
-                    name,
-                    frame_id,
-                    focal: self.focal,
-                    principal: self.principal,
-                };
-                let r = self.log.log_camera_image(p.t, &view, img.width, img.height, &img.rgb);
-                self.keep(r);
-            }
-        }
+        let views = self.cameras.map(|(name, frame_id)| crate::mcap_log::CameraView {
+            name,
+            frame_id,
+            focal: self.focal,
+            principal: self.principal,
+        });
+        let r = log_percept(&mut self.log, p, self.images.then_some((eyes, &views[..])));
+        self.keep(r);
         self.percepts += 1;
     }
 

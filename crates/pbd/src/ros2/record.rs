@@ -30,7 +30,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::mcap_log::{CameraView, Encoding, ImageFormat, LogLevel, McapLog, McapLogOptions};
 use crate::progress::Progress;
-use crate::record::{RecordReport, TOPIC_PERCEPT, TOPIC_TELEOP, any_schema, check_rates};
+use crate::record::{RecordReport, check_rates, log_command, log_percept};
 
 /// Options of [`record`].
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -194,29 +194,23 @@ impl DemoObserver<Ros2Hardware> for Ros2Sink<'_> {
     }
 
     fn command(&mut self, command: &HandCommand) {
-        let r = self
-            .log
-            .log_json(TOPIC_TELEOP, "pbd.HandCommand", &any_schema(), command.t, command);
+        let r = log_command(&mut self.log, command);
         self.keep(r);
     }
 
     fn percept(&mut self, _hw: &Ros2Hardware, eyes: &Eyes, p: &Percept) {
-        let r = self.log.log_json(TOPIC_PERCEPT, "pbd.Percept", &any_schema(), p.t, p);
+        let views: Vec<CameraView<'_>> = self
+            .cameras
+            .iter()
+            .map(|(name, frame, focal, principal)| CameraView {
+                name,
+                frame_id: frame,
+                focal: *focal,
+                principal: *principal,
+            })
+            .collect();
+        let r = log_percept(&mut self.log, p, self.images.then_some((eyes, &views[..])));
         self.keep(r);
-        if self.images {
-            let (l, rt) = eyes.images(dexter::eyes::Pair::Head);
-            let mut result = Ok(());
-            for ((name, frame, focal, principal), img) in self.cameras.iter().zip([l, rt]) {
-                let view = CameraView {
-                    name,
-                    frame_id: frame,
-                    focal: *focal,
-                    principal: *principal,
-                };
-                result = result.and(self.log.log_camera_image(p.t, &view, img.width, img.height, &img.rgb));
-            }
-            self.keep(result);
-        }
     }
 
     fn should_stop(&mut self) -> bool {
