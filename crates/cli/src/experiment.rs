@@ -95,6 +95,15 @@ pub struct SortingArgs {
     /// grey – white), in [0, 0.5].
     #[arg(long, default_value_t = pbd::schema::procedural::DEFAULT_COLOR_NEIGHBOUR_SHARE)]
     neighbour_share: f64,
+    /// The unit of the size feature: `deci-pixels` (the seed's) or `cm` (the geometric mean of the
+    /// measured bounding box).
+    #[arg(long, default_value = "deci-pixels", value_parser = parse_size_unit)]
+    size_unit: pbd::schema::procedural::SizeUnit,
+}
+
+/// `--size-unit` values.
+pub fn parse_size_unit(s: &str) -> Result<pbd::schema::procedural::SizeUnit, String> {
+    pbd::schema::procedural::SizeUnit::parse(s).ok_or_else(|| format!("`{s}` is not one of deci-pixels, cm"))
 }
 
 /// `pbd experiment execute` arguments.
@@ -112,8 +121,9 @@ pub struct ExecuteExperimentArgs {
     /// Objects per scene.
     #[arg(long, default_value_t = 3)]
     objects: usize,
-    /// The intended task: colour class = place, comma-separated (objects of other classes are not
-    /// part of the task).
+    /// The intended task: class = place, comma-separated (objects of other classes are not part of the
+    /// task); a class is a colour class (`red`), a size class (`small`, `medium`, `large`) or both
+    /// (`red+large`), judged by the catalog's labels.
     #[arg(long, value_delimiter = ',', default_value = "red=bin-right,blue=bin-left")]
     task: Vec<String>,
     /// Random seed (scenes and every run).
@@ -257,6 +267,7 @@ fn sorting(a: SortingArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         background: a.background,
         uniform_base: a.uniform_base,
         neighbour_share: a.neighbour_share,
+        size_unit: a.size_unit,
     };
     let summary = pbd::experiment::sorting::run(&options, &Bars::new(a.json, true)?)?;
     for (path, figure) in &summary.figures {

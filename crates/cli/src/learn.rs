@@ -26,7 +26,7 @@ pub struct LearnArgs {
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Explain the model MODEL.json in plain words (no learning).
-    #[arg(long, value_name = "MODEL", conflicts_with_all = ["demos", "update", "output", "relevance_threshold", "library"])]
+    #[arg(long, value_name = "MODEL", conflicts_with_all = ["demos", "update", "output", "relevance_threshold", "library", "no_distractors", "size_unit"])]
     explain: Option<PathBuf>,
     /// With --explain: draw N synthetic task instances from the posterior predictive and render them.
     #[arg(long, default_value_t = 0)]
@@ -35,9 +35,18 @@ pub struct LearnArgs {
     #[arg(long)]
     plots: Option<PathBuf>,
     /// Relevance decision threshold on ln B10 (5.19–5.21) for a new model: an object belongs to the
-    /// task when ln B10 exceeds it. 0 is the seed's rule (B10 > 1, even prior odds).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    /// task when ln B10 exceeds it. The default (1) is calibrated on development data
+    /// (`schema::procedural`); 0 is the seed's rule (B10 > 1, even prior odds).
+    #[arg(long, default_value_t = pbd::schema::procedural::DEFAULT_RELEVANCE_LOG_THRESHOLD, allow_negative_numbers = true)]
     relevance_threshold: f64,
+    /// Leave the relevance background model M₀ (§5.1.3) at its prior instead of fitting it to the
+    /// objects the teacher left alone in the demonstrations.
+    #[arg(long)]
+    no_distractors: bool,
+    /// The unit of the size feature of a new model: `cm` (the geometric mean of the object's measured
+    /// bounding box) or the seed's `deci-pixels`.
+    #[arg(long, default_value = "cm", value_parser = crate::experiment::parse_size_unit)]
+    size_unit: pbd::schema::procedural::SizeUnit,
     /// Seed of the posterior-predictive samples.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -63,6 +72,8 @@ pub fn main(a: LearnArgs, out: &mut dyn Write) -> Result<()> {
         library: a.library,
         output: a.output.context("pass -o model.json")?,
         relevance_threshold: a.relevance_threshold,
+        distractors: !a.no_distractors,
+        size_unit: a.size_unit,
     };
     let report = learn(&options, &Bars::new(a.json, false)?)?;
     emit(a.json, &report, out)

@@ -1,4 +1,5 @@
-//! `pbd sim pick-place`: one pick-and-place with the robot's own skills, judged by the world.
+//! `pbd sim pick-place`: one pick-and-place with the robot's own skills, judged by the world;
+//! `pbd sim serve` (the simulated robot over ROS 2); `pbd sim catalog` (a generated object catalog).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -18,6 +19,27 @@ pub enum SimCommand {
     /// on the topics of a mapping file; motor-unit references from its command topic) until Ctrl-C;
     /// then print where every object ended.
     Serve(ServeArgs),
+    /// Generate an object catalog from a seed (colour families after the basic colour terms, shapes
+    /// and sizes the hand can grasp, caps, lids and labels; colour and size classes as a teacher
+    /// would label them): catalogs to tune on and others to report on.
+    Catalog(CatalogArgs),
+}
+
+/// Arguments of `pbd sim catalog`.
+#[derive(Debug, Args)]
+pub struct CatalogArgs {
+    /// Seed of every random choice: the same seed gives the same catalog.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Objects per colour family (ten families).
+    #[arg(long, default_value_t = 8)]
+    per_family: usize,
+    /// The catalog file to write (TOML).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Print the result as JSON.
+    #[arg(long)]
+    json: bool,
 }
 
 /// Arguments of `pbd sim serve`.
@@ -94,6 +116,14 @@ pub fn main(cmd: SimCommand, out: &mut dyn Write) -> anyhow::Result<()> {
     let a = match cmd {
         SimCommand::PickPlace(a) => a,
         SimCommand::Serve(a) => return serve(a, out),
+        SimCommand::Catalog(a) => {
+            let report = pbd::sim::generate_catalog(&pbd::sim::CatalogOptions {
+                seed: a.seed,
+                per_family: a.per_family,
+                output: a.output,
+            })?;
+            return emit(a.json, &report, out);
+        }
     };
     if !(a.log_hz.is_finite() && a.log_hz > 0.0) {
         anyhow::bail!("--log-hz must be a positive number (got {})", a.log_hz);

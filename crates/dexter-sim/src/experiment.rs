@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::SimError;
 use crate::execute::{Decider, ExecuteReport, MAX_ACTIONS, NoLog, RunLog, Task, Verdict, execute_scene};
-use crate::scene::{ObjectPlacement, Scene};
+use crate::scene::{ObjectPlacement, SIZE_CLASSES, Scene};
 use bayes::rng::{Draw, Generator};
 use rand::Rng as _;
 
@@ -30,7 +30,10 @@ pub struct ExperimentConfig {
     pub scenes: usize,
     /// Objects per scene.
     pub objects: usize,
-    /// The intended task: colour class → place (objects of other classes are not part of it).
+    /// The intended task: class → place (objects of other classes are not part of it). A class is
+    /// a colour class (`red`), a size class (`small`, `medium`, `large`: [`SIZE_CLASSES`]) or both
+    /// joined by `+` (`red+large`); an object belongs to the most specific class it matches
+    /// ([`intended_place`]).
     pub task: BTreeMap<String, String>,
     /// Seed of every random choice.
     pub seed: u64,
@@ -45,6 +48,8 @@ pub struct ObjectRow {
     pub object: String,
     /// Its catalog colour class.
     pub color_class: String,
+    /// Its catalog size class.
+    pub size_class: String,
     /// The place the task intends, or `-`.
     pub intended: String,
     /// The robot's decision.
@@ -88,6 +93,8 @@ pub struct Summary {
     pub task_interval: (f64, f64),
     /// Rows whose decision matches the task / rows.
     pub decision_accuracy: f64,
+    /// 95 % Wilson interval of the decision accuracy.
+    pub decision_interval: (f64, f64),
     /// Failure causes by phase (count).
     pub failures: BTreeMap<String, usize>,
     /// Hand-to-hand transfers.
@@ -107,6 +114,30 @@ pub fn wilson(k: usize, n: usize) -> (f64, f64) {
     let c = (p + z * z / (2.0 * n)) / d;
     let h = z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt() / d;
     ((c - h).max(0.0), (c + h).min(1.0))
+}
+
+/// The place `task` intends for an object of colour class `color` and size class `size` (`-`:
+/// unlabelled): of the task's classes the object matches — each `+`-joined part equal to its size
+/// class when the part is one of [`SIZE_CLASSES`], else to its colour class — the one with the most
+/// parts (ties: the first by name). `None`: not part of the task.
+pub fn intended_place(task: &BTreeMap<String, String>, color: &str, size: &str) -> Option<String> {
+    task.iter()
+        .filter_map(|(class, place)| {
+            let parts: Vec<&str> = class.split('+').map(str::trim).collect();
+            let matches = parts.iter().all(|p| {
+                if SIZE_CLASSES.contains(p) {
+                    *p == size
+                } else {
+                    *p == color
+                }
+            });
+            matches.then_some((parts.len(), place))
+        })
+        .fold(None::<(usize, &String)>, |best, (n, p)| match best {
+            Some((m, _)) if m >= n => best,
+            _ => Some((n, p)),
+        })
+        .map(|(_, p)| p.clone())
 }
 
 /// Draws `k` presentations of `base`'s catalog at random poses on its table, clear of the places
@@ -203,12 +234,13 @@ pub fn summarize(config: &ExperimentConfig, runs: &[(Scene, ExecuteReport)]) -> 
     let mut rows = Vec::new();
     for (i, (scene, r)) in runs.iter().enumerate() {
         for o in &r.objects {
-            let class = scene
+            let spec = scene
                 .object_index(&o.object)
                 .ok()
-                .and_then(|k| scene.catalog.objects[scene.resolved[k].object].color_class.clone())
-                .unwrap_or_else(|| "-".into());
-            let intended = config.task.get(&class).cloned();
+                .map(|k| &scene.catalog.objects[scene.resolved[k].object]);
+            let class = spec.and_then(|o| o.color_class.clone()).unwrap_or_else(|| "-".into());
+            let size_class = spec.and_then(|o| o.size_class.clone()).unwrap_or_else(|| "-".into());
+            let intended = intended_place(&config.task, &class, &size_class);
             let decision_correct = match (&intended, o.decision) {
                 (None, Verdict::Ignore) => true,
                 (Some(p), Verdict::Execute | Verdict::Skip) => o.place.as_deref() == Some(p.as_str()),
@@ -218,6 +250,7 @@ pub fn summarize(config: &ExperimentConfig, runs: &[(Scene, ExecuteReport)]) -> 
                 scene: i,
                 object: o.object.clone(),
                 color_class: class,
+                size_class,
                 intended: intended.unwrap_or_else(|| "-".into()),
                 decision: o.decision,
                 place: o.place.clone().unwrap_or_else(|| "-".into()),
@@ -267,6 +300,7 @@ pub fn summarize(config: &ExperimentConfig, runs: &[(Scene, ExecuteReport)]) -> 
         },
         task_interval: wilson(task_ok, task_total),
         decision_accuracy: rows.iter().filter(|r| r.decision_correct).count() as f64 / rows.len().max(1) as f64,
+        decision_interval: wilson(rows.iter().filter(|r| r.decision_correct).count(), rows.len()),
         failures,
         transfers: rows.iter().filter(|r| r.transfer).count(),
         sim_time: runs.iter().map(|(_, r)| r.sim_time).sum(),
@@ -286,6 +320,22 @@ mod tests {
         assert_eq!(wilson(0, 0), (0.0, 1.0));
         let (lo, hi) = wilson(10, 10);
         assert!((hi - 1.0).abs() < 1e-12 && (lo - 0.7225).abs() < 1e-3, "{lo} {hi}");
+    }
+
+    #[test]
+    fn task_classes_are_colours_sizes_or_both_the_most_specific_winning() {
+        let task: BTreeMap<String, String> = [("red", "a"), ("large", "b"), ("blue+small", "c")]
+            .map(|(c, p)| (c.to_string(), p.to_string()))
+            .into_iter()
+            .collect();
+        let at = |c: &str, s: &str| intended_place(&task, c, s);
+        assert_eq!(at("red", "small").as_deref(), Some("a"));
+        assert_eq!(at("green", "large").as_deref(), Some("b"));
+        assert_eq!(at("blue", "small").as_deref(), Some("c"));
+        assert_eq!(at("blue", "medium"), None);
+        assert_eq!(at("-", "-"), None);
+        // Red and large: two one-part classes, the first by name.
+        assert_eq!(at("red", "large").as_deref(), Some("b"));
     }
 
     #[test]

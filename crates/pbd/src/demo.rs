@@ -1,16 +1,18 @@
 //! `pbd demo`: the whole story on the built-in scenes, with no files or flags needed.
 //!
-//! 1. **record** — the scripted teacher sorts a red and a blue object of the `sorting` scene with
-//!    whichever arm reaches (red → bin-right, blue → bin-left): one example per class;
+//! 1. **record** — the scripted teacher sorts a red and a blue object of the `sorting-teach` scene
+//!    with whichever arm reaches (red → bin-right, blue → bin-left): one example per class; it leaves
+//!    an orange, a green, a white and a black object alone;
 //! 2. **infer** — which schema explains the demonstration, and its instances with their procedural
 //!    facts (which object, which place, which arm, the object's features at the grasp);
-//! 3. **learn** — the procedural model: which features decide the place, per place what it looks like;
+//! 3. **learn** — the procedural model: which features decide the place, per place what it looks like,
+//!    and what the objects the teacher left alone look like (the relevance background M₀);
 //! 4. **execute** — in `sorting-demo`, objects never shown: a blue one only the left arm reaches, a red
 //!    one only the right arm reaches, a red one whose bin needs a hand-to-hand transfer, and a green one
 //!    that belongs to no bin.
 //!
-//! The demonstrated red object is the red block: the jar (`jif`) is red only from the side — from
-//! Dexter's head its blue lid dominates the colour feature.
+//! The demonstrated red object is the red block (the jar `jif` of `sorting` is red only from the
+//! side — from Dexter's head its blue lid dominates the colour feature).
 //!
 //! Every file is written to [`DemoOptions::out`] (default `pbd-demo/`).
 
@@ -94,7 +96,7 @@ fn demo_impl(args: &DemoOptions, progress: &dyn Progress) -> Result<DemoReport> 
     progress.phase("1/4 record", None);
     let record = crate::record::record(
         &RecordOptions {
-            scene: "sorting".into(),
+            scene: "sorting-teach".into(),
             script: Script::Sort,
             assign: Some("red_block=bin-right,blue_mug=bin-left".into()),
             seed: Some(args.seed),
@@ -156,7 +158,7 @@ impl fmt::Display for DemoReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "1/4 record: the teacher sorts a red and a blue object of the `sorting` scene (red → bin-right, blue → bin-left)"
+            "1/4 record: the teacher sorts a red and a blue object of the `sorting-teach` scene (red → bin-right, blue → bin-left) and leaves the rest alone"
         )?;
         writeln!(
             f,

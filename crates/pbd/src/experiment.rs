@@ -78,6 +78,10 @@ pub struct SortingOptions {
     /// term given to each perceptually neighbouring term (0 ≤ ε ≤ ½; default
     /// [`schema::procedural::DEFAULT_COLOR_NEIGHBOUR_SHARE`]).
     pub neighbour_share: f64,
+    /// The unit of the size feature: the seed's deci-pixels (the default: these are the seed's
+    /// experiments, its objects at one distance from the cameras) or `cm`, the metric size the robot
+    /// measures (features rendered by this build carry it; older feature banks do not).
+    pub size_unit: schema::procedural::SizeUnit,
 }
 
 impl Default for SortingOptions {
@@ -99,6 +103,7 @@ impl Default for SortingOptions {
             background: 0,
             uniform_base: false,
             neighbour_share: schema::procedural::DEFAULT_COLOR_NEIGHBOUR_SHARE,
+            size_unit: schema::procedural::SizeUnit::DeciPixels,
         }
     }
 }

@@ -21,8 +21,9 @@ use crate::record::{TOPIC_PERCEPT, TOPIC_TRUTH};
 
 /// Format name and version of the inference file.
 pub const INFER_FORMAT: &str = "pbd-inference";
-/// Version of the inference file.
-pub const INFER_VERSION: u32 = 1;
+/// Version of the inference file: 2 adds [`InferFile::untouched`] (version 1 files still read,
+/// with no untouched segments).
+pub const INFER_VERSION: u32 = 2;
 
 /// Options of [`infer`].
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
@@ -77,6 +78,24 @@ pub struct InferFile {
     pub inference: Inference,
     /// Per instance, the true object (if the recording has ground truth).
     pub truth: Vec<Option<TruthNote>>,
+    /// The objects of the demonstration scene that the teacher never touched ([`untouched_segments`]):
+    /// what `pbd learn` fits the relevance background model M₀ to (§5.1.3). Absent (empty) in
+    /// version 1 files.
+    #[serde(default)]
+    pub untouched: Vec<UntouchedSegment>,
+}
+
+/// An object the teacher left alone in the demonstration ([`untouched_segments`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct UntouchedSegment {
+    /// Its track id.
+    pub segment: u32,
+    /// When the view below was taken (s).
+    pub t: f64,
+    /// Percepts in which both cameras saw it.
+    pub frames_seen: usize,
+    /// Its least occluded view (the most pixels in both cameras).
+    pub features: schema::SegmentPercept,
 }
 
 impl InferFile {
@@ -87,14 +106,17 @@ impl InferFile {
         }
         let file: InferFile = serde_json::from_str(text)
             .with_context(|| format!("{origin} is not an inference file (from `pbd infer`)"))?;
-        if file.format != INFER_FORMAT || file.version != INFER_VERSION {
+        if file.format != INFER_FORMAT || !(1..=INFER_VERSION).contains(&file.version) {
             bail!(
-                "{origin}: format `{}` version {} is not `{INFER_FORMAT}` version {INFER_VERSION}",
+                "{origin}: format `{}` version {} is not `{INFER_FORMAT}` version 1 to {INFER_VERSION}",
                 file.format,
                 file.version,
             );
         }
         file.inference.check(origin)?;
+        for (i, u) in file.untouched.iter().enumerate() {
+            schema::infer::check_segment(&u.features, origin, &format!("untouched[{i}].features"))?;
+        }
         Ok(file)
     }
 }
@@ -227,6 +249,136 @@ pub fn infer_percepts(library: &Library, percepts: &[Percept]) -> Result<Percept
     })
 }
 
+/// A segment is one the teacher left alone only when both cameras saw it in at least this share of
+/// the demonstration's percepts (and in at least [`UNTOUCHED_MIN_FRAMES`]): a phantom or a passing
+/// piece of the arm is seen in a few.
+const UNTOUCHED_MIN_SHARE: f64 = 0.2;
+/// See [`UNTOUCHED_MIN_SHARE`].
+const UNTOUCHED_MIN_FRAMES: usize = 5;
+/// An object that stayed where it was: the median of its views before the teacher acted and that of
+/// its last views (the last fifth) lie within this distance (m). Views in between may stray (a box
+/// seen merged with an arm passing in front of it).
+const UNTOUCHED_MAX_STRAY: f64 = 0.04;
+/// Tracks whose median positions lie within this (m) are one object seen again (the tracker lost it
+/// behind an arm and found it anew); a track this close to where an acted-on object stood is that
+/// object.
+const UNTOUCHED_SAME_OBJECT: f64 = 0.06;
+/// Highest median centroid (m above the table) of an object standing on the table: higher segments
+/// are not objects on the table (a piece of the robot, something held up).
+const UNTOUCHED_MAX_HEIGHT: f64 = 0.3;
+
+/// The objects of a demonstration that the teacher never touched — the seed's "non-sortable
+/// objects" (§5.1.3), the data `pbd learn` fits the relevance background model M₀ to.
+///
+/// A track counts when it was on the table before the teacher acted (seen by both cameras before the
+/// first monitor of any instance converged, and in the first tenth of the demonstration), no monitor of any instance converged on it, it stayed
+/// where it was (the median of its views before the teacher acted and that of its last fifth within
+/// 4 cm) on the table (median centroid above
+/// the table, at most 30 cm up, outside every place), and it is not where an acted-on object stood
+/// (6 cm). Tracks of one object (medians within 6 cm: the tracker lost it behind an arm and found it
+/// anew) count once; their seen frames add up, and together they must cover a fifth of the
+/// percepts. Its view is a typical one: of its views within 2 cm of the median position, the one
+/// with the median pixel count (neither cut by an arm in front nor merged with one beside it).
+pub fn untouched_segments(inference: &Inference, percepts: &[Percept]) -> Vec<UntouchedSegment> {
+    let mut touched: std::collections::BTreeSet<u32> = std::collections::BTreeSet::new();
+    let mut first_act = f64::INFINITY;
+    for inst in &inference.instances {
+        touched.extend(inst.object);
+        touched.extend(inst.facts.iter().filter_map(|f| f.segment));
+        first_act = inst.facts.iter().map(|f| f.first).fold(first_act, f64::min);
+    }
+    untouched_given(&touched, first_act, percepts)
+}
+
+/// [`untouched_segments`] given the segments acted on and when the teacher first acted (s).
+fn untouched_given(
+    touched: &std::collections::BTreeSet<u32>,
+    first_act: f64,
+    percepts: &[Percept],
+) -> Vec<UntouchedSegment> {
+    let (Some(first), Some(last)) = (percepts.first(), percepts.last()) else {
+        return Vec::new();
+    };
+    // "Before the teacher acted": also within the first tenth of the demonstration, so that a
+    // demonstration where no monitor converged still asks for objects there from the start.
+    let first_act = first_act.min(first.t + 0.1 * (last.t - first.t));
+    // Per track, its seen views in time order.
+    let mut tracks: BTreeMap<u32, Vec<(f64, &schema::SegmentPercept)>> = BTreeMap::new();
+    for p in percepts {
+        for s in p.segments.iter().filter(|s| s.seen) {
+            tracks.entry(s.id).or_default().push((p.t, s));
+        }
+    }
+    let dist =
+        |a: [f64; 3], b: [f64; 3]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+    let median_of = |views: &[(f64, &schema::SegmentPercept)]| -> [f64; 3] {
+        let mut out = [0.0; 3];
+        for (k, o) in out.iter_mut().enumerate() {
+            let mut c: Vec<f64> = views.iter().map(|v| v.1.centroid[k]).collect();
+            c.sort_by(f64::total_cmp);
+            *o = c[c.len() / 2];
+        }
+        out
+    };
+    let medians: BTreeMap<u32, [f64; 3]> = tracks.iter().map(|(&id, v)| (id, median_of(v))).collect();
+    let touched_at: Vec<[f64; 3]> = touched.iter().filter_map(|id| medians.get(id).copied()).collect();
+    // Objects: tracks grouped by position, the first track of each group in time leading.
+    let mut order: Vec<u32> = tracks.keys().copied().collect();
+    order.sort_by(|a, b| tracks[a][0].0.total_cmp(&tracks[b][0].0).then(a.cmp(b)));
+    let mut groups: Vec<(u32, Vec<u32>)> = Vec::new();
+    for id in order {
+        match groups
+            .iter_mut()
+            .find(|g| dist(medians[&g.0], medians[&id]) <= UNTOUCHED_SAME_OBJECT)
+        {
+            Some(g) => g.1.push(id),
+            None => groups.push((id, vec![id])),
+        }
+    }
+    let min_frames = UNTOUCHED_MIN_FRAMES.max((UNTOUCHED_MIN_SHARE * percepts.len() as f64).ceil() as usize);
+    let mut out = Vec::new();
+    for (lead, members) in groups {
+        let views: Vec<(f64, &schema::SegmentPercept)> =
+            members.iter().flat_map(|id| tracks[id].iter().copied()).collect();
+        let m = median_of(&views);
+        let acted_on = members.iter().any(|id| touched.contains(id))
+            || touched_at.iter().any(|&a| dist(a, m) <= UNTOUCHED_SAME_OBJECT);
+        let before: Vec<(f64, &schema::SegmentPercept)> = views.iter().copied().filter(|v| v.0 < first_act).collect();
+        let mut by_time = views.clone();
+        by_time.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let end = &by_time[by_time.len() - by_time.len().div_ceil(5)..];
+        let still = !before.is_empty() && dist(median_of(&before), median_of(end)) <= UNTOUCHED_MAX_STRAY;
+        let height = m[2] - last.table_z;
+        let in_place = last.places.iter().any(|pl| {
+            (m[0] - pl.center[0]).abs() <= pl.half_extents[0] + 0.02
+                && (m[1] - pl.center[1]).abs() <= pl.half_extents[1] + 0.02
+        });
+        if acted_on || !still || views.len() < min_frames || in_place || !(0.0..=UNTOUCHED_MAX_HEIGHT).contains(&height)
+        {
+            continue;
+        }
+        let mut typical: Vec<&(f64, &schema::SegmentPercept)> = views
+            .iter()
+            .filter(|v| {
+                dist(v.1.centroid, m) <= 0.02 && v.1.pixels[0] > 0 && v.1.pixels[1] > 0 && !v.1.colors.is_empty()
+            })
+            .collect();
+        if typical.is_empty() {
+            continue;
+        }
+        typical.sort_by_key(|v| v.1.pixels[0].saturating_add(v.1.pixels[1]));
+        let (t, view) = *typical[typical.len() / 2];
+        out.push(UntouchedSegment {
+            segment: lead,
+            t,
+            frames_seen: views.len(),
+            features: view.clone(),
+        });
+    }
+    out.sort_by_key(|u| u.segment);
+    out
+}
+
 fn truth_for(inf: &Inference, percepts: &[Percept], truth: &TruthTrack) -> Vec<Option<TruthNote>> {
     inf.instances
         .iter()
@@ -299,6 +451,7 @@ fn infer_impl(args: &InferOptions, progress: &dyn Progress) -> Result<InferRun> 
         library: library.origin.clone(),
         warnings,
         truth: truth_for(&inference, &percepts, &truth),
+        untouched: untouched_segments(&inference, &percepts),
         inference,
     };
     let json_path = args
@@ -470,5 +623,80 @@ impl fmt::Display for InferRun {
             mcap.display()
         )?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use schema::SegmentPercept;
+    use schema::percept::PlacePercept;
+
+    fn seg(id: u32, at: [f64; 3], pixels: u32) -> SegmentPercept {
+        SegmentPercept {
+            id,
+            centroid: at,
+            seen: true,
+            pixels: [pixels, pixels],
+            histogram: vec![(0, 1.0)],
+            covariance: [0.0; 4],
+            colors: vec![(6, 1.0)],
+            extent: None,
+        }
+    }
+
+    /// 100 percepts at 10 Hz: the teacher acts from t = 2 s on object 1 (carried into the bin),
+    /// object 2 stands still, object 3 is lost behind an arm at 5 s and found again as track 13,
+    /// object 4 is pushed 10 cm at 6 s, track 5 appears at 7 s (a phantom), track 6 is a piece of
+    /// the robot 50 cm up, and track 7 stands in the bin.
+    fn demonstration() -> Vec<Percept> {
+        (0..100)
+            .map(|i| {
+                let t = 0.1 * f64::from(i);
+                let mut segments = vec![
+                    seg(1, if t < 3.0 { [0.6, 0.0, 0.8] } else { [0.55, -0.45, 0.8] }, 200),
+                    seg(2, [0.5, 0.2, 0.8], if i % 7 == 0 { 400 } else { 250 }),
+                    seg(if t < 5.0 { 3 } else { 13 }, [0.7, 0.1, 0.8], 180),
+                    seg(4, if t < 6.0 { [0.45, -0.1, 0.8] } else { [0.45, -0.2, 0.8] }, 150),
+                    seg(6, [0.3, 0.0, 1.3], 120),
+                    seg(7, [0.55, 0.45, 0.78], 120),
+                ];
+                if t >= 7.0 {
+                    segments.push(seg(5, [0.8, 0.3, 0.8], 100));
+                }
+                Percept {
+                    t,
+                    hands: Vec::new(),
+                    segments,
+                    places: [("bin-left", 0.45), ("bin-right", -0.45)]
+                        .map(|(name, y)| PlacePercept {
+                            name: name.into(),
+                            center: [0.55, y, 0.75],
+                            half_extents: [0.1, 0.125],
+                        })
+                        .to_vec(),
+                    table_z: 0.75,
+                    gaze: None,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn untouched_objects_are_the_ones_left_where_they_stood_once_each() {
+        let percepts = demonstration();
+        let touched = [1u32].into_iter().collect();
+        let u = untouched_given(&touched, 2.0, &percepts);
+        let ids: Vec<u32> = u.iter().map(|u| u.segment).collect();
+        assert_eq!(ids, vec![2, 3], "{u:?}");
+        // Object 3's two tracks count once, with all their frames.
+        assert_eq!(u[1].frames_seen, 100);
+        // A typical view: the median pixel count, not the 400-pixel outliers.
+        assert_eq!(u[0].features.pixels, [250, 250]);
+        // No instance: the objects there in the first tenth of the demonstration that stayed where
+        // they were (object 1 ends in a bin).
+        let none = untouched_given(&Default::default(), f64::INFINITY, &percepts);
+        let ids: Vec<u32> = none.iter().map(|u| u.segment).collect();
+        assert_eq!(ids, vec![2, 3]);
     }
 }

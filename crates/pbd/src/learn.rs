@@ -32,8 +32,15 @@ pub struct LearnOptions {
     /// Output model (JSON).
     pub output: PathBuf,
     /// Relevance decision threshold on ln B10 (5.19–5.21) for a new model: an object belongs to the
-    /// task when ln B10 exceeds it. 0 is the seed's rule (B10 > 1, even prior odds).
+    /// task when ln B10 exceeds it. The default (1) is calibrated on development data
+    /// (`schema::procedural`); 0 is the seed's rule (B10 > 1, even prior odds).
     pub relevance_threshold: f64,
+    /// Fit the relevance background model M₀ (§5.1.3) to the objects the teacher left alone in the
+    /// demonstrations (`untouched` in the inference files); `false`: M₀ is the prior predictive.
+    pub distractors: bool,
+    /// The unit of the size feature of a new model: `cm` (the default: the geometric mean of the
+    /// object's measured bounding box) or the seed's `deci-pixels`.
+    pub size_unit: schema::procedural::SizeUnit,
 }
 
 impl Default for LearnOptions {
@@ -43,7 +50,9 @@ impl Default for LearnOptions {
             update: None,
             library: None,
             output: PathBuf::from("model.json"),
-            relevance_threshold: 0.0,
+            relevance_threshold: schema::procedural::DEFAULT_RELEVANCE_LOG_THRESHOLD,
+            distractors: true,
+            size_unit: schema::procedural::SizeUnit::Centimetres,
         }
     }
 }
@@ -57,6 +66,9 @@ pub struct LearnReport {
     pub examples: Vec<(String, String, String)>,
     /// Demonstrations the model holds (with an update, the old ones too).
     pub demonstrations: u64,
+    /// Objects the teacher left alone that the model's M₀ is fitted to (with an update, the old ones
+    /// too).
+    pub background_objects: usize,
     /// The model explained in plain words.
     pub explanation: String,
 }
@@ -65,8 +77,8 @@ impl fmt::Display for LearnReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "learned from {} demonstrations → {}",
-            self.demonstrations, self.output
+            "learned from {} demonstrations and {} objects the teacher left alone → {}",
+            self.demonstrations, self.background_objects, self.output
         )?;
         write!(f, "{}", self.explanation)
     }
@@ -94,7 +106,20 @@ pub struct ModelExplanation {
 /// puts it somewhere (Pick-And-Place), else the arm the teacher used (Pick-And-Hold, Hand-Over,
 /// Reach-And-Touch): what ψ binds from the object's features.
 pub fn examples_from(path: &Path, library: &Library, progress: &dyn Progress) -> Result<Vec<(String, Example)>> {
-    let file: InferFile = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap")) {
+    let file = read_demonstration(path, library, progress)?;
+    examples_of(&file, path, library, progress)
+}
+
+/// The features of the objects the teacher left alone in a demonstration file
+/// ([`crate::infer::untouched_segments`]; none in a version 1 inference file): the data of the
+/// relevance background model M₀.
+pub fn untouched_from(file: &InferFile) -> Vec<Features> {
+    file.untouched.iter().map(|u| Features::from(&u.features)).collect()
+}
+
+/// Reads a demonstration: an inference file, or a recording inferred on the fly.
+pub fn read_demonstration(path: &Path, library: &Library, progress: &dyn Progress) -> Result<InferFile> {
+    Ok(if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("mcap")) {
         let crate::infer::Demonstration {
             percepts,
             metadata,
@@ -105,6 +130,7 @@ pub fn examples_from(path: &Path, library: &Library, progress: &dyn Progress) ->
             progress.warn(w);
         }
         let inference = crate::infer::infer_percepts(library, &percepts)?.inference;
+        let untouched = crate::infer::untouched_segments(&inference, &percepts);
         InferFile {
             format: INFER_FORMAT.into(),
             version: crate::infer::INFER_VERSION,
@@ -114,11 +140,21 @@ pub fn examples_from(path: &Path, library: &Library, progress: &dyn Progress) ->
             warnings,
             inference,
             truth: vec![],
+            untouched,
         }
     } else {
         let text = bayes::input::read_text(path).with_context(|| format!("cannot read {}", path.display()))?;
         InferFile::from_json(&text, &path.display().to_string())?
-    };
+    })
+}
+
+/// The examples of the instances of a demonstration file read from `path` (see [`examples_from`]).
+pub fn examples_of(
+    file: &InferFile,
+    path: &Path,
+    library: &Library,
+    progress: &dyn Progress,
+) -> Result<Vec<(String, Example)>> {
     let mut out = Vec::new();
     for (i, inst) in file.inference.instances.iter().enumerate() {
         let Ok(def) = library.schema(&inst.schema) else {
@@ -211,8 +247,20 @@ fn learn_impl(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnRepor
     };
     let mut examples = Vec::new();
     let mut listing = Vec::new();
+    let mut untouched = Vec::new();
     for d in &args.demos {
-        let ex = examples_from(d, &library, progress)?;
+        let file = read_demonstration(d, &library, progress)?;
+        if args.distractors {
+            if file.version < 2 {
+                progress.warn(&format!(
+                    "{}: an inference file of version {} holds no untouched objects (re-run `pbd infer` for them)",
+                    d.display(),
+                    file.version
+                ));
+            }
+            untouched.extend(untouched_from(&file).into_iter().map(|f| (d.clone(), f)));
+        }
+        let ex = examples_of(&file, d, &library, progress)?;
         for (schema, e) in &ex {
             let mut colors = e.features.colors.clone();
             colors.sort_by(|x, y| y.1.total_cmp(&x.1));
@@ -224,7 +272,14 @@ fn learn_impl(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnRepor
             listing.push((
                 d.display().to_string(),
                 e.reference.clone(),
-                format!("colours {} px {:?}", colors.join(", "), e.features.pixels),
+                format!(
+                    "colours {} px {:?}{}",
+                    colors.join(", "),
+                    e.features.pixels,
+                    e.features
+                        .size_cm()
+                        .map_or(String::new(), |c| format!(" size {c:.1} cm"))
+                ),
                 schema.clone(),
             ));
         }
@@ -278,11 +333,20 @@ fn learn_impl(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnRepor
             }
             let hyper = Hyper {
                 relevance_log_threshold: args.relevance_threshold,
-                ..Hyper::default()
+                ..Hyper::default().with_size_unit(args.size_unit)
             };
             ProceduralModel::learn(hyper, &examples)?
         }
     };
+    for (i, (d, f)) in untouched.iter().enumerate() {
+        if let Err(e) = model.observe_background(f) {
+            progress.warn(&format!(
+                "{}: untouched object {} left out of M₀: {e}",
+                d.display(),
+                i + 1
+            ));
+        }
+    }
     model.set_schema(schema);
     crate::files::write_atomic(&output, model.to_json().as_bytes())?;
     let explanation = model.explain()?;
@@ -290,6 +354,7 @@ fn learn_impl(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnRepor
         output: output.display().to_string(),
         examples: listing,
         demonstrations: model.num_demonstrations(),
+        background_objects: model.background_objects(),
         explanation: explanation.text,
     })
 }
@@ -321,7 +386,10 @@ fn explain_impl(path: &Path, samples: usize, seed: u64) -> Result<ModelExplanati
     let names = model.place_names().iter().map(|s| s.to_string()).collect::<Vec<_>>();
     for i in &inst {
         by_place.entry(i.place.clone()).or_default().push(i.features.clone());
-        if let (Some(k), Some(s)) = (names.iter().position(|n| *n == i.place), i.features.deci_pixels()) {
+        if let (Some(k), Some(s)) = (
+            names.iter().position(|n| *n == i.place),
+            model.hyper().size_unit.value(&i.features),
+        ) {
             out.sampled_sizes.push((k, s));
         }
     }

@@ -293,15 +293,20 @@ pub struct ProceduralModel {
     report: Option<Py<PyAny>>,
 }
 
-fn examples_from_input(py: Python<'_>, item: &Bound<'_, PyAny>) -> PyResult<Vec<Example>> {
+/// The examples of one input (a demonstration path or an example dict) and the features of the
+/// objects the teacher left alone in it (none for a dict).
+fn examples_from_input(py: Python<'_>, item: &Bound<'_, PyAny>) -> PyResult<(Vec<Example>, Vec<Features>)> {
     if item.is_instance_of::<pyo3::types::PyDict>() {
-        return Ok(vec![from_python::<Example>(item, "example")?]);
+        return Ok((vec![from_python::<Example>(item, "example")?], Vec::new()));
     }
     let path: PathBuf = item.extract().map_err(|_| {
         value_error("expected a path to a demo (.mcap or .infer.json) or an example dict {features, reference}")
     })?;
-    let (examples, _) = runner::run(py, None, |p| {
-        pbd::learn::examples_from(&path, &pbd::schema::Library::builtin(), p)
+    let ((examples, untouched), _) = runner::run(py, None, |p| {
+        let library = pbd::schema::Library::builtin();
+        let file = pbd::learn::read_demonstration(&path, &library, p)?;
+        let examples = pbd::learn::examples_of(&file, &path, &library, p)?;
+        Ok((examples, pbd::learn::untouched_from(&file)))
     })?;
     // One task: the instances of the schema most of them are of.
     let main = pbd::learn::main_schema(&examples);
@@ -310,7 +315,7 @@ fn examples_from_input(py: Python<'_>, item: &Bound<'_, PyAny>) -> PyResult<Vec<
         .filter(|(s, _)| Some(s) == main.as_ref())
         .map(|(_, e)| e)
         .collect();
-    Ok(examples)
+    Ok((examples, untouched))
 }
 
 #[pymethods]
@@ -349,31 +354,68 @@ impl ProceduralModel {
 
     /// Learns a model from demonstrations: paths of `*.infer.json` / `*.mcap` files or example dicts
     /// `{"features": {...}, "reference": "bin_left"}`.
+    ///
+    /// With `distractors` (the default) the relevance background model M₀ (§5.1.3) is fitted to the
+    /// objects the teacher left alone in the demonstration files (`untouched` in `pbd infer`'s file).
     #[staticmethod]
-    #[pyo3(signature = (demos, *, relevance_threshold=None))]
-    fn learn(py: Python<'_>, demos: Vec<Bound<'_, PyAny>>, relevance_threshold: Option<f64>) -> PyResult<Self> {
+    #[pyo3(signature = (demos, *, relevance_threshold=None, distractors=true))]
+    fn learn(
+        py: Python<'_>,
+        demos: Vec<Bound<'_, PyAny>>,
+        relevance_threshold: Option<f64>,
+        distractors: bool,
+    ) -> PyResult<Self> {
         let mut examples = Vec::new();
+        let mut untouched = Vec::new();
         for d in &demos {
-            examples.extend(examples_from_input(py, d)?);
+            let (e, u) = examples_from_input(py, d)?;
+            examples.extend(e);
+            untouched.extend(u);
         }
         let mut hyper = Hyper::default();
         if let Some(t) = relevance_threshold {
             hyper.relevance_log_threshold = t;
         }
-        Ok(ProceduralModel {
-            model: Model::learn(hyper, &examples).py_err()?,
-            report: None,
-        })
+        let mut model = Model::learn(hyper, &examples).py_err()?;
+        if distractors {
+            for f in &untouched {
+                // An untouched object without colour or pixels is no evidence; `pbd learn` warns.
+                let _ = model.observe_background(f);
+            }
+        }
+        Ok(ProceduralModel { model, report: None })
     }
 
-    /// Adds the examples of one more demonstration (a path or an example dict); the posterior does
-    /// not depend on the order of the demonstrations (exchangeability, §5.2).
-    fn update(&mut self, py: Python<'_>, demo: &Bound<'_, PyAny>) -> PyResult<usize> {
-        let examples = examples_from_input(py, demo)?;
+    /// Adds the examples of one more demonstration (a path or an example dict), and the objects the
+    /// teacher left alone in it to M₀ (unless `distractors=False`); the posterior does not depend on
+    /// the order of the demonstrations (exchangeability, §5.2). Returns the number of examples.
+    #[pyo3(signature = (demo, *, distractors=true))]
+    fn update(&mut self, py: Python<'_>, demo: &Bound<'_, PyAny>, distractors: bool) -> PyResult<usize> {
+        let (examples, untouched) = examples_from_input(py, demo)?;
+        let mut model = self.model.clone();
         for e in &examples {
-            self.model.update(e).py_err()?;
+            model.update(e).py_err()?;
         }
+        if distractors {
+            for f in &untouched {
+                let _ = model.observe_background(f);
+            }
+        }
+        self.model = model;
         Ok(examples.len())
+    }
+
+    /// Adds an object the teacher left alone (its features, a dict as in the percepts) to the
+    /// relevance background model M₀ (§5.1.3).
+    fn observe_background(&mut self, features: &Bound<'_, PyAny>) -> PyResult<()> {
+        let f: Features = from_python(features, "features")?;
+        self.model.observe_background(&f).py_err()
+    }
+
+    /// Objects of the background model M₀ ([`observe_background`]).
+    #[getter]
+    fn background_objects(&self) -> usize {
+        self.model.background_objects()
     }
 
     /// The place posterior for an object's features (a dict as in the percepts: `histogram`,

@@ -65,6 +65,21 @@ def test_procedural_model_learn_update_predict(tmp_path):
     assert pickle.loads(pickle.dumps(model)).to_json() == model.to_json()
 
 
+def test_objects_the_teacher_left_alone_fit_the_relevance_background():
+    model = pbd.ProceduralModel.load(MODEL)
+    assert model.background_objects == 0
+    green = {"histogram": [[20, 1.0]], "pixels": [150, 140], "colors": [[6, 1.0]]}
+    before = model.predict(green)["relevance"]["bayes_factor"]["log_b10"]
+    for _ in range(3):
+        model.observe_background(green)
+    assert model.background_objects == 3
+    # Green things were left alone: a green object is less likely part of the task than before.
+    after = model.predict(green)["relevance"]["bayes_factor"]["log_b10"]
+    assert after < before - 1.0, (before, after)
+    with pytest.raises(ValueError):
+        model.observe_background({"histogram": [], "pixels": [0, 0], "colors": []})
+
+
 def test_execute_in_a_scene():
     report = pbd.execute(pbd.ProceduralModel.load(MODEL), scene="sorting-new", object="blue_block", seed=1)
     assert report["objects"], report

@@ -8,7 +8,7 @@
 //! six-demonstration model that has seen 500 background objects.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use schema::procedural::{Example, Features, Hyper, ProceduralModel};
+use schema::procedural::{Example, Features, Hyper, ProceduralModel, SizeUnit};
 use std::hint::black_box;
 
 fn example(colors: &[(u8, f64)], px: u32, place: &str) -> Example {
@@ -17,6 +17,7 @@ fn example(colors: &[(u8, f64)], px: u32, place: &str) -> Example {
             histogram: Vec::new(),
             pixels: [px, px + 15],
             colors: colors.to_vec(),
+            dimensions: None,
         },
         reference: place.into(),
     }
@@ -62,11 +63,13 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     g.bench_function("learn_and_explain_400_demos", |b| {
         b.iter(|| {
-            let m = ProceduralModel::learn(Hyper::default(), black_box(&big)).unwrap();
+            let m =
+                ProceduralModel::learn(Hyper::default().with_size_unit(SizeUnit::DeciPixels), black_box(&big)).unwrap();
             black_box(m.explain().unwrap());
         })
     });
-    let mut with_background = ProceduralModel::learn(Hyper::default(), &demos()).unwrap();
+    let mut with_background =
+        ProceduralModel::learn(Hyper::default().with_size_unit(SizeUnit::DeciPixels), &demos()).unwrap();
     for e in many(500) {
         with_background.observe_background(&e.features).unwrap();
     }
@@ -77,11 +80,12 @@ fn bench(c: &mut Criterion) {
     let demos = demos();
     c.bench_function("procedural_learn_and_structure_6_demos", |b| {
         b.iter(|| {
-            let m = ProceduralModel::learn(Hyper::default(), black_box(&demos)).unwrap();
+            let m = ProceduralModel::learn(Hyper::default().with_size_unit(SizeUnit::DeciPixels), black_box(&demos))
+                .unwrap();
             black_box(m.structure_posterior().unwrap());
         })
     });
-    let m = ProceduralModel::learn(Hyper::default(), &demos).unwrap();
+    let m = ProceduralModel::learn(Hyper::default().with_size_unit(SizeUnit::DeciPixels), &demos).unwrap();
     let probe = example(&[(3, 0.6), (2, 0.4)], 800, "?").features;
     c.bench_function("procedural_predict_6_demos", |b| {
         b.iter(|| black_box(m.predict(black_box(&probe)).unwrap()))

@@ -702,20 +702,25 @@ impl Engine {
                 .or(pick(ActionKind::ReachPlace))
                 .and_then(|f| f.place.clone());
             // Features at the grasp (or the touch, or the reach, for a schema without a grasp): the
-            // segment's percept when that monitor first converged (the last frame it was seen
-            // before, if the hand hides it).
+            // segment's percept when that monitor first converged — the last frame before in which
+            // vision measured its extent (a hand touching or closing on it leaves only a coarse
+            // silhouette guess: a touched can was "40 cm tall"), else the last frame it was seen.
             let features = grasp
                 .or(pick(ActionKind::Touch))
                 .or(pick(ActionKind::ReachObject))
                 .and_then(|g| {
                     let seg = g.segment?;
                     let k = obs.iter().position(|o| o.t >= g.first)?;
-                    percepts
-                        .get(..=k.min(percepts.len().saturating_sub(1)))?
-                        .iter()
-                        .rev()
-                        .filter_map(|p| p.segments.iter().find(|s| s.id == seg && s.seen))
-                        .next()
+                    let before = percepts.get(..=k.min(percepts.len().saturating_sub(1)))?;
+                    let seen = || {
+                        before
+                            .iter()
+                            .rev()
+                            .filter_map(|p| p.segments.iter().find(|s| s.id == seg && s.seen))
+                    };
+                    seen()
+                        .find(|s| s.extent.as_ref().is_some_and(|e| e.model != "coarse"))
+                        .or_else(|| seen().next())
                         .cloned()
                 });
             instances.push(Instance {

@@ -17,17 +17,18 @@
 //! use schema::procedural::{Example, Features, Hyper, ProceduralModel};
 //!
 //! let term = |name: &str| COLOR_TERMS.iter().position(|t| *t == name).unwrap() as u8;
-//! let object = |colour: &str, pixels: u32| Features {
-//!     histogram: Vec::new(),
-//!     pixels: [pixels, pixels],
+//! // Colour terms and the measured bounding box (m): footprint length, width, height.
+//! let object = |colour: &str, side: f64| Features {
 //!     colors: vec![(term(colour), 0.9), (term("white"), 0.1)],
+//!     dimensions: Some([side, side, side]),
+//!     ..Features::default()
 //! };
 //! let examples = [
-//!     Example { features: object("red", 900), reference: "bin-right".into() },
-//!     Example { features: object("blue", 1100), reference: "bin-left".into() },
+//!     Example { features: object("red", 0.05), reference: "bin-right".into() },
+//!     Example { features: object("blue", 0.07), reference: "bin-left".into() },
 //! ];
 //! let model = ProceduralModel::learn(Hyper::default(), &examples)?;
-//! let p = model.predict(&object("red", 1000))?;
+//! let p = model.predict(&object("red", 0.06))?;
 //! assert_eq!(p.map_place, "bin-right");
 //! println!("{}", model.explain()?.text);
 //! # Ok::<(), schema::SchemaError>(())

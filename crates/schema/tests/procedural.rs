@@ -5,7 +5,9 @@
 use proptest::prelude::*;
 use rand::seq::SliceRandom;
 use schema::SchemaError;
-use schema::procedural::{Connectivity, Example, Features, Hyper, MODEL_VERSION, ProceduralModel, StructureChoice};
+use schema::procedural::{
+    Connectivity, Example, Features, Hyper, MODEL_VERSION, ProceduralModel, SizeUnit, StructureChoice,
+};
 
 fn arb_example() -> impl Strategy<Value = Example> {
     (
@@ -19,6 +21,7 @@ fn arb_example() -> impl Strategy<Value = Example> {
                 histogram: Vec::new(),
                 pixels: [l, r],
                 colors: terms.iter().map(|(&t, &w)| (t, f64::from(w) / 100.0)).collect(),
+                dimensions: None,
             },
             reference: ["bin_a", "bin_b", "table"][place].to_string(),
         })
@@ -48,20 +51,20 @@ proptest! {
         seed in any::<u64>(),
         cut in 0usize..25,
     ) {
-        let batch = ProceduralModel::learn(Hyper::default(), &examples).unwrap();
+        let batch = ProceduralModel::learn(Hyper::default().with_size_unit(SizeUnit::DeciPixels), &examples).unwrap();
         let mut shuffled = examples.clone();
         shuffled.shuffle(&mut bayes::rng::seeded(seed));
-        let mut inc = ProceduralModel::new(Hyper::default()).unwrap();
+        let mut inc = ProceduralModel::new(Hyper::default().with_size_unit(SizeUnit::DeciPixels)).unwrap();
         for e in &shuffled {
             inc.update(e).unwrap();
         }
         prop_assert_eq!(&inc, &batch);
         let cut = cut.min(shuffled.len());
-        let mut left = ProceduralModel::new(Hyper::default()).unwrap();
+        let mut left = ProceduralModel::new(Hyper::default().with_size_unit(SizeUnit::DeciPixels)).unwrap();
         for e in &shuffled[..cut] {
             left.update(e).unwrap();
         }
-        let mut right = ProceduralModel::new(Hyper::default()).unwrap();
+        let mut right = ProceduralModel::new(Hyper::default().with_size_unit(SizeUnit::DeciPixels)).unwrap();
         for e in &shuffled[cut..] {
             right.update(e).unwrap();
         }
@@ -81,11 +84,12 @@ fn small_model() -> ProceduralModel {
             histogram: Vec::new(),
             pixels: [px, px + 20],
             colors: terms.iter().map(|&t| (t, 0.5)).collect(),
+            dimensions: None,
         },
         reference: place.into(),
     };
     ProceduralModel::learn(
-        Hyper::default(),
+        Hyper::default().with_size_unit(SizeUnit::DeciPixels),
         &[
             ex(&[2, 3], 900, "red_bin"),
             ex(&[2, 7], 2500, "blue_bin"),
@@ -109,9 +113,27 @@ fn model_file_round_trips_and_names_bad_fields() {
     assert!(json.contains("\"format\": \"pbd-procedural-model\""));
     assert_eq!(ProceduralModel::from_json(&json, "m.json").unwrap(), m);
 
-    let other_version = json.replace(&format!("\"version\": {MODEL_VERSION}"), "\"version\": 5");
+    let next = MODEL_VERSION + 1;
+    let other_version = json.replace(
+        &format!("\"version\": {MODEL_VERSION}"),
+        &format!("\"version\": {next}"),
+    );
     let e = field_of(ProceduralModel::from_json(&other_version, "m.json").unwrap_err());
-    assert!(e.starts_with("version") && e.contains("version 5"), "{e}");
+    assert!(
+        e.starts_with("version") && e.contains(&format!("version {next}")),
+        "{e}"
+    );
+    // A version 4 file (deci-pixels, the sums named for half-pixels) reads as the same model.
+    let v4 = json
+        .replace(&format!("\"version\": {MODEL_VERSION}"), "\"version\": 4")
+        .replace("\"sum\":", "\"sum_half_pixels\":")
+        .replace("\"sum_sq\":", "\"sum_sq_half_pixels\":");
+    assert!(v4.contains("sum_half_pixels") && v4.contains("\"unit\": \"deci-pixels\""));
+    assert_eq!(ProceduralModel::from_json(&v4, "v4.json").unwrap(), m);
+    // Centimetres are version 5's.
+    let v4_cm = v4.replace("\"unit\": \"deci-pixels\"", "\"unit\": \"cm\"");
+    let e = field_of(ProceduralModel::from_json(&v4_cm, "v4.json").unwrap_err());
+    assert!(e.starts_with("hyper.size.unit"), "{e}");
     // Versions 1 to 3 counted histogram bins, not colour terms: refused with a pointer to re-learn.
     for old in [1, 2, 3] {
         let v = json.replace(&format!("\"version\": {MODEL_VERSION}"), &format!("\"version\": {old}"));
@@ -235,6 +257,7 @@ fn fixed_structure_ignores_the_other_feature() {
         histogram: Vec::new(),
         pixels: [2500, 2500],
         colors: vec![(3, 1.0)],
+        dimensions: None,
     };
     assert_eq!(m.predict(&f).unwrap().map_place, "blue_bin");
 }
@@ -249,11 +272,12 @@ fn explain_handles_many_places_and_the_place_limit_holds() {
                 histogram: Vec::new(),
                 pixels: [1000 + 10 * i, 1000 + 10 * i],
                 colors: vec![((i % 10) as u8, 1.0)],
+                dimensions: None,
             },
             reference: format!("place_{i:03}"),
         })
         .collect();
-    let m = ProceduralModel::learn(Hyper::default(), &examples).unwrap();
+    let m = ProceduralModel::learn(Hyper::default().with_size_unit(SizeUnit::DeciPixels), &examples).unwrap();
     let e = m.explain().unwrap();
     assert_eq!(e.places.len(), 40);
     assert!(e.places.iter().all(|p| (0.0..=1.0).contains(&p.consistency)));
@@ -264,7 +288,9 @@ fn explain_handles_many_places_and_the_place_limit_holds() {
             ..examples[0].clone()
         })
         .collect();
-    let err = ProceduralModel::learn(Hyper::default(), &many).unwrap_err().to_string();
+    let err = ProceduralModel::learn(Hyper::default().with_size_unit(SizeUnit::DeciPixels), &many)
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("limit"), "{err}");
     let mut v: serde_json::Value = serde_json::from_str(&m.to_json()).unwrap();
     let place = v["places"][0].clone();
@@ -284,6 +310,7 @@ fn background_objects_fit_the_relevance_model_m0() {
         histogram: Vec::new(),
         pixels: [px, px + 20],
         colors: terms.iter().map(|&t| (t, 1.0 / terms.len() as f64)).collect(),
+        dimensions: None,
     };
     let prior = small_model();
     assert_eq!(prior.background_objects(), 0);

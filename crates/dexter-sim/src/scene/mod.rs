@@ -21,7 +21,7 @@
 //! `catalog.rs` is the object catalog (its format and checks), `spec.rs` the scene file (table,
 //! places, placements, cameras, light) and the checks of everything but its objects, `resolve.rs`
 //! rests each placed object on the table and checks it is clear of the rest, `footprint.rs` the
-//! geometry of resting and of footprints on the table, `check.rs` parsing, the format version, the
+//! geometry of resting and of footprints on the table, `generate.rs` a seeded catalog generator, `check.rs` parsing, the format version, the
 //! bounds on numbers and names, and error messages. This file is the [`Scene`]: loading, the
 //! built-in scenes and the queries on a loaded scene.
 
@@ -32,6 +32,7 @@ use crate::error::SimError;
 mod catalog;
 mod check;
 mod footprint;
+pub mod generate;
 mod resolve;
 mod spec;
 
@@ -52,7 +53,14 @@ use spec::{place_footprint, validate_setup};
 /// The catalog path the shipped scenes use; built-in scenes resolve it to the built-in catalog.
 const SHIPPED_CATALOG: &str = "../objects/household.toml";
 
-const BUILTIN_SCENE_NAMES: [&str; 4] = ["sorting", "pick-place", "sorting-new", "sorting-demo"];
+const BUILTIN_SCENE_NAMES: [&str; 6] = [
+    "sorting",
+    "pick-place",
+    "sorting-new",
+    "sorting-demo",
+    "sorting-teach",
+    "sorting-sizes",
+];
 
 fn builtin_scene_text(name: &str) -> Option<&'static str> {
     match name {
@@ -60,6 +68,8 @@ fn builtin_scene_text(name: &str) -> Option<&'static str> {
         "pick-place" => Some(include_str!("../../../../assets/scenes/pick-place.toml")),
         "sorting-new" => Some(include_str!("../../../../assets/scenes/sorting-new.toml")),
         "sorting-demo" => Some(include_str!("../../../../assets/scenes/sorting-demo.toml")),
+        "sorting-teach" => Some(include_str!("../../../../assets/scenes/sorting-teach.toml")),
+        "sorting-sizes" => Some(include_str!("../../../../assets/scenes/sorting-sizes.toml")),
         _ => None,
     }
 }

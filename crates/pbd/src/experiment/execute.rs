@@ -6,7 +6,8 @@
 //! and of each other), the robot looks over the table, decides per seen segment (relevance by B10,
 //! place by MAP) and runs Pick-And-Place with ψ on each relevant one. The evaluator matches segments to
 //! objects by the truth at the start and judges each outcome by the truth at the end. The task's
-//! intended decision per object comes from the catalog's colour labels (`--task red=bin-right,…`).
+//! intended decision per object comes from the catalog's colour and size labels (`--task
+//! red=bin-right,…`, `--task small=bin-left,large=bin-right`, `--task red+large=bin-right`).
 //! One scene is a pure function of (config, index) in [`dexter_sim::experiment`]; this module runs the
 //! scenes on the thread pool and writes per-object decisions and outcomes (`objects.csv`), the placed
 //! fraction with a 95 % Wilson interval, decision accuracy and failure causes by phase (`summary.md`).
@@ -14,7 +15,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use dexter_sim::experiment::{ExperimentConfig, ObjectRow, Summary, run_scene_logged, summarize};
 use dexter_sim::scene::Scene;
 use schema::Library;
@@ -34,7 +35,8 @@ pub struct ExecuteExperimentOptions {
     pub scenes: usize,
     /// Objects per scene.
     pub objects: usize,
-    /// The intended task: `class=place` entries (objects of other classes are not part of the task).
+    /// The intended task: `class=place` entries (objects of other classes are not part of the task);
+    /// a class is a colour class, a size class (`small`, `medium`, `large`) or `colour+size`.
     pub task: Vec<String>,
     /// Random seed (scenes and every run).
     pub seed: u64,
@@ -77,7 +79,22 @@ fn parse_task(task: &[String]) -> Result<BTreeMap<String, String>> {
             let (c, p) = t
                 .split_once('=')
                 .with_context(|| format!("--task: `{t}` is not class=place"))?;
-            Ok((c.trim().to_string(), p.trim().to_string()))
+            let c = c.trim();
+            let parts: Vec<&str> = c.split('+').map(str::trim).collect();
+            if parts.iter().any(|p| p.is_empty()) || p.trim().is_empty() {
+                bail!("--task: `{t}` is not class=place (a class is a colour class, a size class or colour+size)");
+            }
+            let sizes = parts
+                .iter()
+                .filter(|p| dexter_sim::scene::SIZE_CLASSES.contains(p))
+                .count();
+            if parts.len() > 2 || sizes > 1 || (parts.len() == 2 && sizes != 1) {
+                bail!(
+                    "--task: `{c}` must be one colour class, one size class ({}) or colour+size",
+                    dexter_sim::scene::SIZE_CLASSES.join(", ")
+                );
+            }
+            Ok((parts.join("+"), p.trim().to_string()))
         })
         .collect()
 }
@@ -180,14 +197,15 @@ fn run_impl(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> anyhow:
 
 fn write_csv(path: &Path, rows: &[ObjectRow]) -> Result<()> {
     let mut s = String::from(
-        "scene,object,color_class,intended,decision,place,log_b10,arms,transfer,placed,decision_correct,failure\n",
+        "scene,object,color_class,size_class,intended,decision,place,log_b10,arms,transfer,placed,decision_correct,failure\n",
     );
     for r in rows {
         s.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
             r.scene,
             r.object,
             r.color_class,
+            r.size_class,
             r.intended,
             r.decision,
             r.place,
@@ -222,8 +240,13 @@ fn markdown(args: &ExecuteExperimentOptions, s: &Summary, wall_time: f64) -> Str
         s.executed, s.placed, s.executed, s.placed_fraction, s.placed_interval.0, s.placed_interval.1
     ));
     m.push_str(&format!(
-        "| task objects in their intended place | {:.3} (95 % CI {:.3}–{:.3}) |\n| decisions matching the task | {:.3} |\n",
-        s.task_success, s.task_interval.0, s.task_interval.1, s.decision_accuracy
+        "| task objects in their intended place | {:.3} (95 % CI {:.3}–{:.3}) |\n| decisions matching the task | {:.3} (95 % CI {:.3}–{:.3}) |\n",
+        s.task_success,
+        s.task_interval.0,
+        s.task_interval.1,
+        s.decision_accuracy,
+        s.decision_interval.0,
+        s.decision_interval.1
     ));
     m.push_str(&format!(
         "| simulated / wall time | {:.0} s / {wall_time:.0} s |\n\n",

@@ -1,7 +1,8 @@
 //! Features of every presentation of a catalog, rendered with the simulator's vision pipeline:
 //! the object alone on the table (with the two bins) in front of Dexter's head cameras, segmented
 //! by background subtraction, matched in stereo, and reduced to the kept bins of the 64-colour
-//! histogram and the left/right pixel counts — exactly what `pbd record` stores per segment.
+//! histogram, the colour terms, the left/right pixel counts and the measured extent on the support
+//! plane (the metric size) — what `pbd record` stores per segment.
 //!
 //! Each presentation is rendered in several *variants* (seeded position jitter, yaw and pixel
 //! noise), so trials see the object as it would be presented again: not the same pixels twice.
@@ -117,7 +118,8 @@ pub fn render_bank(
                 histogram,
                 covariance: [0.0; 4],
                 colors: dexter::vision::color::kept_color_terms(&seg.features.color_terms),
-                extent: None,
+                // The robot's measurement of the object on the support plane (the metric size).
+                extent: dexter::skills::extent_of(blob, &cams, TABLE_TOP),
             };
             views.push(Features::from(&percept));
             tick();

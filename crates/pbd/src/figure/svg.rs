@@ -279,7 +279,7 @@ pub fn size_densities(path: &Path, places: &[(String, StudentT)], samples: &[(us
     let ymax = curves.iter().flatten().map(|p| p.1).fold(0.0, f64::max).max(1e-12) * 1.1;
     let chart = LineChart {
         title: "posterior-predictive size density".into(),
-        x_label: "size (deci-pixels)".into(),
+        x_label: "size (the model's unit: cm, or the seed's deci-pixels)".into(),
         y_label: "density".into(),
         x_range: (lo, hi),
         y_range: (0.0, ymax),

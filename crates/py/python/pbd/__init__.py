@@ -96,17 +96,20 @@ def learn(
     output: PathLike = "model.json",
     update: Optional[PathLike] = None,
     relevance_threshold: Optional[float] = None,
+    distractors: bool = True,
     progress: Union[bool, ProgressCallback, None] = None,
 ) -> ProceduralModel:
     """Learns the procedural model (``pbd learn``, ch. 5) from ``*.infer.json`` / ``*.mcap`` files (or
     updates the model file ``update``), saves it to ``output`` and returns it; ``model.report`` is the
-    learn report (examples used, explanation)."""
+    learn report (examples used, explanation). With ``distractors`` (the default) the relevance
+    background model M₀ is fitted to the objects the teacher left alone in the demonstrations."""
     items = []
     for d in demos:
         if isinstance(d, dict) and "json_path" in d:  # a report of pbd.infer
             d = d["json_path"]
         items.append(os.fspath(d))
-    opts = _options(demos=items, output=output, update=update, relevance_threshold=relevance_threshold)
+    opts = _options(demos=items, output=output, update=update, relevance_threshold=relevance_threshold,
+                    distractors=distractors)
     report = _report(_pbd.learn(opts, _progress(progress)))
     model = ProceduralModel.load(os.fspath(output))
     model.report = report

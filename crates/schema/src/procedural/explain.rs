@@ -6,8 +6,8 @@ use rand::Rng;
 
 use serde::Serialize;
 
-use super::features::{COLORS, Features};
-use super::hyper::{Connectivity, FeatureType, PlacePrior};
+use super::features::{COLORS, Features, MAX_DIMENSION};
+use super::hyper::{Connectivity, FeatureType, PlacePrior, SizeUnit};
 use super::model::ProceduralModel;
 use super::stats::PlaceStats;
 use super::structure::StructurePosterior;
@@ -49,9 +49,10 @@ pub struct PlaceExplanation {
     pub top_colors: Vec<ColorMass>,
     /// The whole predictive colour pmf over the colour terms.
     pub color_pmf: Vec<f64>,
-    /// Predictive size location (deci-pixels).
+    /// Predictive size location (in [`Explanation::size_unit`]).
     pub size_mean: f64,
-    /// Predictive size standard deviation (deci-pixels; the Student-t scale when ν ≤ 2).
+    /// Predictive size standard deviation (in [`Explanation::size_unit`]; the Student-t scale when
+    /// ν ≤ 2).
     pub size_sd: f64,
     /// Degrees of freedom ν of the Student-t size predictive.
     pub size_df: f64,
@@ -76,6 +77,10 @@ pub struct Explanation {
     pub places: Vec<PlaceExplanation>,
     /// Mean of the places' consistencies: how sure the model is of its own sorting.
     pub consistency: f64,
+    /// The unit of the sizes (`cm` or `deci-pixels`).
+    pub size_unit: String,
+    /// Objects the teacher left alone that the relevance background M₀ is fitted to.
+    pub background_objects: usize,
     /// The whole story, several lines.
     pub text: String,
 }
@@ -213,10 +218,15 @@ impl ProceduralModel {
         let x = self
             .hyper
             .size_prior
-            .posterior(&size_src.size.gaussian())
+            .posterior(&size_src.size.gaussian(self.hyper.size_unit.quanta_per_unit()))
             .sample_predictive(rng)
             .max(0.1);
-        let px = (x * 10.0).round().clamp(1.0, f64::from(u32::MAX)) as u32;
+        // The sampled size in the model's unit: a segment of that many pixels per camera, or a
+        // cube whose sides have that geometric mean.
+        let (px, dimensions) = match self.hyper.size_unit {
+            SizeUnit::DeciPixels => ((x * 10.0).round().clamp(1.0, f64::from(u32::MAX)) as u32, None),
+            SizeUnit::Centimetres => (1, Some([(x / 100.0).min(MAX_DIMENSION); 3])),
+        };
         Ok(SyntheticInstance {
             place: place.to_string(),
             structure,
@@ -224,6 +234,7 @@ impl ProceduralModel {
                 histogram: Vec::new(),
                 pixels: [px, px],
                 colors,
+                dimensions,
             },
         })
     }
@@ -279,12 +290,13 @@ impl ProceduralModel {
                     .join(", ")
             };
             let sentence = format!(
-                "{name} ({} demonstration{}): colours mostly {colors}; size {:.0} ± {:.0} deci-pixels; \
+                "{name} ({} demonstration{}): colours mostly {colors}; size {:.0} ± {:.0} {}; \
                  a new object like these goes here with probability {consistency:.2} ({}).",
                 p.demonstrations,
                 if p.demonstrations == 1 { "" } else { "s" },
                 t.loc(),
                 size_sd,
+                self.hyper.size_unit.name(),
                 sureness(consistency),
             );
             places.push(PlaceExplanation {
@@ -326,6 +338,23 @@ impl ProceduralModel {
             text.push_str(&p.sentence);
             text.push('\n');
         }
+        let background = self.background.objects.len();
+        if background > 0 {
+            let pmf = self.hyper.color_unit().predictive(&self.background.objects);
+            let mut order: Vec<usize> = (0..COLORS).collect();
+            order.sort_by(|&a, &b| pmf[b].total_cmp(&pmf[a]).then(a.cmp(&b)));
+            let colors: Vec<String> = order
+                .iter()
+                .take(4)
+                .filter(|&&b| pmf[b] > 1.0 / COLORS as f64)
+                .map(|&b| format!("{} ({:.2})", color_name(b), pmf[b]))
+                .collect();
+            text.push_str(&format!(
+                "  Left alone by the teacher ({background} object{}, what task relevance is weighed against): colours mostly {}.\n",
+                if background == 1 { "" } else { "s" },
+                if colors.is_empty() { "no particular colour".to_string() } else { colors.join(", ") }
+            ));
+        }
         text.push_str(&format!(
             "Overall {} of its own sorting (consistency {consistency:.2}).\n",
             sureness(consistency)
@@ -337,6 +366,8 @@ impl ProceduralModel {
             size_matters,
             places,
             consistency,
+            size_unit: self.hyper.size_unit.name().to_string(),
+            background_objects: background,
             text,
         })
     }

@@ -16,6 +16,9 @@ pub const COLORS: usize = COLOR_TERMS.len();
 /// The achromatic colour terms (black, grey, white): indices below this.
 const ACHROMATIC_TERMS: u8 = 3;
 
+/// Largest measured dimension of an object (m): the size feature is for things a hand picks up.
+pub const MAX_DIMENSION: f64 = 10.0;
+
 /// Where errors about in-memory input are reported (no file).
 pub(super) const INPUT: &str = "<input>";
 
@@ -64,7 +67,7 @@ fn smooth_to_neighbours(terms: &[(u8, f64)], weights: &[f64], eps: f64) -> (Vec<
 pub type ObjectDraws = Vec<(usize, u64)>;
 
 /// The observed features of one object (mirrors [`SegmentPercept`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct Features {
     /// The kept bins of the 64-bin HSV histogram as (bin, weight) (§5.1.2.1); carried for display
     /// and inspection, the colour unit reads [`Features::colors`].
@@ -77,6 +80,12 @@ pub struct Features {
     /// the model refuses with a message to re-run `pbd infer`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub colors: Vec<(u8, f64)>,
+    /// The object's measured bounding box (m): its footprint's length and width on the support
+    /// plane and its height above it ([`SegmentPercept::extent`]); the size feature in centimetres
+    /// is their geometric mean ([`Features::size_cm`]). Absent when vision did not measure it
+    /// (recordings made before extents were added).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dimensions: Option<[f64; 3]>,
 }
 
 impl From<&SegmentPercept> for Features {
@@ -85,6 +94,10 @@ impl From<&SegmentPercept> for Features {
             histogram: s.histogram.clone(),
             pixels: s.pixels,
             colors: s.colors.clone(),
+            dimensions: s
+                .extent
+                .as_ref()
+                .map(|e| [2.0 * e.half_major, 2.0 * e.half_minor, e.height]),
         }
     }
 }
@@ -141,6 +154,15 @@ impl Features {
                     ),
                 ));
             }
+        }
+        if let Some(d) = self.dimensions
+            && d.iter().any(|x| !(x.is_finite() && *x > 0.0 && *x <= MAX_DIMENSION))
+        {
+            return Err(SchemaError::invalid(
+                path,
+                format!("{field}dimensions"),
+                format!("{d:?}: each must be a finite length in metres, > 0 and <= {MAX_DIMENSION}"),
+            ));
         }
         Ok(())
     }
@@ -236,6 +258,12 @@ impl Features {
     pub fn deci_pixels(&self) -> Option<f64> {
         self.size_half_pixels().map(|h| h as f64 / 20.0)
     }
+
+    /// The metric size observation (cm): the geometric mean of [`Features::dimensions`], `None`
+    /// when they were not measured.
+    pub fn size_cm(&self) -> Option<f64> {
+        self.dimensions.map(|[l, w, h]| 100.0 * (l * w * h).cbrt())
+    }
 }
 
 /// One demonstrated Pick-And-Place: the features of the object and the place it was put.
@@ -262,6 +290,7 @@ mod tests {
             histogram: Vec::new(),
             pixels: [1, 1],
             colors,
+            dimensions: None,
         };
         // A red mug with a white rim is red.
         assert_eq!(f(vec![(WHITE, 0.6), (RED, 0.4)]).color_draws(30, 0.3), vec![(3, 30)]);
@@ -284,6 +313,7 @@ mod tests {
             histogram: Vec::new(),
             pixels: [1, 1],
             colors,
+            dimensions: None,
         };
         const PINK: u8 = 9;
         // A pink object with ε = 0.05: 0.9 stays pink, 0.05 goes to red and 0.05 to purple (the

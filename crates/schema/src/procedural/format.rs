@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use super::features::COLORS;
-use super::hyper::{Connectivity, Hyper, PlacePrior, StructureChoice};
+use super::hyper::{Connectivity, Hyper, PlacePrior, SizeUnit, StructureChoice};
 use super::model::{MAX_PLACES, ProceduralModel};
 use super::stats::{PlaceStats, SizeStats};
 use crate::error::SchemaError;
@@ -13,8 +13,10 @@ use crate::percept::COLOR_TERMS;
 
 /// The `format` field of a model file.
 pub const MODEL_FORMAT: &str = "pbd-procedural-model";
-/// The model format version this crate reads and writes.
-pub const MODEL_VERSION: u32 = 4;
+/// The model format version this crate writes: 5 adds sizes in centimetres (`hyper.size.unit` `cm`)
+/// and names the size sums `sum`, `sum_sq` in the unit's integer quanta. Version 4 files (sizes in
+/// deci-pixels, sums `sum_half_pixels`, `sum_sq_half_pixels`) still read.
+pub const MODEL_VERSION: u32 = 5;
 
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -90,15 +92,13 @@ struct FileV4<'a> {
     schema: Option<String>,
 }
 
-const SIZE_UNIT: &str = "deci-pixels";
-
 impl ProceduralModel {
     /// The model as pretty JSON:
     ///
     /// ```json
     /// {
     ///   "format": "pbd-procedural-model",
-    ///   "version": 4,
+    ///   "version": 5,
     ///   "hyper": {
     ///     "place_prior": { "kind": "uniform" },            // or { "kind": "dirichlet", "beta": 1.0 }
     ///     "color": { "terms": ["black", "grey", …, "pink"],  // the colour terms, in index order
@@ -108,16 +108,16 @@ impl ProceduralModel {
     ///                "object_concentrations": [1, 4, 16, 64], // grid of a, θ ~ Dirichlet(a·π)
     ///                "chromatic_share": 0.3,                // the chromatic rule
     ///                "neighbour_share": 0.06 },             // ε to each neighbouring term (optional, 0)
-    ///     "size": { "unit": "deci-pixels", "mu": 25.0, "kappa": 0.05, "alpha": 2.0, "beta": 128.0 },
+    ///     "size": { "unit": "cm", "mu": 8.0, "kappa": 0.05, "alpha": 2.0, "beta": 12.5 }, // or "deci-pixels"
     ///     "structure_prior": { "neither": 0.328, "color": 0.328, "size": 0.328, "color+size": 0.016 },
     ///     "structure": "inferred",                         // or a fixed structure name
-    ///     "relevance_log_threshold": 2.0                   // relevant when ln B10 > this
+    ///     "relevance_log_threshold": 1.0                   // relevant when ln B10 > this
     ///   },
     ///   "schema": "pick_and_place",                        // the demonstrations' schema (optional)
     ///   "places": [                                        // sorted by name
     ///     { "name": "bin_left", "demonstrations": 3,
     ///       "color_objects": [[[3, 21], [9, 9]], …],        // per object its (term, draws), D in all
-    ///       "size": { "n": 3, "sum_half_pixels": 9001, "sum_sq_half_pixels": 27012345 } }
+    ///       "size": { "n": 3, "sum": 2401, "sum_sq": 1951203 } }  // in quanta of the unit
     ///   ]
     /// }
     /// ```
@@ -128,8 +128,10 @@ impl ProceduralModel {
     /// re-learn: their colour observations are histogram bins, not colour terms. The objects of a
     /// place are listed in sorted order.
     ///
-    /// Size statistics are in half-pixels (left + right pixel counts), exact integers; the size
-    /// observation in deci-pixels is x / 20.
+    /// Size statistics are exact integers in quanta of the unit: tenths of a millimetre for `cm`
+    /// (the observation in cm is x / 100), half-pixels (left + right pixel counts) for
+    /// `deci-pixels` (x / 20). Version 4 files (deci-pixels only, the sums named `sum_half_pixels`
+    /// and `sum_sq_half_pixels`) are read as well.
     pub fn to_json(&self) -> String {
         let h = &self.hyper;
         let file = FileV4 {
@@ -147,7 +149,7 @@ impl ProceduralModel {
                     neighbour_share: h.color_neighbour_share,
                 },
                 size: SizeHyper {
-                    unit: SIZE_UNIT.into(),
+                    unit: h.size_unit.name().into(),
                     mu: h.size_prior.mu(),
                     kappa: h.size_prior.kappa(),
                     alpha: h.size_prior.alpha(),
@@ -211,7 +213,8 @@ impl ProceduralModel {
             None => return Err(invalid("format", format!("missing (expected {MODEL_FORMAT:?})"))),
         }
         match obj.get("version") {
-            Some(Value::Number(n)) if n.as_u64() == Some(u64::from(MODEL_VERSION)) => {}
+            Some(Value::Number(n)) if matches!(n.as_u64(), Some(4)) || n.as_u64() == Some(u64::from(MODEL_VERSION)) => {
+            }
             Some(Value::Number(n)) if matches!(n.as_u64(), Some(1..=3)) => {
                 let what = match n.as_u64() {
                     Some(1) => "independent colour draws",
@@ -263,12 +266,26 @@ impl ProceduralModel {
                 ),
             ));
         }
-        if hf.size.unit != SIZE_UNIT {
-            return Err(invalid(
-                "hyper.size.unit",
-                format!("{:?} is not {SIZE_UNIT:?}", hf.size.unit),
-            ));
-        }
+        let version4 = obj.get("version").and_then(Value::as_u64) == Some(4);
+        let size_unit = match SizeUnit::parse(&hf.size.unit) {
+            Some(SizeUnit::Centimetres) if version4 => {
+                return Err(invalid(
+                    "hyper.size.unit",
+                    "\"cm\" in a version 4 file (version 4 sizes are deci-pixels)".into(),
+                ));
+            }
+            Some(u) => u,
+            None => {
+                return Err(invalid(
+                    "hyper.size.unit",
+                    format!(
+                        "{:?} is not one of {}",
+                        hf.size.unit,
+                        SizeUnit::ALL.map(|u| format!("{:?}", u.name())).join(", ")
+                    ),
+                ));
+            }
+        };
         let size_prior = NormalInverseGamma::new(hf.size.mu, hf.size.kappa, hf.size.alpha, hf.size.beta)
             .map_err(|e| invalid("hyper.size", e.to_string()))?;
         let structure = StructureChoice::parse(&hf.structure).ok_or_else(|| {
@@ -290,6 +307,7 @@ impl ProceduralModel {
             color_object_concentrations: hf.color.object_concentrations,
             color_chromatic_share: hf.color.chromatic_share,
             color_neighbour_share: hf.color.neighbour_share,
+            size_unit,
             size_prior,
             structure_prior: [sp.neither, sp.color, sp.size, sp.color_size],
             structure,

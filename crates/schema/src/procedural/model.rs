@@ -8,7 +8,7 @@ use std::path::Path;
 use bayes::univariate::StudentT;
 
 use super::features::{Example, Features, INPUT};
-use super::hyper::{Hyper, StructureChoice};
+use super::hyper::{Hyper, SizeUnit, StructureChoice};
 use super::stats::{PlaceStats, SizeStats};
 use crate::error::SchemaError;
 
@@ -111,12 +111,8 @@ impl ProceduralModel {
                  existed must be re-made with `pbd infer`)",
             ));
         }
-        let Some(x) = e.features.size_half_pixels() else {
-            return Err(SchemaError::invalid(
-                INPUT,
-                format!("{field}features.pixels"),
-                "missing size feature (0 pixels in both cameras)",
-            ));
+        let Some(x) = self.hyper.size_unit.quanta(&e.features) else {
+            return Err(self.missing_size(&format!("{field}features")));
         };
         let mut stats = self.places.get(&e.reference).cloned().unwrap_or_else(PlaceStats::empty);
         stats.add_object(draws)?;
@@ -156,16 +152,29 @@ impl ProceduralModel {
         if draws.is_empty() {
             return Err(SchemaError::invalid(INPUT, "background.colors", "no colour terms"));
         }
-        let Some(x) = features.size_half_pixels() else {
-            return Err(SchemaError::invalid(
-                INPUT,
-                "background.pixels",
-                "0 pixels in both cameras",
-            ));
+        let Some(x) = self.hyper.size_unit.quanta(features) else {
+            return Err(self.missing_size("background"));
         };
         self.background.add_object(draws)?;
         self.background.size.add(x)?;
         Ok(())
+    }
+
+    /// The error for an object without the size feature of this model's unit; `field` names it.
+    fn missing_size(&self, field: &str) -> SchemaError {
+        match self.hyper.size_unit {
+            SizeUnit::DeciPixels => SchemaError::invalid(
+                INPUT,
+                format!("{field}.pixels"),
+                "missing size feature (0 pixels in both cameras)",
+            ),
+            SizeUnit::Centimetres => SchemaError::invalid(
+                INPUT,
+                format!("{field}.dimensions"),
+                "missing size feature: vision did not measure the object's extent (a recording made before \
+                 extents were recorded; learn with sizes in deci-pixels, `--size-unit deci-pixels`)",
+            ),
+        }
     }
 
     /// Background objects observed so far ([`ProceduralModel::observe_background`]).
@@ -220,7 +229,9 @@ impl ProceduralModel {
 
     /// Size predictive (Student-t) of a place's statistics.
     pub(super) fn size_predictive(&self, s: &SizeStats) -> StudentT {
-        self.hyper.size_prior.posterior_predictive(&s.gaussian())
+        self.hyper
+            .size_prior
+            .posterior_predictive(&s.gaussian(self.hyper.size_unit.quanta_per_unit()))
     }
 
     /// The posterior-predictive colour pmf (5.18) of a place over the colour terms ([`COLORS`](super::features::COLORS)).
@@ -229,7 +240,8 @@ impl ProceduralModel {
         Ok(self.hyper.color_unit().predictive(&p.objects))
     }
 
-    /// The posterior-predictive size density (Student-t, deci-pixels) of a place.
+    /// The posterior-predictive size density (Student-t, in the model's [`Hyper::size_unit`]) of a
+    /// place.
     pub fn size_density(&self, place: &str) -> Result<StudentT, SchemaError> {
         let p = self.place_or_err(place)?;
         Ok(self.size_predictive(&p.size))
@@ -273,6 +285,7 @@ mod tests {
                 histogram: Vec::new(),
                 pixels: px,
                 colors: terms.iter().map(|&t| (t, 1.0 / terms.len() as f64)).collect(),
+                dimensions: None,
             },
             reference: place.into(),
         }
@@ -294,7 +307,7 @@ mod tests {
             ex(&[BLUE, WHITE], [2900, 3000], "b"),
             ex(&[BLUE], [2000, 1900], "b"),
         ];
-        let m = ProceduralModel::learn(Hyper::default(), &demos).unwrap();
+        let m = ProceduralModel::learn(Hyper::default().with_size_unit(SizeUnit::DeciPixels), &demos).unwrap();
         let s = m.structure_posterior().unwrap();
         assert_eq!(s.map(), Connectivity::ALL[1], "{s:?}");
         let p = m.predict(&ex(&[RED, WHITE], [2000, 2000], "?").features).unwrap();
@@ -306,7 +319,7 @@ mod tests {
 
     #[test]
     fn bad_examples_are_errors() {
-        let mut m = ProceduralModel::new(Hyper::default()).unwrap();
+        let mut m = ProceduralModel::new(Hyper::default().with_size_unit(SizeUnit::DeciPixels)).unwrap();
         assert!(m.update(&ex(&[10], [10, 10], "a")).is_err());
         assert!(m.update(&ex(&[], [10, 10], "a")).is_err());
         assert!(m.update(&ex(&[1], [0, 0], "a")).is_err());

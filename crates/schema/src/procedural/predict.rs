@@ -76,7 +76,7 @@ impl ProceduralModel {
     ) -> Result<(Vec<f64>, f64, Vec<f64>, f64), SchemaError> {
         let unit = self.hyper.color_unit();
         let draws = self.hyper.draws(f);
-        let size = f.deci_pixels();
+        let size = self.hyper.size_unit.value(f);
         let groups: Vec<&GroupEvidence> = z.iter().collect();
         let color_k = unit.log_scores(&groups, &draws);
         let color_bg = match z_background {
@@ -146,12 +146,12 @@ impl ProceduralModel {
             ));
         }
         let draws = self.hyper.draws(features);
-        let size = features.deci_pixels();
+        let size = self.hyper.size_unit.value(features);
         if draws.is_empty() && size.is_none() {
             return Err(SchemaError::invalid(
                 INPUT,
                 "features",
-                "no colour terms and no pixels: nothing to predict from",
+                "no colour terms and no size: nothing to predict from",
             ));
         }
         let (color_k, color_bg, size_k, size_bg) = self.feature_scores(features, z, z_background.as_ref())?;

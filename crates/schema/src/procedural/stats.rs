@@ -8,17 +8,20 @@ use serde::{Deserialize, Serialize};
 use super::features::{COLORS, INPUT, ObjectDraws};
 use crate::error::SchemaError;
 
-/// Exact sufficient statistics of the size observations, in half-pixels (integers, so any order of
-/// updates gives the same bits).
+/// Exact sufficient statistics of the size observations, in integer quanta of the model's size unit
+/// ([`SizeUnit::quanta_per_unit`](super::hyper::SizeUnit::quanta_per_unit): half-pixels, or tenths
+/// of a millimetre), so any order of updates gives the same bits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SizeStats {
     /// Number of observations.
     pub n: u64,
-    /// Σ x (half-pixels).
-    pub sum_half_pixels: u64,
-    /// Σ x² (half-pixels²).
-    pub sum_sq_half_pixels: u64,
+    /// Σ x (quanta; `sum_half_pixels` in model files of version 4).
+    #[serde(alias = "sum_half_pixels")]
+    pub sum: u64,
+    /// Σ x² (quanta²; `sum_sq_half_pixels` in model files of version 4).
+    #[serde(alias = "sum_sq_half_pixels")]
+    pub sum_sq: u64,
 }
 
 impl SizeStats {
@@ -27,8 +30,8 @@ impl SizeStats {
         let sq = x.checked_mul(x).ok_or_else(overflow)?;
         let new = SizeStats {
             n: self.n.checked_add(1).ok_or_else(overflow)?,
-            sum_half_pixels: self.sum_half_pixels.checked_add(x).ok_or_else(overflow)?,
-            sum_sq_half_pixels: self.sum_sq_half_pixels.checked_add(sq).ok_or_else(overflow)?,
+            sum: self.sum.checked_add(x).ok_or_else(overflow)?,
+            sum_sq: self.sum_sq.checked_add(sq).ok_or_else(overflow)?,
         };
         *self = new;
         Ok(())
@@ -38,40 +41,35 @@ impl SizeStats {
         let overflow = || SchemaError::invalid(INPUT, "size", "size statistics overflow u64");
         Ok(SizeStats {
             n: self.n.checked_add(o.n).ok_or_else(overflow)?,
-            sum_half_pixels: self
-                .sum_half_pixels
-                .checked_add(o.sum_half_pixels)
-                .ok_or_else(overflow)?,
-            sum_sq_half_pixels: self
-                .sum_sq_half_pixels
-                .checked_add(o.sum_sq_half_pixels)
-                .ok_or_else(overflow)?,
+            sum: self.sum.checked_add(o.sum).ok_or_else(overflow)?,
+            sum_sq: self.sum_sq.checked_add(o.sum_sq).ok_or_else(overflow)?,
         })
     }
 
     /// Checks consistency (n = 0 ⇒ sums 0; Cauchy–Schwarz n·Σx² ≥ (Σx)²).
     pub(super) fn check(&self) -> Result<(), String> {
-        if self.n == 0 && (self.sum_half_pixels != 0 || self.sum_sq_half_pixels != 0) {
+        if self.n == 0 && (self.sum != 0 || self.sum_sq != 0) {
             return Err("sums must be 0 when n = 0".into());
         }
-        let lhs = u128::from(self.n) * u128::from(self.sum_sq_half_pixels);
-        let rhs = u128::from(self.sum_half_pixels) * u128::from(self.sum_half_pixels);
+        let lhs = u128::from(self.n) * u128::from(self.sum_sq);
+        let rhs = u128::from(self.sum) * u128::from(self.sum);
         if lhs < rhs {
-            return Err("inconsistent: n * sum_sq_half_pixels < sum_half_pixels^2".into());
+            return Err("inconsistent: n * sum_sq < sum^2".into());
         }
         Ok(())
     }
 
-    /// The statistics (n, x̄, M2) in deci-pixels (x / 20), M2 computed exactly in integers.
-    pub fn gaussian(&self) -> GaussianStats {
+    /// The statistics (n, x̄, M2) in the unit (x / `quanta_per_unit`), M2 computed exactly in
+    /// integers.
+    pub fn gaussian(&self, quanta_per_unit: f64) -> GaussianStats {
         if self.n == 0 {
             return GaussianStats::new();
         }
         let n = u128::from(self.n);
-        let s = u128::from(self.sum_half_pixels);
-        let m2_times_n = n * u128::from(self.sum_sq_half_pixels) - s * s;
-        let mean = self.sum_half_pixels as f64 / (20.0 * self.n as f64);
-        let m2 = m2_times_n as f64 / (self.n as f64 * 400.0);
+        let s = u128::from(self.sum);
+        let m2_times_n = n * u128::from(self.sum_sq) - s * s;
+        let mean = self.sum as f64 / (quanta_per_unit * self.n as f64);
+        let m2 = m2_times_n as f64 / (self.n as f64 * quanta_per_unit * quanta_per_unit);
         GaussianStats::from_parts(self.n, mean, m2).unwrap_or_default()
     }
 }
@@ -137,7 +135,7 @@ mod tests {
         for x in [3000u64, 2990, 1000] {
             s.add(x).unwrap();
         }
-        let g = s.gaussian();
+        let g = s.gaussian(20.0);
         let want = GaussianStats::from_slice(&[150.0, 149.5, 50.0]).unwrap();
         assert!((g.mean() - want.mean()).abs() < 1e-12);
         assert!((g.m2() - want.m2()).abs() < 1e-9);

@@ -63,17 +63,18 @@ impl ProceduralModel {
     fn feature_evidence(&self) -> Result<[[f64; 2]; 2], SchemaError> {
         let unit = self.hyper.color_unit();
         let nig = &self.hyper.size_prior;
+        let q = self.hyper.size_unit.quanta_per_unit();
         let pooled = self.pooled()?;
         let mut size_split = 0.0;
         let mut z_split = Vec::with_capacity(self.places.len());
         for p in self.places.values() {
             z_split.push(unit.log_z_grid(&p.objects.iter().collect::<Vec<_>>()));
-            size_split += nig.log_marginal_likelihood(&p.size.gaussian());
+            size_split += nig.log_marginal_likelihood(&p.size.gaussian(q));
         }
         let z_pooled = unit.log_z_grid(&pooled.objects.iter().collect::<Vec<_>>());
         Ok([
             [unit.log_evidence(&[z_pooled]), unit.log_evidence(&z_split)],
-            [nig.log_marginal_likelihood(&pooled.size.gaussian()), size_split],
+            [nig.log_marginal_likelihood(&pooled.size.gaussian(q)), size_split],
         ])
     }
 

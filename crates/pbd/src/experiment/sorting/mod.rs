@@ -217,7 +217,7 @@ fn plan(args: &SortingOptions) -> anyhow::Result<(Vec<String>, Label, Hyper)> {
     let mut hyper = Hyper {
         structure,
         color_neighbour_share: args.neighbour_share,
-        ..Hyper::default()
+        ..Hyper::default().with_size_unit(args.size_unit)
     };
     if args.uniform_base {
         hyper.color_base = vec![1.0 / schema::procedural::COLORS as f64; schema::procedural::COLORS];
