@@ -277,8 +277,9 @@ const UNTOUCHED_MAX_HEIGHT: f64 = 0.3;
 /// the table, at most 30 cm up, outside every place), and it is not where an acted-on object stood
 /// (6 cm). Tracks of one object (medians within 6 cm: the tracker lost it behind an arm and found it
 /// anew) count once; their seen frames add up, and together they must cover a fifth of the
-/// percepts. Its view is a typical one: of its views within 2 cm of the median position, the one
-/// with the median pixel count (neither cut by an arm in front nor merged with one beside it).
+/// percepts. Its view is a typical one: of its views within 2 cm of the median position (those
+/// whose extent vision measured, if any), the one with the median pixel count (neither cut by an
+/// arm in front nor merged with one beside it).
 pub fn untouched_segments(inference: &Inference, percepts: &[Percept]) -> Vec<UntouchedSegment> {
     let mut touched: std::collections::BTreeSet<u32> = std::collections::BTreeSet::new();
     let mut first_act = f64::INFINITY;
@@ -357,12 +358,23 @@ fn untouched_given(
         {
             continue;
         }
-        let mut typical: Vec<&(f64, &schema::SegmentPercept)> = views
-            .iter()
-            .filter(|v| {
-                dist(v.1.centroid, m) <= 0.02 && v.1.pixels[0] > 0 && v.1.pixels[1] > 0 && !v.1.colors.is_empty()
-            })
-            .collect();
+        let candidates = |measured: bool| -> Vec<&(f64, &schema::SegmentPercept)> {
+            views
+                .iter()
+                .filter(|v| {
+                    dist(v.1.centroid, m) <= 0.02
+                        && v.1.pixels[0] > 0
+                        && v.1.pixels[1] > 0
+                        && !v.1.colors.is_empty()
+                        && (!measured || v.1.extent.as_ref().is_some_and(|e| e.model != "coarse"))
+                })
+                .collect()
+        };
+        // Views whose extent vision measured first (a coarse one is a guess from the silhouette).
+        let mut typical = candidates(true);
+        if typical.is_empty() {
+            typical = candidates(false);
+        }
         if typical.is_empty() {
             continue;
         }

@@ -82,8 +82,8 @@ pub struct Features {
     pub colors: Vec<(u8, f64)>,
     /// The object's measured bounding box (m): its footprint's length and width on the support
     /// plane and its height above it ([`SegmentPercept::extent`]); the size feature in centimetres
-    /// is their geometric mean ([`Features::size_cm`]). Absent when vision did not measure it
-    /// (recordings made before extents were added).
+    /// is their geometric mean ([`Features::size_cm`]). Absent when vision did not measure it (a
+    /// recording made before extents were added).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dimensions: Option<[f64; 3]>,
 }
@@ -94,6 +94,10 @@ impl From<&SegmentPercept> for Features {
             histogram: s.histogram.clone(),
             pixels: s.pixels,
             colors: s.colors.clone(),
+            // A coarse extent (a disc of the silhouette's area at the triangulated range, twice the
+            // centroid's height) is kept: at decision time in new scenes most small objects have
+            // only that, and it tells small from large (development seed 1: without it no object
+            // of a size task was decided on). Where a measured view exists, `pbd infer` prefers it.
             dimensions: s
                 .extent
                 .as_ref()

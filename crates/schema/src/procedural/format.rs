@@ -394,7 +394,7 @@ impl ProceduralModel {
                     "empty (leave `background` out instead)".into(),
                 ));
             }
-            if bf.size.n != bf.color_objects.len() as u64 {
+            if bf.size.n > bf.color_objects.len() as u64 {
                 return Err(invalid(
                     "background.size.n",
                     format!("{} size observations for {} objects", bf.size.n, bf.color_objects.len()),

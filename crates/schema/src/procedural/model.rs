@@ -146,17 +146,21 @@ impl ProceduralModel {
     /// model M₀ of task relevance (§5.1.3: "a procedural feature model for non-sortable objects").
     /// With background objects, p₀(õ) is the posterior predictive of a place holding them — the
     /// two-level colour unit (P5) and the size unit's Student-t — instead of the prior predictive.
+    /// An object whose size was not measured adds to the colour model only.
     pub fn observe_background(&mut self, features: &Features) -> Result<(), SchemaError> {
         features.validate("background.")?;
         let draws = self.hyper.draws(features);
         if draws.is_empty() {
             return Err(SchemaError::invalid(INPUT, "background.colors", "no colour terms"));
         }
-        let Some(x) = self.hyper.size_unit.quanta(features) else {
-            return Err(self.missing_size("background"));
-        };
+        // A size that was not measured leaves M₀'s size model as it is (its colour still counts).
+        let x = self.hyper.size_unit.quanta(features);
+        let mut size = self.background.size;
+        if let Some(x) = x {
+            size.add(x)?;
+        }
         self.background.add_object(draws)?;
-        self.background.size.add(x)?;
+        self.background.size = size;
         Ok(())
     }
 

@@ -89,7 +89,7 @@ impl ProceduralModel {
             .map(|p| size.map_or(0.0, |x| self.size_predictive(&p.size).log_pdf(x)))
             .collect();
         let size_bg = size.map_or(0.0, |x| {
-            if self.background.objects.is_empty() {
+            if self.background.size.n == 0 {
                 self.hyper.size_prior.predictive().log_pdf(x)
             } else {
                 self.size_predictive(&self.background.size).log_pdf(x)
