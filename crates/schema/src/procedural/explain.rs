@@ -132,6 +132,18 @@ fn sureness(p: f64) -> &'static str {
     }
 }
 
+/// The at most `k` most probable colour terms of `pmf` that are above uniform, most probable first
+/// (ties by term).
+fn top_terms(pmf: &[f64], k: usize) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..COLORS).collect();
+    order.sort_by(|&a, &b| pmf[b].total_cmp(&pmf[a]).then(a.cmp(&b)));
+    order
+        .into_iter()
+        .take(k)
+        .filter(|&b| pmf[b] > 1.0 / COLORS as f64)
+        .collect()
+}
+
 fn categorical<R: Rng + ?Sized>(rng: &mut R, w: &[f64]) -> usize {
     use rand::RngExt;
     let total: f64 = w.iter().sum();
@@ -253,13 +265,9 @@ impl ProceduralModel {
         let draws = (CONSISTENCY_TOTAL / self.places.len().max(1)).clamp(CONSISTENCY_MIN_DRAWS, CONSISTENCY_DRAWS);
         for (k, (name, p)) in self.places.iter().enumerate() {
             let pmf = self.color_pmf(name)?;
-            let mut order: Vec<usize> = (0..COLORS).collect();
-            order.sort_by(|&a, &b| pmf[b].total_cmp(&pmf[a]).then(a.cmp(&b)));
-            let top_colors: Vec<ColorMass> = order
-                .iter()
-                .take(5)
-                .filter(|&&b| pmf[b] > 1.0 / COLORS as f64)
-                .map(|&b| ColorMass {
+            let top_colors: Vec<ColorMass> = top_terms(&pmf, 5)
+                .into_iter()
+                .map(|b| ColorMass {
                     term: b as u8,
                     name: color_name(b).to_string(),
                     hsv: term_hsv(b),
@@ -341,13 +349,9 @@ impl ProceduralModel {
         let background = self.background.objects.len();
         if background > 0 {
             let pmf = self.hyper.color_unit().predictive(&self.background.objects);
-            let mut order: Vec<usize> = (0..COLORS).collect();
-            order.sort_by(|&a, &b| pmf[b].total_cmp(&pmf[a]).then(a.cmp(&b)));
-            let colors: Vec<String> = order
-                .iter()
-                .take(4)
-                .filter(|&&b| pmf[b] > 1.0 / COLORS as f64)
-                .map(|&b| format!("{} ({:.2})", color_name(b), pmf[b]))
+            let colors: Vec<String> = top_terms(&pmf, 4)
+                .into_iter()
+                .map(|b| format!("{} ({:.2})", color_name(b), pmf[b]))
                 .collect();
             text.push_str(&format!(
                 "  Left alone by the teacher ({background} object{}, what task relevance is weighed against): colours mostly {}.\n",
