@@ -251,7 +251,7 @@ fn learn_impl(args: &LearnOptions, progress: &dyn Progress) -> Result<LearnRepor
     for d in &args.demos {
         let file = read_demonstration(d, &library, progress)?;
         if args.distractors {
-            if file.version < 2 {
+            if file.version < 2 && file.untouched.is_empty() {
                 progress.warn(&format!(
                     "{}: an inference file of version {} holds no untouched objects (re-run `pbd infer` for them)",
                     d.display(),
