@@ -51,8 +51,10 @@ pub struct RecordArgs {
     /// Log the head cameras' images too, at the percept rate, with their calibration.
     #[arg(long)]
     images: bool,
-    /// How images are stored: jpeg (quality 85), jpeg:QUALITY (1-100), png (lossless) or raw (rgb8).
-    #[arg(long, value_name = "FORMAT", default_value = "jpeg")]
+    /// How images are stored: h264 (a video stream per camera, quantiser 26; Foxglove's
+    /// CompressedVideo), h264:QP (0-51, lower is better), jpeg (each frame on its own, quality 85),
+    /// jpeg:QUALITY (1-100), png (lossless) or raw (rgb8).
+    #[arg(long, value_name = "FORMAT", default_value = "h264")]
     image_format: pbd::mcap_log::ImageFormat,
     /// Message encoding: foxglove (Foxglove's Protobuf and pbd's JSON) or ros2 (CDR with ROS 2
     /// message definitions, profile ros2: what `ros2 bag`, rosbags and Foxglove read).

@@ -56,6 +56,7 @@ mod read;
 mod repair;
 mod scan;
 mod topics;
+mod video;
 mod writer;
 
 pub use grasps::PreGraspMarker;

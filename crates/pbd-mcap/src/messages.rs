@@ -291,6 +291,25 @@ pub(super) fn round6(x: f64) -> f64 {
     (x * 1e6).round() / 1e6
 }
 
+/// `x` as pbd's JSON messages carry it: to 6 decimals (1 µm, 1 µrad, 1 µN, 1 µs), and below 1 to 6
+/// significant digits (a probability of 1e-9 stays one); non-finite values unchanged (JSON writes
+/// them as `null`). A value already rounded to 6 decimals is unchanged, so joint states keep
+/// their precision.
+pub(crate) fn round_json(x: f64) -> f64 {
+    if !x.is_finite() || x == 0.0 {
+        return x;
+    }
+    // Digits after the decimal point: 6, or more for a small number's 6 significant ones.
+    let k = 6.max(5 - x.abs().log10().floor() as i32);
+    if k > 22 {
+        // Below 1e-17: a power of ten that large is not exact; such a number is noise anyway.
+        return x;
+    }
+    let p = 10f64.powi(k);
+    let r = (x * p).round() / p;
+    if r.is_finite() { r } else { x }
+}
+
 /// `x` rounded to a multiple of 2⁻²⁰ (≈ 0.95 µm or µrad; non-finite values unchanged), for binary
 /// doubles: the low mantissa bits are then zero, and zstd packs them (rounding to decimals would
 /// leave them random: a Protobuf `/tf` compressed 10 % worse than the JSON it replaced).
@@ -649,5 +668,33 @@ impl Color {
             b: self.b,
             a: self.a,
         }
+    }
+}
+
+#[cfg(test)]
+mod round_tests {
+    use super::round_json;
+
+    #[test]
+    fn json_numbers_keep_six_decimals_and_six_significant_digits_below_one() {
+        let cases = [
+            (20.00500000000171, "20.005"),
+            (11.73167071365145, "11.731671"),
+            (0.6963544431786289, "0.696354"),
+            (-0.023820822965936767, "-0.0238208"),
+            (2.862618, "2.862618"),
+            (-4e-6, "-4e-6"),
+            (1.234567891e-9, "1.23457e-9"),
+            (123456.7890123, "123456.789012"),
+            (0.0, "0.0"),
+        ];
+        for (x, text) in cases {
+            assert_eq!(serde_json::to_string(&round_json(x)).unwrap(), text, "{x}");
+            assert_eq!(round_json(round_json(x)), round_json(x), "idempotent at {x}");
+        }
+        assert!(round_json(f64::NAN).is_nan());
+        assert_eq!(round_json(f64::INFINITY), f64::INFINITY);
+        assert_eq!(round_json(1e-300), 1e-300);
+        assert_eq!(round_json(1e300), 1e300);
     }
 }

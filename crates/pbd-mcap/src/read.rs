@@ -26,6 +26,7 @@ pub fn message_json(schema_name: &str, message_encoding: &str, data: &[u8]) -> R
             "foxglove.SceneUpdate" => decode::<fm::SceneUpdate>(data),
             "foxglove.Log" => decode::<fm::Log>(data),
             "foxglove.CompressedImage" => decode::<fm::CompressedImage>(data),
+            "foxglove.CompressedVideo" => decode::<fm::CompressedVideo>(data),
             "foxglove.RawImage" => decode::<fm::RawImage>(data),
             "foxglove.CameraCalibration" => decode::<fm::CameraCalibration>(data),
             other => anyhow::bail!("Protobuf schema `{other}` is not one pbd writes"),

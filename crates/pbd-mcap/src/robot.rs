@@ -106,11 +106,17 @@ pub(super) fn force_arrow(origin: &Vec3, force: [f64; 3], in_contact: bool) -> O
         .unwrap_or_else(|| Rot3::from_axis_angle(&Vec3::z_axis(), std::f64::consts::PI));
     let length = (n * ARROW_M_PER_N).min(ARROW_MAX_LENGTH);
     let head = (0.3 * length).min(0.02);
+    // On the 2⁻²⁰ grid of `/tf` (a micrometre): Protobuf doubles whose low bits zstd packs.
+    let mut pose = Pose::of(&Iso3::from_parts((*origin).into(), rotation));
+    let r = super::messages::round_bits;
+    let (p, q) = (&mut pose.position, &mut pose.orientation);
+    (p.x, p.y, p.z) = (r(p.x), r(p.y), r(p.z));
+    (q.x, q.y, q.z, q.w) = (r(q.x), r(q.y), r(q.z), r(q.w));
     Some(ArrowPrimitive {
-        pose: Pose::of(&Iso3::from_parts((*origin).into(), rotation)),
-        shaft_length: length - head,
+        pose,
+        shaft_length: r(length - head),
         shaft_diameter: 0.004,
-        head_length: head,
+        head_length: r(head),
         head_diameter: 0.01,
         // Orange while the sensor registers a contact, grey for a residual reading.
         color: if in_contact {
@@ -182,12 +188,22 @@ mod tests {
         let q = &a.pose.orientation;
         let rot = Rot3::from_quaternion(nalgebra::Quaternion::new(q.w, q.x, q.y, q.z));
         let x = rot * Vec3::x();
-        assert!((x - Vec3::new(0.0, 0.0, -1.0)).norm() < 1e-12, "{x}");
-        assert!((a.shaft_length + a.head_length - 5.0 * ARROW_M_PER_N).abs() < 1e-12);
-        assert_eq!(a.pose.position, Vector3 { x: 0.1, y: 0.2, z: 0.3 });
+        // Poses and lengths are on the 2⁻²⁰ grid (≈ 1 µm) of `/tf`.
+        const GRID: f64 = 1.0 / (1u64 << 20) as f64;
+        assert!((x - Vec3::new(0.0, 0.0, -1.0)).norm() < GRID, "{x}");
+        assert!((a.shaft_length + a.head_length - 5.0 * ARROW_M_PER_N).abs() <= GRID);
+        let p = &a.pose.position;
+        assert!((Vec3::new(p.x, p.y, p.z) - Vec3::new(0.1, 0.2, 0.3)).norm() <= GRID);
+        for v in [p.x, p.y, p.z, a.shaft_length, a.head_length] {
+            assert_eq!(
+                v * (1u64 << 20) as f64,
+                (v * (1u64 << 20) as f64).round(),
+                "{v} on the grid"
+            );
+        }
         // Antiparallel to x, capped, and none below the threshold or for NaN.
         let b = force_arrow(&Vec3::zeros(), [-1e3, 0.0, 0.0], false).unwrap();
-        assert!((b.shaft_length + b.head_length - ARROW_MAX_LENGTH).abs() < 1e-12);
+        assert!((b.shaft_length + b.head_length - ARROW_MAX_LENGTH).abs() <= GRID);
         assert!(force_arrow(&Vec3::zeros(), [0.01, 0.0, 0.0], true).is_none());
         assert!(force_arrow(&Vec3::zeros(), [f64::NAN, 0.0, 0.0], true).is_none());
     }

@@ -527,6 +527,7 @@ pub(crate) fn message_json(type_name: &str, data: &[u8]) -> Result<serde_json::V
         "geometry_msgs/msg/WrenchStamped" => decode::<msg::WrenchStamped>(data),
         "sensor_msgs/msg/Image" => decode::<msg::Image>(data),
         "sensor_msgs/msg/CompressedImage" => decode::<msg::CompressedImage>(data),
+        "foxglove_msgs/msg/CompressedVideo" => decode::<msg::CompressedVideo>(data),
         "sensor_msgs/msg/CameraInfo" => decode::<msg::CameraInfo>(data),
         "std_msgs/msg/String" => decode::<msg::StringMsg>(data),
         other => bail!("ROS 2 type `{other}` is not one pbd writes"),

@@ -77,6 +77,11 @@ pub const STANDARD: &[(&str, &str)] = &[
         "std_msgs/Header header\nstring format\nuint8[] data\n",
     ),
     (
+        // foxglove_msgs (ROS 2 package of Foxglove's schemas): one frame of a video stream.
+        "foxglove_msgs/msg/CompressedVideo",
+        "builtin_interfaces/Time timestamp\nstring frame_id\nuint8[] data\nstring format\n",
+    ),
+    (
         "sensor_msgs/msg/RegionOfInterest",
         "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify\n",
     ),

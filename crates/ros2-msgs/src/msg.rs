@@ -437,6 +437,21 @@ pub struct CompressedImage {
     pub data: Vec<u8>,
 }
 
+/// `foxglove_msgs/CompressedVideo`: one frame of a video stream (`format` `h264`: Annex B, the
+/// NAL units of exactly one frame, a keyframe with its SPS and PPS).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct CompressedVideo {
+    /// Stamp of the frame.
+    pub timestamp: Time,
+    /// The camera's optical frame.
+    pub frame_id: String,
+    /// The encoded frame.
+    #[serde(with = "serde_bytes")]
+    pub data: Vec<u8>,
+    /// `h264`, `h265`, `vp9` or `av1`.
+    pub format: String,
+}
+
 /// `geometry_msgs/PoseStamped`.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct PoseStamped {

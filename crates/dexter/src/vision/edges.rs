@@ -205,12 +205,10 @@ pub fn standing_edges(views: [EdgeView<'_>; 2], table_z: f64, scratch: &mut Edge
     } else {
         None
     };
-    if std::env::var_os("TMP_EDGES").is_some() {
-        eprintln!(
-            "EDGES edges {edges:?} top {top:.3} face {top_face:.3} seen {top_seen} outline {outline:?} pts {:?}",
-            scratch.points
-        );
-    }
+    tracing::trace!(
+        "standing prism: edges {edges:?} top {top:.3} face {top_face:.3} seen {top_seen} outline {outline:?}, {} points",
+        scratch.points.len()
+    );
     Some(EdgeFootprint {
         edges,
         top,
