@@ -101,7 +101,7 @@ fn demo_impl(args: &DemoOptions, progress: &dyn Progress) -> Result<DemoReport> 
             assign: Some("red_block=bin-right,blue_mug=bin-left".into()),
             seed: Some(args.seed),
             output: demo.clone(),
-            // The head cameras at the percept rate, as JPEG with their calibration.
+            // The head cameras at the percept rate, as H.264 video with their calibration.
             images: true,
             live: live.clone(),
             ..RecordOptions::default()
