@@ -157,9 +157,6 @@ pub(super) const SEARCH_GATE: f64 = 0.5;
 /// Before a grasp closes: the target seen farther than this (m, horizontally) from where the grasp
 /// was planned has moved (a bump moves it 4–8 cm; a resting object's track wanders < 1 cm).
 pub(super) const MOVED_GATE: f64 = 0.03;
-/// A one-camera blob of the target counts as the target moved when it lies this much (m) beyond
-/// half the target's footprint from where it was seen ([`RobotPlant::object_moved`]).
-pub(super) const LONE_MOVED_MARGIN: f64 = 0.03;
 
 /// The set predicates (4.17) over the monitors bound to `arms` (all when `None`); the monitor set
 /// of `reach` = (action index, arm) only over that arm's monitors — the arm ψ bound to the latest
@@ -725,35 +722,8 @@ impl<'a> RobotPlant<'a> {
                         "the object is not seen under the hand and a new segment is {:.1} cm away",
                         100.0 * d
                     )
-                })
-                .or_else(|| self.moved_in_one_camera(track, *id)),
+                }),
         }
-    }
-
-    /// The target's track unseen under the hand and no new segment: one camera alone may still see
-    /// it where it was knocked to (the hand above it hides it from the other, so no stereo pair is
-    /// made). A one-camera blob that looks like it ([`Watcher::lone_view_near`]), no other track's,
-    /// put at the track's height farther from where it was seen than half its footprint and
-    /// [`LONE_MOVED_MARGIN`] — what a sliver the hand leaves visible cannot be — and within
-    /// [`REACQUIRE_GATE`]: it moved. A grasp closing on where it was would sweep it away (knocked
-    /// objects had been swept off the table by the grasp that followed).
-    fn moved_in_one_camera(&self, track: Option<&schema::SegmentPercept>, id: Option<u32>) -> Option<String> {
-        let track = track?;
-        let at = Vec3::from(track.centroid);
-        let half = track.extent.as_ref().map_or(0.05, |e| e.half_major);
-        let colors = if self.target_colors.is_empty() {
-            &track.colors
-        } else {
-            &self.target_colors
-        };
-        let p = self.watcher.lone_view_near(&at, REACQUIRE_GATE, colors, id)?;
-        let d = (p - at).xy().norm();
-        (d > half + LONE_MOVED_MARGIN).then(|| {
-            format!(
-                "the object is not seen under the hand and one camera sees a blob like it {:.1} cm away",
-                100.0 * d
-            )
-        })
     }
 
     /// Whether a segment's centroid is above the table top (within 2 cm): an object on the table or

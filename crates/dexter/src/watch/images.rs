@@ -30,7 +30,6 @@ pub(super) struct MonoView {
     pub(super) camera: usize,
     pub(super) centroid: [f64; 2],
     pub(super) term: Option<u8>,
-    pub(super) pixels: usize,
 }
 
 /// How far (px, at the head cameras' 160 × 120) a one-camera blob may lie from a track's projection

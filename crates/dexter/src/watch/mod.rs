@@ -37,15 +37,7 @@ pub struct Watcher {
     flex: [[usize; 3]; 2],
     /// Where the head looked last.
     pub gaze_point: Option<Vec3>,
-    /// The last percept's blobs only one camera saw, and the head cameras then.
-    lone: (Vec<MonoView>, Option<[crate::vision::Camera; 2]>),
 }
-
-/// A one-camera blob smaller than this (px) is noise or a sliver, not evidence of an object.
-const LONE_MIN_PIXELS: usize = 10;
-/// A one-camera blob's colour term counts as the object's when the object's terms give it at least
-/// this share.
-const LONE_TERM_SHARE: f64 = 0.25;
 
 impl Watcher {
     /// A watcher on `hw`, told its `places` and the table height `table_z`, seeing with the
@@ -71,42 +63,7 @@ impl Watcher {
                 [dof(Arm::Right, 1)?, dof(Arm::Right, 2)?, dof(Arm::Right, 3)?],
             ],
             gaze_point: None,
-            lone: (Vec::new(), None),
         })
-    }
-
-    /// Where the last percept's blobs that only one camera saw put an object that looks like
-    /// `colors` (a blob's main colour term among the object's, [`LONE_TERM_SHARE`]; at least
-    /// [`LONE_MIN_PIXELS`]): each blob's ray met with the horizontal plane at `near`'s height,
-    /// within `radius` of `near`; a blob within [`MONO_GATE_PX`] of where another track than
-    /// `except` projects is that track. The nearest such point to `near`. For an object the robot's
-    /// own hand hides from one camera while the other still sees it (a hand above a knocked
-    /// object: no stereo pair, and its track unseen).
-    pub fn lone_view_near(&self, near: &Vec3, radius: f64, colors: &[(u8, f64)], except: Option<u32>) -> Option<Vec3> {
-        let (views, Some(cams)) = (&self.lone.0, &self.lone.1) else {
-            return None;
-        };
-        views
-            .iter()
-            .filter(|m| m.pixels >= LONE_MIN_PIXELS)
-            .filter(|m| {
-                m.term
-                    .is_some_and(|t| colors.iter().any(|&(c, w)| c == t && w >= LONE_TERM_SHARE))
-            })
-            .filter(|m| {
-                !self.tracker.tracks.iter().any(|tr| {
-                    Some(tr.id) != except
-                        && project(&cams[m.camera], &Vec3::from(tr.centroid))
-                            .is_some_and(|(u, v)| (u - m.centroid[0]).hypot(v - m.centroid[1]) < MONO_GATE_PX)
-                })
-            })
-            .filter_map(|m| {
-                let (o, d) = cams[m.camera].ray(m.centroid[0], m.centroid[1]);
-                let s = (near.z - o.z) / d.z;
-                (s.is_finite() && s > 0.0).then(|| o + d * s)
-            })
-            .filter(|p| (p - near).xy().norm() < radius)
-            .min_by(|a, b| (a - near).xy().norm().total_cmp(&(b - near).xy().norm()))
     }
 
     /// The eyes (for logging images).
@@ -277,7 +234,6 @@ impl Watcher {
                             camera,
                             centroid: s.features.centroid,
                             term: dominant_term(&crate::vision::color::kept_color_terms(&s.features.color_terms)),
-                            pixels: s.features.pixel_count,
                         });
                     }
                     continue;
@@ -292,7 +248,6 @@ impl Watcher {
                         camera,
                         centroid: s.features.centroid,
                         term: dominant_term(&crate::vision::color::kept_color_terms(&s.features.color_terms)),
-                        pixels: s.features.pixel_count,
                     });
                 }
                 continue;
@@ -357,7 +312,6 @@ impl Watcher {
             t,
             &occluders,
         );
-        self.lone = (mono, Some([cams.left.clone(), cams.right.clone()]));
         let gaze = gaze_candidates
             .iter()
             .filter(|(o, _)| *o < 0.12)
