@@ -132,6 +132,10 @@ pub struct ExecuteExperimentArgs {
     /// Output directory (objects.csv, summary.md, outcomes.svg).
     #[arg(short, long)]
     output: PathBuf,
+    /// Run only scene K (0-based, the same scene as in the full run): to trace one scene with
+    /// `-vv` or `RUST_LOG`.
+    #[arg(long, value_name = "K")]
+    only: Option<usize>,
     /// Print the summary as JSON.
     #[arg(long)]
     json: bool,
@@ -178,6 +182,10 @@ pub struct FaultsArgs {
     /// Output directory (faults.csv, summary.md, recovered.svg).
     #[arg(short, long, visible_alias = "out", default_value = "experiment-faults")]
     output: PathBuf,
+    /// Run only scene K of each kind (0-based, the same scene as in the full run): to trace one
+    /// scene with `-vv` or `RUST_LOG`.
+    #[arg(long, value_name = "K")]
+    only: Option<usize>,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
@@ -236,6 +244,7 @@ fn faults(a: FaultsArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         scenes: a.scenes,
         seed: a.seed,
         output: a.output,
+        only: a.only,
     };
     let report = pbd::experiment::faults::run(&options, &Bars::new(a.json, true)?)?;
     for (path, figure) in &report.figures {
@@ -295,6 +304,7 @@ fn execute(a: ExecuteExperimentArgs, out: &mut dyn Write) -> anyhow::Result<()> 
         task: a.task,
         seed: a.seed,
         output: a.output,
+        only: a.only,
     };
     let run = pbd::experiment::execute::run(&options, &Bars::new(a.json, true)?)?;
     let s = &run.summary;

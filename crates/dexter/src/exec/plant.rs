@@ -678,6 +678,16 @@ impl<'a> RobotPlant<'a> {
         })
     }
 
+    /// Moves `arm` to its park pose (the hand as it is), for up to 3 s.
+    pub(super) fn park(&mut self, arm: Arm) -> Result<(), RobotError> {
+        let k = arm.index();
+        let park = park_pose(arm, self.workspace.table_z);
+        self.with_observer(|hw, reach, _, obs| {
+            reach[k].set_goal(hw, park);
+            run_until(hw, &mut reach[k], obs, 3.0, |h, r| r.at_goal(h, 0.02, 0.1));
+        })
+    }
+
     /// The object was lost from the hand on the way: forget the hold, open, back off and park
     /// ([`RobotPlant::back_off`]), so that the monitors see the hand empty.
     pub(super) fn let_go(&mut self, arm: Arm) -> Result<(), RobotError> {

@@ -42,6 +42,8 @@ pub struct ExecuteExperimentOptions {
     pub seed: u64,
     /// Output directory (objects.csv, summary.md).
     pub output: PathBuf,
+    /// Run only scene K (0-based; the same scene as in the full run), to trace it.
+    pub only: Option<usize>,
 }
 
 impl Default for ExecuteExperimentOptions {
@@ -54,6 +56,7 @@ impl Default for ExecuteExperimentOptions {
             task: vec!["red=bin-right".into(), "blue=bin-left".into()],
             seed: 1,
             output: PathBuf::from("experiment-execute"),
+            only: None,
         }
     }
 }
@@ -113,6 +116,13 @@ pub fn run(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> crate::R
 fn run_impl(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> anyhow::Result<ExecuteExperimentRun> {
     crate::limits::check_count("scenes", args.scenes, crate::limits::MAX_SCENES)?;
     crate::limits::check_count("objects", args.objects, crate::limits::MAX_OBJECTS)?;
+    if let Some(k) = args.only.filter(|&k| k >= args.scenes) {
+        anyhow::bail!(
+            "--only {k}: there are {} scenes (0-based, so at most {})",
+            args.scenes,
+            args.scenes.saturating_sub(1)
+        );
+    }
     let base = Scene::open(&args.scene)?;
     let task = parse_task(&args.task)?;
     for p in task.values() {
@@ -136,8 +146,11 @@ fn run_impl(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> anyhow:
     };
     let library = Library::builtin();
     let wall = std::time::Instant::now();
-    progress.phase("execute", Some(args.scenes as u64));
-    let indices: Vec<usize> = (0..args.scenes).collect();
+    let indices: Vec<usize> = match args.only {
+        Some(k) => vec![k],
+        None => (0..args.scenes).collect(),
+    };
+    progress.phase("execute", Some(indices.len() as u64));
     // On Ctrl-C, scenes not yet started are skipped; the finished ones are written, marked partial.
     // A scene under way when the signal comes stops within a control period (and is not counted).
     struct Stop<'a>(&'a dyn Progress);
@@ -159,7 +172,7 @@ fn run_impl(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> anyhow:
         .iter()
         .enumerate()
         .filter(|(_, r)| r.is_some())
-        .map(|(i, _)| i)
+        .map(|(i, _)| indices[i])
         .collect();
     let completed: Vec<_> = runs.into_iter().flatten().collect();
     let (mut rows, summary) = summarize(&config, &completed);
@@ -169,12 +182,12 @@ fn run_impl(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> anyhow:
     let wall_time = wall.elapsed().as_secs_f64();
     write_csv(&args.output.join("objects.csv"), &rows)?;
     let mut md = markdown(args, &summary, wall_time);
-    let partial = completed.len() < args.scenes;
+    let partial = completed.len() < indices.len();
     if partial {
         md = format!(
             "**PARTIAL: interrupted after {} of {} scenes** (scenes {:?}); the figures below are over those.\n\n{md}",
             completed.len(),
-            args.scenes,
+            indices.len(),
             done
         );
     }
@@ -183,7 +196,7 @@ fn run_impl(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> anyhow:
         anyhow::bail!(
             "interrupted after {} of {} scenes; the partial results are in {} (marked PARTIAL)",
             completed.len(),
-            args.scenes,
+            indices.len(),
             args.output.display()
         );
     }

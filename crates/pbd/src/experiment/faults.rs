@@ -42,6 +42,8 @@ pub struct FaultsOptions {
     pub seed: u64,
     /// Output directory (faults.csv, summary.md, recovered.svg).
     pub output: PathBuf,
+    /// Run only scene K of each kind (0-based; the same scene as in the full run), to trace it.
+    pub only: Option<usize>,
 }
 
 impl Default for FaultsOptions {
@@ -52,6 +54,7 @@ impl Default for FaultsOptions {
             scenes: 30,
             seed: 1,
             output: PathBuf::from("experiment-faults"),
+            only: None,
         }
     }
 }
@@ -232,6 +235,13 @@ fn run_impl(args: &FaultsOptions, progress: &dyn Progress) -> anyhow::Result<Fau
     let mut kinds = args.kinds.clone();
     kinds.sort();
     kinds.dedup();
+    if let Some(k) = args.only.filter(|&k| k >= args.scenes) {
+        anyhow::bail!(
+            "--only {k}: there are {} scenes per kind (0-based, so at most {})",
+            args.scenes,
+            args.scenes.saturating_sub(1)
+        );
+    }
     let base = Scene::open(&args.scene)?;
     crate::files::IoPlan::new()
         .read("--scene", &base.path)
@@ -244,6 +254,7 @@ fn run_impl(args: &FaultsOptions, progress: &dyn Progress) -> anyhow::Result<Fau
     let items: Vec<(FaultKind, usize)> = kinds
         .iter()
         .flat_map(|&k| (0..args.scenes).map(move |i| (k, i)))
+        .filter(|&(_, i)| args.only.is_none_or(|k| k == i))
         .collect();
     let wall = std::time::Instant::now();
     progress.phase("faults", Some(items.len() as u64));
