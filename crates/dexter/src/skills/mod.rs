@@ -395,6 +395,12 @@ pub fn approach_grasp(
             (palm.xy() - goal.xy()).norm() < RESTING_XY && palm.z > goal.z && palm.z - goal.z < RESTING_Z + plan.guard;
         if !resting {
             let (d, _) = reach.goal_error(hw);
+            tracing::debug!(
+                "descent stopped short: palm {:?} goal {:?} q {:?}",
+                palm.as_slice(),
+                goal.as_slice(),
+                reach.chain_configuration(hw).as_slice()
+            );
             return Err(Failure::short_of(
                 FailureCause::StoppedShort,
                 d,
