@@ -285,7 +285,8 @@ impl<'a> RobotPlant<'a> {
         let watcher = Watcher::new(hw, workspace.place_percepts(), workspace.table_z, calibration)?;
         // Ways round tall things may leave the table top (`ReachControl::way_region` stays `None`):
         // keeping them over it placed one more object on development seeds 2–3 (109/117 against
-        // 108/118) but recovered 8 of 26 blocked arms on seed 2 against 10.
+        // 108/118) but recovered 8 of 26 blocked arms on seed 2 against 10; tried again once a
+        // stopped arm parks (session 51): 18 of 52 blocked arms on seeds 2–3 against 34.
         let reach = [ReachControl::new(hw, Arm::Left)?, ReachControl::new(hw, Arm::Right)?];
         let hand = [HandControl::new(hw, Arm::Left)?, HandControl::new(hw, Arm::Right)?];
         let t0 = hw.time_secs();
