@@ -196,10 +196,11 @@ impl SchemaPlant for RobotPlant<'_> {
                             self.back_off(arm)?;
                         } else if why.effector_blocked() {
                             self.unreached.push((arm, [target.x, target.y]));
-                            // An arm stopped on its way (not one that found no pose and stayed):
-                            // back it out of the way to its park pose, the way it came: left against what stopped it, it hides that thing's edges
-                            // from the cameras (a post then seen as a coarse blob 8 cm nearer the
-                            // head), and the next plan goes round the wrong place.
+                            // An arm stopped on its way (not one that found no pose and stayed)
+                            // backs to its park pose, the way it came: left against what stopped
+                            // it, it hides that thing's edges from the cameras (a post then seen
+                            // as a coarse blob 8 cm nearer the head), and the next plan goes round
+                            // the wrong place.
                             if why.cause == FailureCause::ApproachNotReached {
                                 self.park(arm)?;
                             }
