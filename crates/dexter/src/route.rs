@@ -24,6 +24,41 @@ pub struct Obstacle {
 }
 
 impl Obstacle {
+    /// The least rectangle along the longer one's major axis that holds both footprints, with the
+    /// higher top.
+    pub fn union(&self, other: &Obstacle) -> Obstacle {
+        let (a, b) = if self.half[0] >= other.half[0] {
+            (self, other)
+        } else {
+            (other, self)
+        };
+        let u = a.major_axis;
+        let v = [-u[1], u[0]];
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for o in [a, b] {
+            let ou = o.major_axis;
+            let ov = [-ou[1], ou[0]];
+            for (su, sv) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
+                let c = [
+                    o.center[0] + su * o.half[0] * ou[0] + sv * o.half[1] * ov[0],
+                    o.center[1] + su * o.half[0] * ou[1] + sv * o.half[1] * ov[1],
+                ];
+                for (k, d) in [u, v].iter().enumerate() {
+                    let t = c[0] * d[0] + c[1] * d[1];
+                    lo[k] = lo[k].min(t);
+                    hi[k] = hi[k].max(t);
+                }
+            }
+        }
+        let (mu, mv) = (0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]));
+        Obstacle {
+            center: [mu * u[0] + mv * v[0], mu * u[1] + mv * v[1]],
+            major_axis: u,
+            half: [0.5 * (hi[0] - lo[0]), 0.5 * (hi[1] - lo[1])],
+            top: a.top.max(b.top),
+        }
+    }
+
     /// `p` in the obstacle's frame (along the major axis, across it).
     fn local(&self, p: [f64; 2]) -> [f64; 2] {
         let (dx, dy) = (p[0] - self.center[0], p[1] - self.center[1]);
@@ -219,6 +254,47 @@ mod tests {
             at = *p;
         }
         l
+    }
+
+    #[test]
+    fn the_union_of_two_views_of_a_post_holds_both() {
+        // Two cut views of the post: its near and its far half, each measured 11 cm long.
+        let near = Obstacle {
+            center: [0.55, -0.155],
+            half: [0.055, 0.03],
+            top: 1.2,
+            ..post()
+        };
+        let far = Obstacle {
+            center: [0.55, -0.045],
+            half: [0.055, 0.03],
+            top: 1.25,
+            ..post()
+        };
+        let u = near.union(&far);
+        assert!(
+            (u.center[0] - 0.55).abs() < 1e-12 && (u.center[1] + 0.1).abs() < 1e-12,
+            "{u:?}"
+        );
+        assert!(
+            (u.half[0] - 0.11).abs() < 1e-12 && (u.half[1] - 0.03).abs() < 1e-12,
+            "{u:?}"
+        );
+        assert_eq!(u.top, 1.25);
+        // A turned view: the box along the longer one's axis holds its corners too.
+        let turned = Obstacle {
+            center: [0.6, -0.1],
+            major_axis: [1.0, 0.0],
+            half: [0.05, 0.02],
+            top: 1.0,
+        };
+        let w = post().union(&turned);
+        assert_eq!(w.major_axis, [0.0, 1.0]);
+        assert!(
+            (w.center[0] - 0.585).abs() < 1e-12 && (w.half[1] - 0.065).abs() < 1e-12,
+            "{w:?}"
+        );
+        assert!((w.half[0] - 0.11).abs() < 1e-12, "{w:?}");
     }
 
     #[test]

@@ -308,7 +308,15 @@ impl SchemaPlant for RobotPlant<'_> {
                         // arm that failed may be the one to take the object).
                         let palm = self.reach[k].tool_pose(self.hw).translation.vector;
                         let seen = self.scan_handoff_region(&palm)?;
-                        self.plan_handoff_among(&palm, &seen)?;
+                        // Where the object is (the handoff planner's lines of sight go to its top,
+                        // twice its centre's height: the palm's height at the grasp, at most).
+                        let table_z = self.workspace.table_z;
+                        let object = Vec3::new(
+                            palm.x + held.offset_xy[0],
+                            palm.y + held.offset_xy[1],
+                            table_z + 0.5 * held.below,
+                        );
+                        self.plan_handoff_among(&object, &seen)?;
                     }
                     (self.handoff, 0.0)
                 } else {

@@ -50,7 +50,9 @@ impl RobotPlant<'_> {
     /// destination, [`RobotPlant::set_destination`]), then the table's centre line at a
     /// comfortable reach (x = 0.55 m); when no spot is clear, one whose ways are clear, farthest
     /// from the failed reaches; failing that, the one with the clearest ways. Candidates lie on a
-    /// 5 cm grid; the first both arms reach is taken. Keeps the previous spot and returns `None` if
+    /// 5 cm grid; the first both arms reach is taken — when tall things are seen, the first where
+    /// the head sees the object and both arms' whole ways keep clear of them, then one hidden from
+    /// the head, then the first seen (else hidden). Keeps the previous spot and returns `None` if
     /// none is free.
     pub fn plan_handoff(&mut self, object_at: &Vec3) -> Result<Option<[f64; 2]>, RobotError> {
         self.plan_handoff_among(object_at, &[])
@@ -193,73 +195,109 @@ impl RobotPlant<'_> {
         // Whether a seen thing stands between a head camera and the top of the object put down on
         // spot `c` (a tall box in front of it): the object there would be hidden from the head
         // whole, and the receiving hand would not find it. (The cameras move a few cm as the head
-        // turns to the spot; the thing's footprint is its seen radius; the object's top is twice
-        // its centroid's height.)
+        // turns to the spot: the thing's footprint, the rectangle along its long axis, is grown by
+        // [`SIGHT_MARGIN`]; the object's top is twice its centroid's height.)
         let mut eyes = [Vec3::zeros(); 2];
         for (eye, link) in eyes.iter_mut().zip(HEAD_CAMERA_FRAMES) {
             *eye = body.pose(self.hw, link)?.translation.vector;
         }
         let top_z = table_z + (2.0 * (object_at.z - table_z)).max(0.01);
+        tracing::trace!("eyes {eyes:?}, object top {top_z:.3}");
         let hidden = |c: [f64; 2]| {
             let p = Vec3::new(c[0], c[1], top_z);
             eyes.iter().any(|e| {
                 sized.iter().any(|t| {
                     (1..SIGHT_SAMPLES).any(|i| {
                         let q = e + (p - e) * (i as f64 / SIGHT_SAMPLES as f64);
-                        (q.x - t.at[0]).hypot(q.y - t.at[1]) < t.radius && q.z < table_z + t.height
+                        t.covers(q.x, q.y, SIGHT_MARGIN) && q.z < table_z + t.height
                     })
                 })
             })
         };
-        // Spots the head sees the object on first, to which both arms have a way clear of the
-        // tall things (the holding arm's carry, the other's reach; [`crate::skills::plan_way`]);
-        // then seen spots; then spots with clear ways; then any.
-        for (must_see, must_clear) in [(true, true), (true, false), (false, true), (false, false)] {
-            if must_clear && tall.is_empty() {
+        // Per candidate the head can turn to (both cameras, for stereo, to find the object there)
+        // and both arms reach pointing down: whether the head would see the object on it, and
+        // the arms' ways there ([`RobotPlant::spot_ways`]; none to weigh when no tall thing is seen).
+        // The first seen spot whose ways are clear, with no tall thing between it and the
+        // destination, is taken at once.
+        let mut spots: Vec<([f64; 2], bool, SpotWays)> = Vec::new();
+        for (c, _, _) in &candidates {
+            let c = *c;
+            let seen_at = Vec3::new(c[0], c[1], table_z + 0.05);
+            if !self.watcher.can_look_at(self.hw, &seen_at, HEAD_LIMIT_MARGIN)? {
+                tracing::trace!("handoff spot {c:?}: the head cannot look at it");
                 continue;
             }
-            for (c, _, _) in &candidates {
-                let c = *c;
-                // The head must turn to the spot (both cameras, for stereo) to find the object there.
-                let seen_at = Vec3::new(c[0], c[1], table_z + 0.05);
-                if (must_see && hidden(c)) || !self.watcher.can_look_at(self.hw, &seen_at, HEAD_LIMIT_MARGIN)? {
-                    continue;
-                }
-                if arms_reaching(self.hw, table_z, &Vec3::new(c[0], c[1], table_z))?.len() == 2
-                    && (!must_clear || self.ways_to_spot_clear(c, &tall))
-                {
-                    tracing::debug!(
-                        "handoff spot {c:?}{}{}",
-                        if must_see { "" } else { " (hidden from the head)" },
-                        if must_clear || tall.is_empty() {
+            let reaching = arms_reaching(self.hw, table_z, &Vec3::new(c[0], c[1], table_z))?.len();
+            if reaching < 2 {
+                tracing::trace!("handoff spot {c:?}: {reaching} arms reach it");
+                continue;
+            }
+            let seen = !hidden(c);
+            let ways = if tall.is_empty() {
+                SpotWays::CLEAR
+            } else {
+                self.spot_ways(c, &tall)
+            };
+            spots.push((c, seen, ways));
+            if seen && ways.clear && ways.onward == Onward::Straight {
+                break;
+            }
+        }
+        // Spots the head sees the object on first, to which both arms have a way clear of the
+        // tall things (the holding arm's carry, the other's reach; [`crate::skills::plan_way`]) with
+        // no tall thing between the spot and the destination, then those where the carry on goes
+        // round one; then the same among spots hidden from the head; then the first seen spot
+        // (else hidden), in candidate order.
+        let mut tiers = [true, false]
+            .into_iter()
+            .flat_map(|see| [Some(Onward::Straight), Some(Onward::Round), None].map(|onward| (see, onward)));
+        let choice = tiers.find_map(|(see, onward)| {
+            spots
+                .iter()
+                .find(|s| (s.1 || !see) && onward.is_none_or(|o| s.2.clear && s.2.onward == o))
+                .map(|s| {
+                    (
+                        s.0,
+                        s.1,
+                        if onward.is_some() {
                             ""
                         } else {
                             " (an arm's way passes a tall thing)"
-                        }
-                    );
-                    self.handoff = c;
-                    return Ok(Some(c));
-                }
-            }
-        }
-        Ok(None)
+                        },
+                    )
+                })
+        });
+        let Some((c, seen, note)) = choice else {
+            return Ok(None);
+        };
+        let ways = spots.iter().find(|s| s.0 == c).map(|s| s.2);
+        tracing::debug!(
+            "handoff spot {c:?}{}{note}: {ways:?}",
+            if seen { "" } else { " (hidden from the head)" },
+        );
+        self.handoff = c;
+        Ok(Some(c))
     }
 
-    /// Whether both arms have a way to the handoff spot `c` that keeps the whole arm clear of the
-    /// `tall` things ([`crate::skills::plan_way`], rolled out from where each arm is now): the arm
-    /// that holds the object carrying it over the spot (its bottom [`Held::below`] the palm), the
-    /// other reaching above the spot, each at its present height or higher — and on down to the
-    /// spot; and no tall thing between the spot and the destination ([`RobotPlant::set_destination`]).
-    pub(super) fn ways_to_spot_clear(&mut self, c: [f64; 2], tall: &[crate::route::Obstacle]) -> bool {
+    /// The arms' ways to the handoff spot `c` among the `tall` things ([`crate::skills::plan_way`],
+    /// rolled out from where each arm is now): the arm that holds the object carrying it over the
+    /// spot (its bottom [`Held::below`] the palm), the other reaching above the spot, each at its
+    /// present height or higher — and on down to the spot; and the carry on from the spot to the
+    /// destination ([`RobotPlant::set_destination`]).
+    fn spot_ways(&mut self, c: [f64; 2], tall: &[crate::route::Obstacle]) -> SpotWays {
         let table_z = self.workspace.table_z;
         // The receiving hand carries the object on to the destination: a spot beyond a tall thing
-        // from there has it carried round (or over) the thing again, high and far.
-        if let Some(d) = self.destination
-            && !crate::route::clear_of(c, d, tall, crate::skills::ROUTE_CLEARANCE)
-        {
-            tracing::trace!("handoff spot {c:?}: a tall thing between it and the destination");
-            return false;
-        }
+        // from there has it carried round (or over) the thing again, high and far — second best.
+        let onward = match self.destination {
+            None => Onward::Straight,
+            Some(d) if crate::route::clear_of(c, d, tall, crate::skills::ROUTE_CLEARANCE) => Onward::Straight,
+            Some(d) if crate::route::route(c, d, tall, crate::skills::ROUTE_CLEARANCE).is_some() => Onward::Round,
+            Some(_) => Onward::Blocked,
+        };
+        let mut ways = SpotWays {
+            onward,
+            ..SpotWays::CLEAR
+        };
         for arm in Arm::BOTH {
             let held = self.held.filter(|_| self.touch(arm).holding());
             let (below, offset) = held.map_or((crate::sweep::HAND_LENGTH, [0.0; 2]), |h| (h.below, h.offset_xy));
@@ -273,7 +311,7 @@ impl RobotPlant<'_> {
             // Then down to the spot: the holding hand puts the object on the table, the other
             // grasps it there (its palm about an object's height above the table) — a forearm
             // that comes down onto a post beside the spot stops the hand short.
-            let down = way.as_ref().filter(|w| w.clear).map(|w| {
+            if let Some(w) = &way {
                 let mut low = goal;
                 low.translation.vector.z = table_z + below.max(0.10);
                 let mut poses = w.poses.clone();
@@ -282,15 +320,27 @@ impl RobotPlant<'_> {
                 let sweep = reach.sweep(q0.as_slice(), &poses, 5.0, &mut |st| {
                     crate::sweep::arm_clearance(&chain, st, tall, f64::NEG_INFINITY, below)
                 });
-                sweep.reached && sweep.clearance >= w.clearance.min(crate::skills::SWEEP_MARGIN) - 1e-9
-            });
-            reach.avoid = saved;
-            if way.is_some_and(|w| !w.clear) || down == Some(false) {
-                tracing::trace!("handoff spot {c:?}: no clear way for the {arm} arm (down: {down:?})");
-                return false;
+                let down_clear =
+                    sweep.reached && sweep.clearance >= w.clearance.min(crate::skills::SWEEP_MARGIN) - 1e-9;
+                if !w.clear || !down_clear {
+                    tracing::trace!(
+                        "handoff spot {c:?}: no clear way for the {arm} arm (way {:.3}, down {:.3}, reached {})",
+                        w.clearance,
+                        sweep.clearance,
+                        sweep.reached
+                    );
+                }
+                ways.clear &= w.clear && down_clear;
+                let down = if sweep.reached {
+                    sweep.clearance
+                } else {
+                    f64::NEG_INFINITY
+                };
+                ways.clearance = ways.clearance.min(w.clearance.min(down));
             }
+            reach.avoid = saved;
         }
-        true
+        ways
     }
 
     /// Looks over the middle of the table, where handoff spots lie (the scan points within
@@ -320,4 +370,35 @@ impl RobotPlant<'_> {
         }
         Ok(seen)
     }
+}
+
+/// How the object is carried on from a handoff spot to the destination.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Onward {
+    /// In a straight line clear of the tall things.
+    Straight,
+    /// Round them.
+    Round,
+    /// No way.
+    Blocked,
+}
+
+/// The arms' ways to a handoff spot ([`RobotPlant::spot_ways`]).
+#[derive(Debug, Clone, Copy)]
+struct SpotWays {
+    /// Both arms' ways there and down to the spot keep clear of the tall things.
+    clear: bool,
+    /// The least whole-arm clearance (m) on them (−∞: an arm does not get down to the spot).
+    clearance: f64,
+    /// The carry on to the destination.
+    onward: Onward,
+}
+
+impl SpotWays {
+    /// No tall thing to keep clear of.
+    const CLEAR: SpotWays = SpotWays {
+        clear: true,
+        clearance: f64::INFINITY,
+        onward: Onward::Straight,
+    };
 }

@@ -107,21 +107,36 @@ pub(super) const TALL_THING: f64 = 0.25;
 pub(super) const PRE_TOUCH_HEIGHT: f64 = 0.04;
 
 /// A segment as the handoff planner sees it: centre (x, y), horizontal radius (its measured half
-/// length, or [`SEEN_RADIUS`]) and height (measured, or 0), m.
+/// length, or [`SEEN_RADIUS`]) and height (measured, or 0), m; and its footprint's long axis (unit,
+/// x-y) and half width across it (m; the radius when not measured).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct SeenThing {
     pub(super) at: [f64; 2],
     pub(super) radius: f64,
     pub(super) height: f64,
+    pub(super) axis: [f64; 2],
+    pub(super) half_minor: f64,
 }
 
 impl SeenThing {
     pub(super) fn of(s: &schema::SegmentPercept) -> Self {
+        let e = s.extent.as_ref();
         SeenThing {
             at: [s.centroid[0], s.centroid[1]],
-            radius: s.extent.as_ref().map_or(SEEN_RADIUS, |e| e.half_major),
-            height: s.extent.as_ref().map_or(0.0, |e| e.height),
+            radius: e.map_or(SEEN_RADIUS, |e| e.half_major),
+            height: e.map_or(0.0, |e| e.height),
+            axis: e.map_or([1.0, 0.0], |e| e.major_axis),
+            half_minor: e.map_or(SEEN_RADIUS, |e| e.half_minor.min(e.half_major)),
         }
+    }
+
+    /// Whether the point (x, y) lies on the thing's footprint grown by `margin` (m): the rectangle
+    /// along its long axis.
+    pub(super) fn covers(&self, x: f64, y: f64, margin: f64) -> bool {
+        let (dx, dy) = (x - self.at[0], y - self.at[1]);
+        let along = dx * self.axis[0] + dy * self.axis[1];
+        let across = -dx * self.axis[1] + dy * self.axis[0];
+        along.abs() < self.radius + margin && across.abs() < self.half_minor + margin
     }
 }
 /// Least overlap of two segments' colour terms ([`colour_overlap`]) for one to look like the other.
@@ -140,6 +155,8 @@ pub(super) fn colour_overlap(a: &[(u8, f64)], b: &[(u8, f64)]) -> f64 {
 pub(super) const HEAD_CAMERA_FRAMES: [&str; 2] = ["head/left_camera_optical_frame", "head/right_camera_optical_frame"];
 /// Points sampled along a camera's line of sight to a handoff spot.
 pub(super) const SIGHT_SAMPLES: usize = 24;
+/// Margin (m) round a seen thing's footprint for the lines of sight to a handoff spot.
+pub(super) const SIGHT_MARGIN: f64 = 0.02;
 
 /// A segment this close (m) to a carrying palm is the carried object.
 pub(super) const CARRIED_CLEARANCE: f64 = 0.15;
@@ -229,6 +246,9 @@ pub struct RobotPlant<'a> {
     /// Where reaches to an object did not converge (x, y): a transfer's handoff spot keeps clear
     /// of them.
     pub(super) unreached: Vec<(Arm, [f64; 2])>,
+    /// Tall things measured from their edges, remembered while out of sight or hidden
+    /// ([`RobotPlant::tall_things`]).
+    pub(super) tall_seen: Vec<crate::route::Obstacle>,
     /// Where the object is to end up (the task's place centre, [`RobotPlant::set_destination`]):
     /// after a hand-over the failed arm carries it there from the handoff spot.
     pub(super) destination: Option<[f64; 2]>,
@@ -308,6 +328,7 @@ impl<'a> RobotPlant<'a> {
             bound_arms: None,
             handoff: [workspace.table_center[0].min(0.55), 0.0],
             unreached: Vec::new(),
+            tall_seen: Vec::new(),
             destination: None,
             missed: false,
             doubt_checked: None,
@@ -370,8 +391,70 @@ impl<'a> RobotPlant<'a> {
     /// coarse centroid lies higher than [`TALL_THING`] above the table (not within
     /// [`CARRIED_CLEARANCE`] of a holding hand's palm: a hand seen merged with what it holds) — but
     /// none whose footprint centre lies within [`HELD_UNDER_PALM`] of a holding hand's palm.
+    /// Those measured from their edges are remembered ([`RobotPlant::tall_seen`]): a tall thing
+    /// does not walk away, but its track is forgotten when the cameras fail to match it for a
+    /// while (beside an arm that hides half of it: development seed 2, blocked arm, scene 8, the
+    /// post forgotten and the next reach went straight into it). A remembered footprint grows to
+    /// take in each measurement of the thing on it, and is dropped when something short is
+    /// measured standing on it (the tall thing is gone).
     pub(super) fn tall_things(&mut self) -> Vec<crate::route::Obstacle> {
+        let now = self.tall_things_now();
+        let palms = self.holding_palms();
+        let Some(p) = self.percepts.last() else {
+            return now;
+        };
+        let measured: Vec<&schema::SeenExtent> = p
+            .segments
+            .iter()
+            .filter(|s| s.seen)
+            .filter_map(|s| s.extent.as_ref())
+            .filter(|e| e.model != "coarse")
+            .collect();
+        let on = |o: &crate::route::Obstacle, c: [f64; 2], r: f64| {
+            (o.center[0] - c[0]).hypot(o.center[1] - c[1]) < o.half[0] + r
+        };
+        // Something short measured standing on a remembered footprint, or a hand holding what
+        // stood there: the tall thing is gone.
+        self.tall_seen.retain(|o| {
+            !measured.iter().any(|e| e.height < TALL_THING && on(o, e.center, 0.0))
+                && !palms
+                    .iter()
+                    .any(|h| (o.center[0] - h.x).hypot(o.center[1] - h.y) < HELD_UNDER_PALM)
+        });
+        // Each tall thing measured now widens the one remembered there (a view cut by an arm or by
+        // the image border measures a part of it), or is remembered.
+        for n in now.iter().filter(|o| measured.iter().any(|e| e.center == o.center)) {
+            match self.tall_seen.iter_mut().find(|o| on(o, n.center, n.half[0])) {
+                Some(o) => *o = o.union(n),
+                None => self.tall_seen.push(*n),
+            }
+        }
+        let now_n = now.len();
+        let mut all = now;
+        for o in &self.tall_seen {
+            if !all.contains(o) {
+                all.push(*o);
+            }
+        }
+        tracing::trace!("tall things now {now_n}, remembered {:?}", self.tall_seen);
+        all
+    }
+
+    /// Where the palms of the hands that hold something are.
+    fn holding_palms(&mut self) -> Vec<Vec3> {
+        let holding = Arm::BOTH.map(|a| self.touch(a).holding());
+        self.reach
+            .iter_mut()
+            .zip(holding)
+            .filter(|(_, h)| *h)
+            .map(|(r, _)| r.tool_pose(self.hw).translation.vector)
+            .collect()
+    }
+
+    /// [`RobotPlant::tall_things`] as the latest percept shows them.
+    fn tall_things_now(&mut self) -> Vec<crate::route::Obstacle> {
         let table_z = self.workspace.table_z;
+        let palms = self.holding_palms();
         let Some(p) = self.percepts.last() else {
             return Vec::new();
         };
@@ -379,14 +462,6 @@ impl<'a> RobotPlant<'a> {
         // beside a post (the arm it blocked) must not hide the post (development seed 2, blocked
         // arm, scene 11: the right palm 14 cm from the post's coarse centroid, no tall thing kept,
         // and the carry went into the post).
-        let holding = Arm::BOTH.map(|a| self.touch(a).holding());
-        let palms: Vec<Vec3> = self
-            .reach
-            .iter_mut()
-            .zip(holding)
-            .filter(|(_, h)| *h)
-            .map(|(r, _)| r.tool_pose(self.hw).translation.vector)
-            .collect();
         // Tall things measured from their edges: a coarse segment overlapping one is the same
         // thing seen again, cut (its centroid 7–10 cm nearer the head; development seed 1, blocked
         // arm, scene 2: kept as a second post, it moved the handoff spot where the grasp failed).

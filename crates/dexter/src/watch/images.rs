@@ -29,6 +29,8 @@ pub(super) const MOVED_SHARE: f64 = 0.55;
 pub(super) struct MonoView {
     pub(super) camera: usize,
     pub(super) centroid: [f64; 2],
+    /// Its bounding box (u min, v min, u max, v max; px).
+    pub(super) bbox: [u32; 4],
     pub(super) term: Option<u8>,
 }
 

@@ -233,6 +233,7 @@ impl Watcher {
                         mono.push(MonoView {
                             camera,
                             centroid: s.features.centroid,
+                            bbox: s.bbox,
                             term: dominant_term(&crate::vision::color::kept_color_terms(&s.features.color_terms)),
                         });
                     }
@@ -247,6 +248,7 @@ impl Watcher {
                     mono.push(MonoView {
                         camera,
                         centroid: s.features.centroid,
+                        bbox: s.bbox,
                         term: dominant_term(&crate::vision::color::kept_color_terms(&s.features.color_terms)),
                     });
                 }

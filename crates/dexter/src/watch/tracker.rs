@@ -83,6 +83,10 @@ pub(super) const OCCLUDED_SHARE: f64 = 0.85;
 /// Margin (px) around a cut segment's bounding box within which a track's projection makes the
 /// segment a view of that track.
 pub(super) const BOX_MARGIN_PX: f64 = 2.0;
+
+/// A one-camera blob at least this wide and tall (px) counts as a view of every track of its colour
+/// that projects inside its box, not only of those near its centroid ([`MONO_GATE_PX`]).
+pub(super) const MONO_LARGE_PX: u32 = 2 * MONO_GATE_PX as u32;
 /// A stereo centroid this far (m) below the table top is a false match.
 pub(super) const BELOW_TABLE: f64 = 0.01;
 /// A carried track stays latched to its hand until the hand has not held for this many frames.
@@ -316,9 +320,11 @@ impl Tracker {
             self.last_seen[j] = t;
         }
         // A track no stereo segment matched is still seen when one camera alone shows a blob
-        // whose main colour is one of the track's where the track projects (the other camera's
-        // view of it was cut by the image border or by an arm, so stereo matching failed): it
-        // keeps its centroid and features.
+        // whose main colour is one of the track's where the track projects — near the blob's
+        // centroid, or inside its box when the blob is large (the other camera's view of it was
+        // cut by the image border or by an arm, so stereo matching failed: a 50 cm post seen
+        // 2,500 px in one camera and 1,300 in the other, beside a carrying arm, was forgotten —
+        // development seed 2, blocked arm, scene 0): it keeps its centroid and features.
         let mut used_mono = vec![false; mono.len()];
         for ((track, last_seen), matched) in self.tracks.iter_mut().zip(&mut self.last_seen).zip(&used_t) {
             if *matched || carried_ids.contains(&track.id) {
@@ -333,7 +339,14 @@ impl Tracker {
                 .filter_map(|(m, v)| {
                     let (u, w) = project(cams[v.camera], &c)?;
                     let d = (u - v.centroid[0]).hypot(w - v.centroid[1]);
-                    (d < MONO_GATE_PX).then_some((d, m))
+                    let b = v.bbox;
+                    let large = b[2] >= b[0] + MONO_LARGE_PX && b[3] >= b[1] + MONO_LARGE_PX;
+                    let inside = large
+                        && u >= f64::from(b[0]) - BOX_MARGIN_PX
+                        && u <= f64::from(b[2]) + BOX_MARGIN_PX
+                        && w >= f64::from(b[1]) - BOX_MARGIN_PX
+                        && w <= f64::from(b[3]) + BOX_MARGIN_PX;
+                    (d < MONO_GATE_PX || inside).then_some((d, m))
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             if let Some((_, m)) = best {
