@@ -733,7 +733,15 @@ impl<'a> RobotPlant<'a> {
         Err(RobotError::Binding {
             action: self.skills.name(Skill::ReachObject).unwrap_or("reach").into(),
             message: match &binding.object {
-                Some(o) => format!("no tracked segment `{o}` (objects are the segments the robot sees)"),
+                Some(o) => match self.target.as_ref().map(|t| t.1.centroid) {
+                    // The object was followed, and its track is gone: not seen where it was (a
+                    // search after a failed hold found nothing there).
+                    Some(c) => format!(
+                        "no tracked segment `{o}`: the object is no longer seen (last seen at ({:.2}, {:.2}))",
+                        c.x, c.y
+                    ),
+                    None => format!("no tracked segment `{o}` (objects are the segments the robot sees)"),
+                },
                 None => "no object".into(),
             },
         })
