@@ -398,8 +398,8 @@ impl<'a> RobotPlant<'a> {
     /// take in each measurement of the thing on it, and is dropped when something short is
     /// measured standing on it (the tall thing is gone).
     pub(super) fn tall_things(&mut self) -> Vec<crate::route::Obstacle> {
-        let now = self.tall_things_now();
         let palms = self.holding_palms();
+        let now = self.tall_things_now(&palms);
         let Some(p) = self.percepts.last() else {
             return now;
         };
@@ -452,9 +452,9 @@ impl<'a> RobotPlant<'a> {
     }
 
     /// [`RobotPlant::tall_things`] as the latest percept shows them.
-    fn tall_things_now(&mut self) -> Vec<crate::route::Obstacle> {
+    /// `palms`: those of the hands that hold something ([`RobotPlant::holding_palms`]).
+    fn tall_things_now(&self, palms: &[Vec3]) -> Vec<crate::route::Obstacle> {
         let table_z = self.workspace.table_z;
-        let palms = self.holding_palms();
         let Some(p) = self.percepts.last() else {
             return Vec::new();
         };

@@ -84,6 +84,15 @@ pub(super) const OCCLUDED_SHARE: f64 = 0.85;
 /// segment a view of that track.
 pub(super) const BOX_MARGIN_PX: f64 = 2.0;
 
+/// Whether the image point (`u`, `v`) lies in the box `b` (u min, v min, u max, v max; px) grown
+/// by [`BOX_MARGIN_PX`].
+fn in_box(b: &[u32; 4], u: f64, v: f64) -> bool {
+    u >= f64::from(b[0]) - BOX_MARGIN_PX
+        && u <= f64::from(b[2]) + BOX_MARGIN_PX
+        && v >= f64::from(b[1]) - BOX_MARGIN_PX
+        && v <= f64::from(b[3]) + BOX_MARGIN_PX
+}
+
 /// A one-camera blob at least this wide and tall (px) counts as a view of every track of its colour
 /// that projects inside its box, not only of those near its centroid ([`MONO_GATE_PX`]).
 pub(super) const MONO_LARGE_PX: u32 = 2 * MONO_GATE_PX as u32;
@@ -195,12 +204,7 @@ impl Tracker {
                 if b[0] > b[2] {
                     return false;
                 }
-                project(cams[k], &Vec3::from(tr.centroid)).is_some_and(|(u, v)| {
-                    u >= f64::from(b[0]) - BOX_MARGIN_PX
-                        && u <= f64::from(b[2]) + BOX_MARGIN_PX
-                        && v >= f64::from(b[1]) - BOX_MARGIN_PX
-                        && v <= f64::from(b[3]) + BOX_MARGIN_PX
-                })
+                project(cams[k], &Vec3::from(tr.centroid)).is_some_and(|(u, v)| in_box(&b, u, v))
             })
         };
         // Greedy nearest-first assignment.
@@ -341,12 +345,7 @@ impl Tracker {
                     let d = (u - v.centroid[0]).hypot(w - v.centroid[1]);
                     let b = v.bbox;
                     let large = b[2] >= b[0] + MONO_LARGE_PX && b[3] >= b[1] + MONO_LARGE_PX;
-                    let inside = large
-                        && u >= f64::from(b[0]) - BOX_MARGIN_PX
-                        && u <= f64::from(b[2]) + BOX_MARGIN_PX
-                        && w >= f64::from(b[1]) - BOX_MARGIN_PX
-                        && w <= f64::from(b[3]) + BOX_MARGIN_PX;
-                    (d < MONO_GATE_PX || inside).then_some((d, m))
+                    (d < MONO_GATE_PX || (large && in_box(&b, u, w))).then_some((d, m))
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             if let Some((_, m)) = best {
