@@ -8,8 +8,9 @@ use crate::actions::Skill;
 use crate::arm::Arm;
 use crate::error::RobotError;
 use crate::skills::{
-    Held, approach_grasp, close_grasp, finger_arc, idle, lift_and_weigh, lower_until_supported, park_pose,
-    plan_top_grasp_among, release_and_retreat, run_until, touch_object, transport_over,
+    FingerRoom, GRASP_FINGER_ROOM, Held, approach_grasp, close_grasp, finger_arc, idle, lift_and_weigh,
+    lower_until_supported, park_pose, plan_top_grasp_among, release_and_retreat, run_until, touch_object,
+    transport_over,
 };
 
 use super::plant::*;
@@ -147,8 +148,9 @@ impl SchemaPlant for RobotPlant<'_> {
                 self.grasp_palm = None;
                 let arc = finger_arc(self.hw.model(), arm)?;
                 let current = self.reach[k].tool_pose(self.hw);
-                // A touch's fingers come down clear of the places' walls and of the other things
-                // seen: a fingertip landing there would be a touch of the wrong thing.
+                // The fingers come down clear of the places' walls and of the other things seen: a
+                // fingertip landing there stops the descent (or, for a touch, touches the wrong
+                // thing).
                 let others: Vec<([f64; 2], f64)> = self
                     .seen_objects(None)
                     .into_iter()
@@ -166,10 +168,18 @@ impl SchemaPlant for RobotPlant<'_> {
                         .map(|(c, r)| (p[0] - c[0]).hypot(p[1] - c[1]) - r)
                         .fold(walls, f64::min)
                 };
-                // (For touches only: for grasps the choice changed how two pinned fault scenes
-                // recovered, development seed 1, bump 6 and blocked arm 8.)
-                let mut plan =
-                    plan_top_grasp_among(&arc, &seen, table_z, &current, self.touch_task.then_some(&room as _));
+                // A touch takes the roomiest direction; a grasp turns only when the first
+                // narrowest leaves its fingers too little room (always turning changed how two
+                // pinned fault scenes recovered, development seed 1, bump 6 and blocked arm 8).
+                let room = FingerRoom {
+                    free: &room,
+                    enough: if self.touch_task {
+                        f64::INFINITY
+                    } else {
+                        GRASP_FINGER_ROOM
+                    },
+                };
+                let mut plan = plan_top_grasp_among(&arc, &seen, table_z, &current, Some(room));
                 if self.touch_task {
                     // Stop clear of the object: the Touch makes the contact.
                     plan.grasp.translation.vector.z += PRE_TOUCH_HEIGHT + plan.guard;

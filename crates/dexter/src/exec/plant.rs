@@ -366,6 +366,12 @@ impl<'a> RobotPlant<'a> {
         }
     }
 
+    /// Whether the head can turn to look at `at` with both cameras, keeping 0.25
+    /// (rad) from its joint limits.
+    pub fn can_look_at(&mut self, at: &Vec3) -> Result<bool, RobotError> {
+        self.watcher.can_look_at(self.hw, at, HEAD_LIMIT_MARGIN)
+    }
+
     /// Looks at `at` and takes percepts for `seconds` (to refresh what is seen there).
     pub fn look(&mut self, at: &Vec3, seconds: f64) -> Result<(), RobotError> {
         self.watcher.look_at(self.hw, at)?;

@@ -296,11 +296,36 @@ pub(super) const AXIS_TIE: f64 = 0.003;
 /// (F1, F2) stand in a pre-shape: about 5 cm.
 pub(super) const FINGER_PAIR_HALF_SPACING: f64 = 0.025;
 
+/// Room the pre-shaped fingertips need around the points [`plan_top_grasp_clear_of`] models
+/// before a grasp turns away from the first narrowest closing direction (m): the tip sphere's
+/// centre is not the finger's widest point, and a hand near its body comes down a little tilted.
+/// Development (`any_schema`, the blue block of `sorting-new`, 10 cm from bin-left's wall): the
+/// modelled tips kept 3 cm from the wall, and finger 2's distal link landed on the wall's top.
+pub const GRASP_FINGER_ROOM: f64 = 0.04;
+
+/// What is around an object for [`plan_top_grasp_clear_of`]: `free(p)` the free distance (m)
+/// around table point `p`; a direction other than the first narrowest is chosen only when the
+/// latter's fingertips keep less than `enough` (m) from everything (`f64::INFINITY`: always the
+/// roomiest).
+#[derive(Clone, Copy)]
+pub struct FingerRoom<'a> {
+    /// Free distance (m) around a table point.
+    pub free: &'a dyn Fn([f64; 2]) -> f64,
+    /// Room (m) that is enough.
+    pub enough: f64,
+}
+
+impl std::fmt::Debug for FingerRoom<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FingerRoom").field("enough", &self.enough).finish_non_exhaustive()
+    }
+}
+
 /// [`plan_top_grasp_geometry`], choosing among equally narrow closing directions the one whose
-/// pre-shaped fingertips keep farthest from everything else, `room(p)` being the free distance
-/// (m) around table point `p` (`None`: the first narrowest). A touch on a block 10 cm from a bin's
-/// wall had a fingertip land on the wall's top (development: `any_schema`, Reach-And-Touch in
-/// `sorting-new`); turned 90°, the fingers fall clear on both sides.
+/// pre-shaped fingertips keep farthest from everything else ([`FingerRoom`]; `None`: the first
+/// narrowest). A touch on a block 10 cm from a bin's wall had a fingertip land on the wall's top
+/// (development: `any_schema`, Reach-And-Touch in `sorting-new`); turned 90°, the fingers fall
+/// clear on both sides.
 #[allow(clippy::too_many_arguments)]
 pub fn plan_top_grasp_clear_of(
     arc: &[(f64, f64, f64)],
@@ -310,7 +335,7 @@ pub fn plan_top_grasp_clear_of(
     top: f64,
     table_z: f64,
     current: &Iso3,
-    room: Option<&dyn Fn([f64; 2]) -> f64>,
+    room: Option<FingerRoom<'_>>,
 ) -> GraspPlan {
     const TIP_RADIUS: f64 = 0.01;
     // The narrower horizontal axis: test a few directions in the object's footprint.
@@ -337,17 +362,19 @@ pub fn plan_top_grasp_clear_of(
                         center[0] + side * lateral * d.x + pair * FINGER_PAIR_HALF_SPACING * n[0],
                         center[1] + side * lateral * d.y + pair * FINGER_PAIR_HALF_SPACING * n[1],
                     ];
-                    least = least.min(room(p));
+                    least = least.min((room.free)(p));
                 }
             }
             least
         };
         let mut chosen = (clearance(best.0, best.1), best);
-        for &(w, d) in &widths {
-            if w <= best.0 + AXIS_TIE {
-                let c = clearance(w, d);
-                if c > chosen.0 + 1e-9 {
-                    chosen = (c, (w, d));
+        if chosen.0 < room.enough {
+            for &(w, d) in &widths {
+                if w <= best.0 + AXIS_TIE {
+                    let c = clearance(w, d);
+                    if c > chosen.0 + 1e-9 {
+                        chosen = (c, (w, d));
+                    }
                 }
             }
         }
@@ -408,7 +435,7 @@ pub fn plan_top_grasp_among(
     seen: &SeenObject,
     table_z: f64,
     current: &Iso3,
-    room: Option<&dyn Fn([f64; 2]) -> f64>,
+    room: Option<FingerRoom<'_>>,
 ) -> GraspPlan {
     let e = &seen.extent;
     // Among equally narrow directions (a disc), the fingers close across the major axis.
