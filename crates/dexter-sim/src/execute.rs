@@ -417,6 +417,16 @@ impl Judge<'_, '_> {
                 let inside = place
                     .and_then(|name| self.scene.place(name).ok())
                     .is_some_and(|spec| spec.contains([p.x, p.y]) && p.z < self.table_z + spec.wall_height + 0.2);
+                if !(inside && at_rest) {
+                    tracing::debug!(
+                        "truth: object {i} at ({:.3}, {:.3}, {:.3}), {:.3} m/s, tilted {:.0}°, place {place:?}: inside {inside}, at rest {at_rest}",
+                        p.x,
+                        p.y,
+                        p.z,
+                        o.linvel.norm(),
+                        (o.pose.rotation * Vec3::z()).z.clamp(-1.0, 1.0).acos().to_degrees()
+                    );
+                }
                 inside && at_rest
             }
             GoalKind::Held => w.is_some_and(|w| p.z >= w.start[2] + LIFTED) && in_hand(),

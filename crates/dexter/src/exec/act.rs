@@ -168,18 +168,30 @@ impl SchemaPlant for RobotPlant<'_> {
                         .map(|(c, r)| (p[0] - c[0]).hypot(p[1] - c[1]) - r)
                         .fold(walls, f64::min)
                 };
-                // A touch takes the roomiest direction; a grasp turns only when the first
-                // narrowest leaves its fingers too little room (always turning changed how two
-                // pinned fault scenes recovered, development seed 1, bump 6 and blocked arm 8).
+                // A touch takes the roomiest direction, and so does a grasp after a descent
+                // stopped short there; otherwise a grasp turns only when the first narrowest
+                // leaves its fingers too little room (always turning changed how two pinned fault
+                // scenes recovered, development seed 1, bump 6 and blocked arm 8), and only across
+                // a measured footprint: a coarse one is a disc of the silhouette's area, every
+                // direction alike, and turning at the first try closed the hand along a cereal
+                // box (development seed 3, execute scene 4) — at the second, it took a sugar box
+                // and a coffee can whose first descents had stopped short (seed 1 scene 37,
+                // seed 4 scene 17).
+                let retry = self
+                    .stopped_short
+                    .iter()
+                    .any(|p| (p[0] - target.x).hypot(p[1] - target.y) < RETRY_RADIUS);
                 let room = FingerRoom {
                     free: &room,
-                    enough: if self.touch_task {
+                    enough: if self.touch_task || retry {
                         f64::INFINITY
                     } else {
                         GRASP_FINGER_ROOM
                     },
                 };
-                let mut plan = plan_top_grasp_among(&arc, &seen, table_z, &current, Some(room));
+                let coarse = seen.extent.model == "coarse";
+                let room = (self.touch_task || retry || !coarse).then_some(room);
+                let mut plan = plan_top_grasp_among(&arc, &seen, table_z, &current, room);
                 if self.touch_task {
                     // Stop clear of the object: the Touch makes the contact.
                     plan.grasp.translation.vector.z += PRE_TOUCH_HEIGHT + plan.guard;
@@ -203,6 +215,7 @@ impl SchemaPlant for RobotPlant<'_> {
                         if why.cause == FailureCause::StoppedShort {
                             // The descent stopped short, on something where the fingers should
                             // have passed: the object is not where it was seen.
+                            self.stopped_short.push([target.x, target.y]);
                             self.back_off(arm)?;
                         } else if why.effector_blocked() {
                             self.unreached.push((arm, [target.x, target.y]));

@@ -246,6 +246,9 @@ pub struct RobotPlant<'a> {
     /// Where reaches to an object did not converge (x, y): a transfer's handoff spot keeps clear
     /// of them.
     pub(super) unreached: Vec<(Arm, [f64; 2])>,
+    /// Where grasp descents stopped short (x, y of the object as seen then): the next grasp of an
+    /// object there takes the direction with the most room for its fingers.
+    pub(super) stopped_short: Vec<[f64; 2]>,
     /// Tall things measured from their edges, remembered while out of sight or hidden
     /// ([`RobotPlant::tall_things`]).
     pub(super) tall_seen: Vec<crate::route::Obstacle>,
@@ -328,6 +331,7 @@ impl<'a> RobotPlant<'a> {
             bound_arms: None,
             handoff: [workspace.table_center[0].min(0.55), 0.0],
             unreached: Vec::new(),
+            stopped_short: Vec::new(),
             tall_seen: Vec::new(),
             destination: None,
             missed: false,

@@ -125,6 +125,11 @@ pub(super) fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 
 /// rolling object is not let go on the wall.
 pub(super) const WALL_ROOM: f64 = 0.03;
 
+/// A grasp of an object seen within this distance (m) of where a descent stopped short is a
+/// retry ([`RobotPlant::stopped_short`](super::plant::RobotPlant)): the backing off and a new look
+/// move the seen centre by a few centimetres.
+pub(super) const RETRY_RADIUS: f64 = 0.05;
+
 /// Where in a place region (`center`, `size`) to put an object of horizontal radius `radius`
 /// among `others` (centre, radius) already there: the point of a 1 cm grid inside the region (the
 /// object clear of the walls by [`WALL_ROOM`]) with the widest gap between the object's footprint

@@ -25,6 +25,9 @@ pub struct GraspPlan {
     /// something above it puts too high): the palm comes down until it rests on the object's top,
     /// a guarded move. 0: the measured height is trusted.
     pub guard: f64,
+    /// Planned from a coarse extent (a height from the triangulated centroid alone, wrong either
+    /// way): a palm that stops over the object rests on its top ([`crate::skills::approach_grasp`]).
+    pub coarse: bool,
 }
 
 /// An object as the robot sees it on the table: centroid, height and footprint (§6.2.1), from the
@@ -317,7 +320,9 @@ pub struct FingerRoom<'a> {
 
 impl std::fmt::Debug for FingerRoom<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("FingerRoom").field("enough", &self.enough).finish_non_exhaustive()
+        f.debug_struct("FingerRoom")
+            .field("enough", &self.enough)
+            .finish_non_exhaustive()
     }
 }
 
@@ -410,6 +415,7 @@ pub fn plan_top_grasp_clear_of(
         preshape,
         width: 2.0 * half_width,
         guard: 0.0,
+        coarse: false,
     }
 }
 
@@ -466,6 +472,7 @@ pub fn plan_top_grasp_among(
     );
     GraspPlan {
         guard: (plan.grasp.translation.z - low.grasp.translation.z).max(0.0),
+        coarse: true,
         ..plan
     }
 }
