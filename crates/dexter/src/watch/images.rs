@@ -231,3 +231,78 @@ pub(super) fn pixels(s: &SegmentPercept) -> f64 {
 pub(super) fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
 }
+
+/// How far (m) outside a measured footprint the ray of a top-face pixel may meet the top's plane
+/// ([`surface_color_terms`]): the footprint's own measurement error.
+const TOP_FACE_SLACK: f64 = 0.005;
+
+/// The colour-term counts of a standing object's view `seg` (in the camera `cam`, whose `image`
+/// and `segmenter` made it), weighted by the surface each pixel stands for: a teacher names the
+/// colour that covers most of an object's surface, and the head, looking down, sees its top out
+/// of proportion (a peanut-butter jar with a blue lid and a red label looked blue; a white
+/// sugar-cube box with a blue top, blue). Each pixel's ray meets the plane of the measured top
+/// (`extent`: a prism or a standing object measured whole, on a table at `table_z`) inside the
+/// footprint — a top pixel — or not — a side pixel; the top's pixels then carry the top's share of
+/// the surface, A_top / (A_top + A_sides) = a·b / (a·b + (a + b)·h) for half extents a, b and
+/// height h (the same for a box and a cylinder), and the sides' pixels the rest, each face's
+/// colours taken as the visible part shows them (of a view cut by the image border or the robot's
+/// body too: the faces' shares come from the measured extent, not from the pixels). `None` (keep
+/// the pixel counts) for other extents, a view that is not the segmenter's own segment (split by
+/// colour, say), or one without pixels of both faces.
+pub(super) fn surface_color_terms(
+    seg: &crate::vision::Segment,
+    segmenter: &crate::vision::Segmenter,
+    image: &crate::vision::Image,
+    cam: &crate::vision::Camera,
+    extent: &schema::SeenExtent,
+    table_z: f64,
+) -> Option<[u32; 10]> {
+    if !matches!(extent.model.as_str(), "prism" | "standing_whole") {
+        return None;
+    }
+    let label = segmenter.segments().iter().position(|s| s == seg)? as u32 + 1;
+    let comp = segmenter.component_map();
+    let w = image.width as usize;
+    if comp.len() != image.pixel_count() {
+        return None;
+    }
+    let (a, b, h) = (extent.half_major, extent.half_minor, extent.height);
+    let axis = [extent.major_axis[0], extent.major_axis[1]];
+    let top_z = table_z + h;
+    let mut top = [0u32; 10];
+    let mut side = [0u32; 10];
+    for v in seg.bbox[1]..=seg.bbox[3] {
+        for u in seg.bbox[0]..=seg.bbox[2] {
+            let i = v as usize * w + u as usize;
+            if comp.get(i) != Some(&label) {
+                continue;
+            }
+            let (o, d) = cam.ray(f64::from(u), f64::from(v));
+            let on_top = d.z < -1e-9 && {
+                let t = (top_z - o.z) / d.z;
+                let (x, y) = (o.x + t * d.x - extent.center[0], o.y + t * d.y - extent.center[1]);
+                let along = x * axis[0] + y * axis[1];
+                let across = -x * axis[1] + y * axis[0];
+                along.abs() <= a + TOP_FACE_SLACK && across.abs() <= b + TOP_FACE_SLACK
+            };
+            let rgb = image.px(i).map(|c| f64::from(c) / 255.0);
+            let term = usize::from(crate::vision::color::color_term(crate::vision::color::rgb_to_hsv(rgb)));
+            if on_top {
+                top[term] += 1;
+            } else {
+                side[term] += 1;
+            }
+        }
+    }
+    let (n_top, n_side) = (top.iter().sum::<u32>(), side.iter().sum::<u32>());
+    if n_top == 0 || n_side == 0 || !(a > 0.0 && b > 0.0 && h > 0.0) {
+        return None;
+    }
+    let top_share = a * b / (a * b + (a + b) * h);
+    let n = f64::from(n_top + n_side);
+    Some(std::array::from_fn(|k| {
+        let share = top_share * f64::from(top[k]) / f64::from(n_top)
+            + (1.0 - top_share) * f64::from(side[k]) / f64::from(n_side);
+        (share * n).round() as u32
+    }))
+}

@@ -215,6 +215,7 @@ impl Watcher {
         let mut views = Vec::new();
         let mut mono = Vec::new();
         let mut gaze_candidates = Vec::new();
+        let mut left_views = Vec::new();
         for b in blobs {
             tracing::trace!(
                 "BLOB t={t:.2} centroid {:?} left {:?} right {:?}",
@@ -284,6 +285,7 @@ impl Watcher {
             gaze_candidates.push((o, seg.centroid));
             views.push([l.features.centroid, r.features.centroid]);
             cut.push(l.cut_off() || r.cut_off());
+            left_views.push(l);
             // The box of a view cut by the border or the body says less than a whole one: with
             // one whole view, only its box explains other tracks.
             const NO_BOX: [u32; 4] = [1, 0, 0, 0];
@@ -300,6 +302,18 @@ impl Watcher {
             for i in 0..4 {
                 let s = f64::from(i) / 4.0;
                 occluders.push((std::array::from_fn(|j| e[j] + s * (palm[j] - e[j])), FOREARM_RADIUS));
+            }
+        }
+        // Colours by surface, not by pixels, where the object's top and sides are measured.
+        {
+            let image = self.eyes.images(Pair::Head).0;
+            let segmenter = self.eyes.pipeline(Pair::Head).segmenter(crate::vision::Side::Left);
+            for (s, l) in seen.iter_mut().zip(&left_views) {
+                if let Some(e) = &s.extent
+                    && let Some(counts) = surface_color_terms(l, segmenter, image, &cams.left, e, table_z)
+                {
+                    s.colors = crate::vision::color::kept_color_terms(&counts);
+                }
             }
         }
         let masks = self.eyes.self_masks(Pair::Head);
