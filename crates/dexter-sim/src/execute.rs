@@ -643,6 +643,19 @@ pub fn execute_scene_with(
     )?;
     let truth0: Vec<ObjectState> = (0..sim.objects().len()).map(|i| sim.object_state(i)).collect();
     let names = sim.header().object_names.clone();
+    if tracing::enabled!(tracing::Level::DEBUG) {
+        for (i, o) in truth0.iter().enumerate() {
+            let p = o.pose.translation.vector;
+            tracing::debug!(
+                "truth at the start: object {i} `{}` at ({:.3}, {:.3}, {:.3}), tilted {:.0}°",
+                scene.resolved.get(i).map_or("?", |r| r.label.as_str()),
+                p.x,
+                p.y,
+                p.z,
+                (o.pose.rotation * Vec3::z()).z.clamp(-1.0, 1.0).acos().to_degrees()
+            );
+        }
+    }
     let goal = GoalKind::of(task.library, task.library.schema(task.schema)?);
     let logger = Rc::new(RefCell::new(Shared {
         log,
