@@ -263,19 +263,6 @@ pub fn execute<P: SchemaPlant>(
                 contingencies.push(c.clone());
             }
         }
-        // The same action, bound alike, three times in a row in this state, and the world is still
-        // in it: that changed nothing, give up.
-        let n = steps.len();
-        if n >= 3
-            && !schema.is_goal(state)
-            && steps[n - 3..].iter().all(|s| {
-                s.state == schema.states[state].name
-                    && s.action == steps[n - 1].action
-                    && s.binding == steps[n - 1].binding
-            })
-        {
-            break;
-        }
         if schema.is_goal(state) {
             plant.step(&StepEvent {
                 library,
@@ -296,6 +283,17 @@ pub fn execute<P: SchemaPlant>(
         }
         let action = &library.actions[schema.policy[state]].name;
         let binding = policy.bind(schema, &schema.states[state].name, action);
+        // The same action, bound alike, three times in a row in this state, the world still in it,
+        // and the policy binds it alike a fourth time: that changed nothing, give up. (A policy that
+        // rebinds after the third failure — another arm — is let run.)
+        let n = steps.len();
+        if n >= 3
+            && steps[n - 3..]
+                .iter()
+                .all(|s| s.state == schema.states[state].name && s.action == *action && s.binding == binding)
+        {
+            break;
+        }
         last_transfer = binding.transfer;
         plant.step(&StepEvent {
             library,
