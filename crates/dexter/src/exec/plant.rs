@@ -101,6 +101,9 @@ pub(super) const SEEN_RADIUS: f64 = 0.05;
 /// A seen thing taller than this (m) stands in the way of a hand moving at hover height (32 cm or
 /// more above the table).
 pub(super) const TALL_THING: f64 = 0.25;
+/// How far (m) a coarse segment's centroid may lie above half [`TALL_THING`] for it to be a
+/// target ([`RobotPlant::may_be_target`]): the error of a triangulated centroid's height.
+pub(super) const COARSE_CENTROID_SLACK: f64 = 0.04;
 
 /// How far (m) above the grasp pose the reach of a task that only touches stops
 /// ([`RobotPlant::set_touch_task`]).
@@ -840,12 +843,15 @@ impl<'a> RobotPlant<'a> {
     /// Whether a segment may be the object the robot is after: [above the table](Self::above_table)
     /// and no taller than [`TALL_THING`] (a post or a wall the hand cannot grasp is an obstacle,
     /// never the target to re-acquire). A coarse extent's height is twice its centroid's height
-    /// and doubles any error in it: there the centroid itself must lie lower than that.
+    /// and doubles any error in it: there the centroid must lie no higher than half that height
+    /// and [`COARSE_CENTROID_SLACK`] (the robot's own upper arm, parked above the table where its
+    /// self-model leaves a sliver unmasked, is seen as a coarse blob with its centroid 18–21 cm
+    /// up — and was re-acquired as a lost can ten times over: development seed 5, scene 20).
     pub(super) fn may_be_target(&self, s: &schema::SegmentPercept) -> bool {
         self.above_table(s)
             && s.extent.as_ref().is_none_or(|e| {
                 if e.model == "coarse" {
-                    s.centroid[2] - self.workspace.table_z <= TALL_THING
+                    s.centroid[2] - self.workspace.table_z <= TALL_THING / 2.0 + COARSE_CENTROID_SLACK
                 } else {
                     e.height <= TALL_THING
                 }
