@@ -926,7 +926,7 @@ impl<'a> RobotPlant<'a> {
 
     /// Moves each arm that holds nothing to its stowed pose ([`stow_pose`]), out of the head's view
     /// of the table. Whether any arm moved.
-    pub(super) fn stow_free_arms(&mut self) -> Result<bool, RobotError> {
+    pub(crate) fn stow_free_arms(&mut self) -> Result<bool, RobotError> {
         let table_z = self.workspace.table_z;
         let mut moved = false;
         for arm in Arm::BOTH {

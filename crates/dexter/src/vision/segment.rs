@@ -313,6 +313,62 @@ impl Segmenter {
 }
 
 impl Segmenter {
+    /// Splits segment `index` (of the last [`Segmenter::segment`] on `image`) in two by rows: each
+    /// pixel goes to the part whose row `a` or `b` (px) is nearer (ties to `a`). Part `a` replaces the
+    /// segment, part `b` is appended, as in [`Segmenter::split_by_colour`] — used when the other
+    /// camera sees two objects of one colour on different rows (at different ranges) where this one
+    /// sees one component. Returns `false`, changing nothing, when either part would have fewer than
+    /// `min_pixels` or less than `min_share` of the segment.
+    pub fn split_by_rows(&mut self, image: &Image, index: usize, a: f64, b: f64, min_share: f64) -> bool {
+        let (w, h) = (image.width as usize, image.height as usize);
+        let Some(seg) = self.segments.get(index).copied() else {
+            return false;
+        };
+        if self.component.len() != w * h || !a.is_finite() || !b.is_finite() {
+            return false;
+        }
+        let id = index as u32 + 1;
+        self.stack.clear();
+        self.pixels.clear();
+        let [u0, v0, u1, v1] = seg.bbox;
+        for v in v0 as usize..=(v1 as usize).min(h - 1) {
+            let to_a = (v as f64 - a).abs() <= (v as f64 - b).abs();
+            for u in u0 as usize..=(u1 as usize).min(w - 1) {
+                let p = v * w + u;
+                if self.component[p] != id {
+                    continue;
+                }
+                if to_a {
+                    self.stack.push(p as u32);
+                } else {
+                    self.pixels.push(p as u32);
+                }
+            }
+        }
+        self.finish_split(image, index, seg.features.pixel_count, min_share)
+    }
+
+    /// The end of a split: part `a` (in `stack`) replaces segment `index`, part `b` (in `pixels`)
+    /// is appended and labelled, if both hold at least `min_pixels` and `min_share` of `n` pixels.
+    fn finish_split(&mut self, image: &Image, index: usize, n: usize, min_share: f64) -> bool {
+        let (w, h) = (image.width as usize, image.height as usize);
+        let least = (self.config.min_pixels.max(1) as f64).max(min_share * n as f64);
+        if (self.stack.len() as f64) < least || (self.pixels.len() as f64) < least {
+            return false;
+        }
+        let new_id = self.segments.len() as u32 + 1;
+        for &p in &self.pixels {
+            self.component[p as usize] = new_id;
+        }
+        let mut part_a = features_of(&self.stack, image, w, h);
+        part_a.touches_robot = touches_mask(&self.masked, &self.stack, w, h);
+        let mut part_b = features_of(&self.pixels, image, w, h);
+        part_b.touches_robot = touches_mask(&self.masked, &self.pixels, w, h);
+        self.segments[index] = part_a;
+        self.segments.push(part_b);
+        true
+    }
+
     /// Splits segment `index` (of the last [`Segmenter::segment`] on `image`) in two by colour:
     /// each pixel goes to the histogram, `a` or `b`, that gives its colour bin the larger share;
     /// pixels whose bin neither holds (or both equally) go to the part whose centroid is nearer. Part `a` replaces
@@ -380,22 +436,7 @@ impl Segmenter {
                 self.pixels.push(p);
             }
         }
-        let n = seg.features.pixel_count as f64;
-        let least = (self.config.min_pixels.max(1) as f64).max(min_share * n);
-        if (self.stack.len() as f64) < least || (self.pixels.len() as f64) < least {
-            return false;
-        }
-        let new_id = self.segments.len() as u32 + 1;
-        for &p in &self.pixels {
-            self.component[p as usize] = new_id;
-        }
-        let mut part_a = features_of(&self.stack, image, w, h);
-        part_a.touches_robot = touches_mask(&self.masked, &self.stack, w, h);
-        let mut part_b = features_of(&self.pixels, image, w, h);
-        part_b.touches_robot = touches_mask(&self.masked, &self.pixels, w, h);
-        self.segments[index] = part_a;
-        self.segments.push(part_b);
-        true
+        self.finish_split(image, index, seg.features.pixel_count, min_share)
     }
 }
 
@@ -513,6 +554,36 @@ mod tests {
         assert!(!s.split_by_colour(&im, 0, &green, &blue, 0.15));
         assert_eq!(s.segments().len(), 1);
         assert!(!s.split_by_colour(&im, 7, &red, &blue, 0.15));
+    }
+
+    #[test]
+    fn stacked_objects_of_one_colour_split_by_the_other_views_rows() {
+        let bg = img(20, 20, |_, _| [100, 100, 100]);
+        // A far red object (6×5 at u 4..10, v 2..7) and a nearer red one below it, overlapping its
+        // columns (4×6 at u 6..10, v 7..13): one component.
+        let im = img(20, 20, |u, v| match (u, v) {
+            (4..10, 2..7) | (6..10, 7..13) => [200, 0, 0],
+            _ => [100, 100, 100],
+        });
+        let mut s = Segmenter::new(SegmentConfig {
+            diff_threshold: 0.1,
+            min_pixels: 3,
+        });
+        s.set_background(&bg);
+        assert_eq!(s.segment(&im, &[]).unwrap().len(), 1);
+        // The other camera's two segments centred on rows 4 and 10: split at row 7 (ties to a).
+        assert!(s.split_by_rows(&im, 0, 4.0, 10.0, 0.15));
+        let segs = s.segments();
+        assert_eq!(segs.len(), 2);
+        assert_eq!((segs[0].features.pixel_count, segs[1].features.pixel_count), (34, 20));
+        assert_eq!(segs[1].features.centroid, [7.5, 10.0]);
+        assert_eq!((s.component_map()[7 * 20 + 7], s.component_map()[8 * 20 + 7]), (1, 2));
+        // A part below the share asked for, a row NaN or a segment that is not there: no split.
+        assert_eq!(s.segment(&im, &[]).unwrap().len(), 1);
+        assert!(!s.split_by_rows(&im, 0, 4.0, 10.0, 0.5));
+        assert!(!s.split_by_rows(&im, 0, f64::NAN, 10.0, 0.15));
+        assert!(!s.split_by_rows(&im, 3, 4.0, 10.0, 0.15));
+        assert_eq!(s.segments().len(), 1);
     }
 
     #[test]

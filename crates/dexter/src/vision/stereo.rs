@@ -369,6 +369,17 @@ const MERGED_SHARE: f64 = 0.15;
 const MERGED_DISTINCT: f64 = 0.5;
 /// Each part of a split holds at least this share of the merged segment.
 const MERGED_MIN_PART: f64 = 0.15;
+/// Two segments of one colour in camera B whose centroids lie at least this many rows apart (and
+/// whose row ranges overlap by less than half) split a merged segment of camera A by rows.
+const MERGED_ROW_GAP_PX: f64 = 8.0;
+
+/// How [`StereoPipeline::split_merged`] splits a merged segment: by the colours of camera B's two
+/// segments (the part to keep, the other), or, when they share one colour, by their centroid rows.
+#[derive(Debug, Clone, Copy)]
+enum Split {
+    Colour(ColorHistogram, ColorHistogram),
+    Rows(f64, f64),
+}
 
 /// Overlap of the row ranges of two bounding boxes, as a share of the first's height.
 fn rows_overlap(a: &[u32; 4], b: &[u32; 4]) -> f64 {
@@ -540,7 +551,7 @@ impl StereoPipeline {
     /// objects of one colour would be a guess.
     fn split_merged(&mut self, images: [&Image; 2]) -> bool {
         let matched_right = |j: usize| self.matcher.used_right.get(j).copied().unwrap_or(false);
-        let mut found: Option<(usize, usize, ColorHistogram, ColorHistogram)> = None;
+        let mut found: Option<(usize, usize, Split)> = None;
         'search: for b in 0..2 {
             let a = 1 - b;
             let (seg_a, seg_b) = (self.segmenters[a].segments(), self.segmenters[b].segments());
@@ -589,18 +600,33 @@ impl StereoPipeline {
                         continue;
                     };
                     let hn = seg_b[n].features.histogram;
-                    if hn.intersection(&sb.features.histogram) >= MERGED_DISTINCT {
-                        continue;
+                    if hn.intersection(&sb.features.histogram) < MERGED_DISTINCT {
+                        found = Some((a, i, Split::Colour(hn, sb.features.histogram)));
+                        break 'search;
                     }
-                    found = Some((a, i, hn, sb.features.histogram));
-                    break 'search;
+                    // One colour: the two objects stand at different ranges, so their images lie
+                    // on different rows (the cameras side by side, level): split by rows when
+                    // camera B's two segments do.
+                    let (vn, vs) = (seg_b[n].features.centroid[1], sb.features.centroid[1]);
+                    if (vn - vs).abs() >= MERGED_ROW_GAP_PX
+                        && rows_overlap(&seg_b[n].bbox, &sb.bbox) < 0.5
+                        && rows_overlap(&sb.bbox, &seg_b[n].bbox) < 0.5
+                    {
+                        found = Some((a, i, Split::Rows(vn, vs)));
+                        break 'search;
+                    }
                 }
             }
         }
-        let Some((a, i, keep, other)) = found else {
+        let Some((a, i, split)) = found else {
             return false;
         };
-        self.segmenters[a].split_by_colour(images[a], i, &keep, &other, MERGED_MIN_PART)
+        match split {
+            Split::Colour(keep, other) => {
+                self.segmenters[a].split_by_colour(images[a], i, &keep, &other, MERGED_MIN_PART)
+            }
+            Split::Rows(keep, other) => self.segmenters[a].split_by_rows(images[a], i, keep, other, MERGED_MIN_PART),
+        }
     }
 
     /// The component ids (segment index + 1) of a blob's left and right segments.
