@@ -273,10 +273,11 @@ fn confirm_unseen_coarse(
     }
     if looked && let Some(p) = plant.last_percept() {
         for t in &p.segments {
+            let plausible = !coarse(t) || !too_high(t);
             if t.seen
+                && plausible
                 && !known.contains(&t.id)
                 && !kept.iter().any(|k| k.id == t.id)
-                && !(coarse(t) && too_high(t))
                 && ws.stands_on_table(t.centroid)
                 && !ws.places.iter().any(|pl| pl.contains([t.centroid[0], t.centroid[1]]))
             {

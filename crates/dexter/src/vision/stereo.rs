@@ -2,7 +2,6 @@
 //! segment → match → support-plane pipeline for a stereo pair.
 
 use crate::error::RobotError;
-use crate::vision::color::ColorHistogram;
 use crate::vision::edges::{EdgeScratch, EdgeView, standing_edges};
 use crate::vision::segment::{Segment, SegmentConfig, Segmenter};
 use crate::vision::support::{CentroidSource, Footprint, SupportEstimator, SupportPlane, View};
@@ -374,10 +373,11 @@ const MERGED_MIN_PART: f64 = 0.15;
 const MERGED_ROW_GAP_PX: f64 = 8.0;
 
 /// How [`StereoPipeline::split_merged`] splits a merged segment: by the colours of camera B's two
-/// segments (the part to keep, the other), or, when they share one colour, by their centroid rows.
+/// segments (their indices: the part to keep, the other), or, when they share one colour, by their
+/// centroid rows.
 #[derive(Debug, Clone, Copy)]
 enum Split {
-    Colour(ColorHistogram, ColorHistogram),
+    Colour(usize, usize),
     Rows(f64, f64),
 }
 
@@ -601,7 +601,7 @@ impl StereoPipeline {
                     };
                     let hn = seg_b[n].features.histogram;
                     if hn.intersection(&sb.features.histogram) < MERGED_DISTINCT {
-                        found = Some((a, i, Split::Colour(hn, sb.features.histogram)));
+                        found = Some((a, i, Split::Colour(n, j)));
                         break 'search;
                     }
                     // One colour: the two objects stand at different ranges, so their images lie
@@ -623,6 +623,8 @@ impl StereoPipeline {
         };
         match split {
             Split::Colour(keep, other) => {
+                let seg_b = self.segmenters[1 - a].segments();
+                let (keep, other) = (seg_b[keep].features.histogram, seg_b[other].features.histogram);
                 self.segmenters[a].split_by_colour(images[a], i, &keep, &other, MERGED_MIN_PART)
             }
             Split::Rows(keep, other) => self.segmenters[a].split_by_rows(images[a], i, keep, other, MERGED_MIN_PART),
