@@ -6,7 +6,7 @@
 //! stat/2, so the tolerance is 1e-12 + 2e-15·stat; p-values scipy flushes to 0 (< 1e-308) must
 //! be < 1e-300 here.
 
-mod common;
+use crate::common;
 use bayes::chi2::*;
 use common::*;
 

@@ -2,7 +2,7 @@
 //! scipy's dirichlet_multinomial). Tolerance: scaled diff ≤ 1e-12 + 10·2.2e-16 against `*_mp`
 //! (and against the mpmath `log_ml_sequence`).
 
-mod common;
+use crate::common;
 use bayes::dirichlet::*;
 use common::*;
 

@@ -1,7 +1,7 @@
 //! `bayes::hmm` against tests/data/hmm_forward.json (hmmlearn 0.3.3 log-mode score and Viterbi,
 //! cross-checked by a numpy scaled forward pass; see tests/data/PROVENANCE.md).
 
-mod common;
+use crate::common;
 use bayes::hmm::{ForwardFilter, Hmm, categorical_log_emissions};
 use common::*;
 

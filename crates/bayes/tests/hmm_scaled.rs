@@ -3,7 +3,7 @@
 //! against the exact log-space recursion on models built to stress them: bands, sparse columns,
 //! absorbing start states that decay below the flush floor, long sequences, impossible steps.
 
-mod common;
+use crate::common;
 use bayes::hmm::{
     ForwardFilter, Hmm, ScaledFilter, SharedModel, categorical_emissions, categorical_log_emissions, forward_shared,
 };

@@ -1,7 +1,7 @@
 //! `bayes::multivariate` against scipy / mpmath (tests/data/{mvn,multivariate_t,invwishart}.json).
 //! Tolerance (the reference README's): scaled diff ≤ 1e-12 + 10·cond·2.2e-16 against `*_mp`.
 
-mod common;
+use crate::common;
 use bayes::multivariate::*;
 use common::*;
 use nalgebra::{DMatrix, DVector};

@@ -1,6 +1,6 @@
 //! `bayes::special` against mpmath (tests/data/special.json, made by tests/data/make_special.py).
 
-mod common;
+use crate::common;
 use bayes::special::*;
 use common::*;
 

@@ -1,7 +1,7 @@
 //! `bayes::univariate` against scipy / mpmath (tests/data/{student_t,nig_posterior}.json).
 //! Tolerance: scaled diff ≤ 1e-12 + 10·2.2e-16 (the README's rule with cond = 1).
 
-mod common;
+use crate::common;
 use bayes::univariate::*;
 use common::*;
 

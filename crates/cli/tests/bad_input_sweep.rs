@@ -3,7 +3,7 @@
 //! negatives, huge values and unknown names. Each case fails at input validation with exit code ≠ 0
 //! and one `error:` line, never a panic. The cases are distinct (checked) and there are at least 50.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};

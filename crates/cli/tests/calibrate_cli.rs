@@ -3,7 +3,7 @@
 //! count, same per-object outcomes); bad calibration files and outputs are refused with exit code 1
 //! and a message naming them.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -1,7 +1,7 @@
 //! End-to-end tests of `pbd grasp`: bad input is a clear error with a non-zero exit; learning works on
 //! a small corpus; in release mode, record, generate and a reduced eval run in the simulator.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -2,7 +2,7 @@
 //! input, `record --teleop … --save-teleop …` never writes an empty copy silently, and a scene (or
 //! catalog) with more objects than the limit is refused before any work.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -1,7 +1,7 @@
 //! Regression tests for the hostile-input sweep (issue 20): inputs are never overwritten, absurd
 //! sizes and counts are refused before any work, and nothing panics.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -3,7 +3,7 @@
 //! the chunk or with the summary. Each is refused or flagged naming the file and the byte offset;
 //! genuine and interrupted recordings keep their verdicts.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;

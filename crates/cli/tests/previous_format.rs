@@ -4,7 +4,7 @@
 //! `tests/data/touch-json-v1.mcap` is `pbd record --script touch --seed 3` written by pbd at commit
 //! 356f02b (JSON schemas); `touch-json-v1.expected.json` is what `pbd infer` said of it then.
 
-mod common;
+use crate::common;
 
 use common::{pbd, stderr, stdout};
 use serde_json::Value;

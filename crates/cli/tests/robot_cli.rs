@@ -2,7 +2,7 @@
 //! Dexter model and on the Barrett WAM URDF against Pinocchio's numbers (tests/data/wam7_kinematics.json,
 //! see tests/data/PROVENANCE.md), plus every kind of bad input a user can give.
 
-mod common;
+use crate::common;
 
 use common::{pbd, repo, stderr, stdout};
 use std::path::PathBuf;

@@ -4,7 +4,7 @@
 //! in-process run with the same calibration puts it. Bad mappings and an absent robot are refused
 //! with exit code 1 and a message naming the file, field or topic.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

@@ -4,7 +4,7 @@
 //! glove stream is understood like the live one, recordings survive SIGKILL and SIGINT, and bad input
 //! is refused with a clear message.
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! bit-identical for a seed, a different seed changes the noise but not the outcome, the MCAP
 //! recording is a complete file, and bad input gives a clear error with a non-zero exit.
 
-mod common;
+use crate::common;
 
 use common::{pbd, repo, stderr};
 

@@ -1,6 +1,6 @@
 //! The control law (3.4), null-space composition (3.5–3.7) and the closed loop on a kinematic plant.
 
-mod common;
+use crate::common;
 
 use control_basis::{
     Chain, ControlStack, Controller, FeedbackElement, KinematicPlant, ManipulabilityRows, MotorUnits, Operator, Plant,

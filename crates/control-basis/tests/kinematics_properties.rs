@@ -1,6 +1,6 @@
 //! Jacobians against finite differences (property tests), chains through the tree, mimic joints.
 
-mod common;
+use crate::common;
 
 use control_basis::{Chain, RobotModel, check_jacobian_matches_finite_difference, forward_kinematics, jacobian};
 use proptest::prelude::*;

@@ -16,7 +16,7 @@
 //!
 //! CI runs the quick form, one seed (`every_catalog_object_into_every_reachable_bin`, 86 runs); the
 //! full sweep over three seeds (258 runs) is `#[ignore]`d:
-//! `cargo test --release -p dexter-sim --test pick_place_catalog -- --ignored --nocapture`.
+//! `cargo test --release -p dexter-sim --test integration pick_place_catalog:: -- --ignored --nocapture`.
 //! `PBD_CATALOG_SEEDS=n` sets the seeds of the quick form to 1..=n.
 
 use dexter_sim::physics::SimSettings;

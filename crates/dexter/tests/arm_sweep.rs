@@ -2,9 +2,7 @@
 //! own model: the kinematic plant of `examples/kinematic_pick.rs` supplies the model, and the arm
 //! stands at its parked pose.
 
-#[path = "../examples/kinematic_pick.rs"]
-#[allow(dead_code)]
-mod example;
+use crate::example;
 
 use control_basis::math::Vec3;
 use dexter::Arm;

@@ -1,9 +1,7 @@
 //! The robot side runs Pick-And-Place with ψ on hardware that is not the simulator: the kinematic
 //! plant with scripted sensors of `examples/kinematic_pick.rs` (the example itself, run as a test).
 
-#[path = "../examples/kinematic_pick.rs"]
-#[allow(dead_code)]
-mod example;
+use crate::example;
 
 #[test]
 fn pick_and_place_runs_on_a_kinematic_plant_with_scripted_sensors() {

@@ -1,0 +1,20 @@
+//! Every integration test of this crate that needs no process of its own, in one binary: one link
+//! and one set of generic instantiations instead of one per file (rebuilding the workspace's test
+//! binaries took 50 s with one per file, 33 s so, on 2 idle cores). Each file is a module; run one
+//! with `cargo test --release -p <crate> --test integration <file>::`. A test that installs a counting
+//! global allocator keeps a binary of its own (`Cargo.toml`); docs/src/testing.md has the layout.
+
+mod bad_input_sweep;
+mod calibrate_cli;
+mod common;
+mod docs_book;
+mod grasp_cli;
+mod hostile_files;
+mod hostile_input;
+mod hostile_mcap;
+mod previous_format;
+mod robot_cli;
+mod ros2_cli;
+mod schema_cli;
+mod sim_cli;
+mod test_layout;
