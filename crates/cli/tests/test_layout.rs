@@ -1,6 +1,6 @@
-//! Every crate's integration-test files run: with `autotests = false` a file under `tests/` that is
-//! neither a module of `tests/integration.rs` nor a `[[test]]` of its `Cargo.toml` would be skipped
-//! without a word (docs/src/testing.md, "Layout of the test suite").
+//! Every crate's integration-test file runs (with `autotests = false` a file
+//! under `tests/` that is neither a module of `tests/integration.rs` nor a `[[test]]` of its
+//! `Cargo.toml` would be skipped without a word; docs/src/testing.md, "Layout of the test suite").
 
 use std::collections::BTreeSet;
 use std::path::Path;
