@@ -209,15 +209,28 @@ fn outputs_never_overwrite_inputs() {
 #[test]
 fn execute_stops_on_sigint_with_a_complete_log() {
     let d = dir("sigint");
-    let demo = d.join("demo");
-    // A model to execute: the demo's, learned from one recorded demonstration.
-    let o = pbd(&["demo", "--out", &s(&demo), "--json"]);
+    // What to execute: the inference of one recorded pick-and-place (2 s; the whole `pbd demo`
+    // took 15 s), run on the four objects of `sorting-demo` (6 s uninterrupted).
+    let demo = d.join("pick.mcap");
+    let o = pbd(&["record", "-o", &s(&demo)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let inference = s(&d.join("pick.infer.json"));
+    let o = pbd(&["infer", &s(&demo), "-o", &inference]);
     assert!(o.status.success(), "{}", stderr(&o));
     let log = d.join("run.mcap");
-    let model = s(&demo.join("model.json"));
-    let o = interrupted_after(
-        &["execute", "--model", &model, "--scene", "sorting-demo", "-o", &s(&log)],
-        4,
+    // Interrupted 1.5 s after its log has begun, whatever the machine's speed.
+    let o = interrupted_when(
+        &[
+            "execute",
+            "--demo",
+            &inference,
+            "--scene",
+            "sorting-demo",
+            "-o",
+            &s(&log),
+        ],
+        Some(&log),
+        std::time::Duration::from_millis(1500),
     );
     assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
     let o = pbd(&["doctor", &s(&log), "--json"]);
