@@ -331,6 +331,21 @@ pub trait Hardware: Plant {
     /// it. What the robot knows of its own body in the image (a self-mask) and of the empty
     /// workspace (backgrounds from a calibration before any object was placed) it computes itself.
     fn capture(&mut self, camera: usize, out: &mut Image) -> Result<(), HardwareError>;
+    /// Captures the cameras `cameras` at the same instant, image `k` into `out[k]` — a stereo
+    /// pair's two views. The default captures them one after the other; hardware that exposes them
+    /// together (or renders them on several cores) overrides it. Errors when the two lengths differ.
+    fn capture_many(&mut self, cameras: &[usize], out: &mut [Image]) -> Result<(), HardwareError> {
+        if cameras.len() != out.len() {
+            return Err(HardwareError::Device {
+                device: "cameras".into(),
+                message: format!("{} cameras asked for into {} images", cameras.len(), out.len()),
+            });
+        }
+        for (&camera, image) in cameras.iter().zip(out.iter_mut()) {
+            self.capture(camera, image)?;
+        }
+        Ok(())
+    }
     /// Index of the camera named `name`.
     fn camera_index(&self, name: &str) -> Result<usize, HardwareError> {
         let cams = self.cameras();

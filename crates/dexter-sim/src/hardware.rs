@@ -171,6 +171,36 @@ impl SimCameras {
         Ok(())
     }
 
+    /// Renders cameras `ks[0]` and `ks[1]` (two different cameras) into `out`: the images two
+    /// [`SimCameras::capture`] calls give, the second on a thread of its own when this run is not
+    /// one of a parallel batch (inside rayon's pool every core already runs a scene, and a thread
+    /// more per frame slowed a 20-scene experiment by 3.5 %): `pbd execute` 6.4 → 5.8 s.
+    pub fn capture_two(&mut self, sim: &DexterSim, ks: [usize; 2], out: [&mut Image; 2]) -> Result<(), SimError> {
+        let [oa, ob] = out;
+        let in_batch = rayon::current_thread_index().is_some();
+        if in_batch || ks[0] == ks[1] || ks[0].max(ks[1]) >= self.renderers.len() {
+            self.capture(sim, ks[0], oa)?;
+            return self.capture(sim, ks[1], ob);
+        }
+        self.sync(sim);
+        let cams = [self.camera(sim, ks[0])?, self.camera(sim, ks[1])?];
+        let (low, high) = (ks[0].min(ks[1]), ks[0].max(ks[1]));
+        let (below, above) = self.renderers.split_at_mut(high);
+        let (r_low, r_high) = (&mut below[low], &mut above[0]);
+        let (ra, rb) = if ks[0] < ks[1] {
+            (r_low, r_high)
+        } else {
+            (r_high, r_low)
+        };
+        let scene = &self.scene;
+        let (a, b) = std::thread::scope(|threads| {
+            let other = threads.spawn(|| rb.render(&cams[1], scene).map(|im| ob.copy_from(im)));
+            let a = ra.render(&cams[0], scene).map(|im| oa.copy_from(im));
+            (a, other.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+        });
+        a.and(b)
+    }
+
     /// The renderer's labels of camera `k`'s last capture, as a mask of the pixels whose first
     /// surface is the robot — **ground truth for evaluating** the robot's own self-mask; it never
     /// reaches the robot.
@@ -370,6 +400,39 @@ impl Hardware for SimRobot<'_> {
         self.cameras.capture(self.sim, camera, out).map_err(hw_error)?;
         if self.fault.as_ref().is_some_and(|f| f.occludes(camera)) {
             Fault::cover(out);
+        }
+        Ok(())
+    }
+    fn capture_many(&mut self, cameras: &[usize], out: &mut [Image]) -> Result<(), HardwareError> {
+        // A stereo pair is rendered on two cores; anything else one camera after the other.
+        let ([a, b], [image_a, image_b]) = (cameras, &mut *out) else {
+            if cameras.len() != out.len() {
+                return Err(HardwareError::Device {
+                    device: "cameras".into(),
+                    message: format!("{} cameras asked for into {} images", cameras.len(), out.len()),
+                });
+            }
+            for (&camera, image) in cameras.iter().zip(out.iter_mut()) {
+                self.capture(camera, image)?;
+            }
+            return Ok(());
+        };
+        for &camera in [a, b] {
+            if camera >= CAMERAS.len() {
+                return Err(HardwareError::NoSuchDevice {
+                    device: "camera",
+                    index: camera,
+                    count: CAMERAS.len(),
+                });
+            }
+        }
+        self.cameras
+            .capture_two(self.sim, [*a, *b], [&mut *image_a, &mut *image_b])
+            .map_err(hw_error)?;
+        for (camera, image) in [(*a, image_a), (*b, image_b)] {
+            if self.fault.as_ref().is_some_and(|f| f.occludes(camera)) {
+                Fault::cover(image);
+            }
         }
         Ok(())
     }

@@ -5,6 +5,7 @@
 //! global allocator keeps a binary of its own (`Cargo.toml`); docs/src/testing.md has the layout.
 
 mod bench_scene;
+mod capture_pair;
 mod faults;
 mod grasp_grid;
 mod honest_eyes;

@@ -170,8 +170,9 @@ impl Eyes {
             let [(l0, l1), (r0, r1)] = &p.backgrounds;
             p.pipeline.set_background_ranges(&cams, (l0, l1), (r0, r1))?;
         }
+        // Both views of the pair at one instant (the simulator renders them on two cores).
+        hw.capture_many(&p.cameras, &mut p.images)?;
         for (k, cam) in [&cams.left, &cams.right].into_iter().enumerate() {
-            hw.capture(p.cameras[k], &mut p.images[k])?;
             self.self_model.mask(hw, cam, &mut p.masks[k])?;
         }
         // A covered (or dead) camera sees nothing — not one object filling the view: no blobs from
