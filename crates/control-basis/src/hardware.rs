@@ -335,16 +335,7 @@ pub trait Hardware: Plant {
     /// pair's two views. The default captures them one after the other; hardware that exposes them
     /// together (or renders them on several cores) overrides it. Errors when the two lengths differ.
     fn capture_many(&mut self, cameras: &[usize], out: &mut [Image]) -> Result<(), HardwareError> {
-        if cameras.len() != out.len() {
-            return Err(HardwareError::Device {
-                device: "cameras".into(),
-                message: format!("{} cameras asked for into {} images", cameras.len(), out.len()),
-            });
-        }
-        for (&camera, image) in cameras.iter().zip(out.iter_mut()) {
-            self.capture(camera, image)?;
-        }
-        Ok(())
+        capture_one_by_one(self, cameras, out)
     }
     /// Index of the camera named `name`.
     fn camera_index(&self, name: &str) -> Result<usize, HardwareError> {
@@ -364,4 +355,23 @@ pub trait Hardware: Plant {
             .position(|n| n == name)
             .ok_or_else(|| CbError::UnknownJoint { name: name.to_string() })
     }
+}
+
+/// [`Hardware::capture_many`] one camera after the other (its default, and the fallback of hardware
+/// that captures only some sets at once). Errors when the two lengths differ.
+pub fn capture_one_by_one<H: Hardware + ?Sized>(
+    hw: &mut H,
+    cameras: &[usize],
+    out: &mut [Image],
+) -> Result<(), HardwareError> {
+    if cameras.len() != out.len() {
+        return Err(HardwareError::Device {
+            device: "cameras".into(),
+            message: format!("{} cameras asked for into {} images", cameras.len(), out.len()),
+        });
+    }
+    for (&camera, image) in cameras.iter().zip(out.iter_mut()) {
+        hw.capture(camera, image)?;
+    }
+    Ok(())
 }

@@ -406,16 +406,7 @@ impl Hardware for SimRobot<'_> {
     fn capture_many(&mut self, cameras: &[usize], out: &mut [Image]) -> Result<(), HardwareError> {
         // A stereo pair is rendered on two cores; anything else one camera after the other.
         let ([a, b], [image_a, image_b]) = (cameras, &mut *out) else {
-            if cameras.len() != out.len() {
-                return Err(HardwareError::Device {
-                    device: "cameras".into(),
-                    message: format!("{} cameras asked for into {} images", cameras.len(), out.len()),
-                });
-            }
-            for (&camera, image) in cameras.iter().zip(out.iter_mut()) {
-                self.capture(camera, image)?;
-            }
-            return Ok(());
+            return control_basis::hardware::capture_one_by_one(self, cameras, out);
         };
         for &camera in [a, b] {
             if camera >= CAMERAS.len() {
