@@ -86,6 +86,73 @@ mod tests {
         );
     }
 
+    /// A transfer whose receiving arm does not get to the object on the handoff spot: its first
+    /// stop is retried (the way planned round what is seen), the second gives the object back to
+    /// the arm that put it there — which picks it and puts it on a new spot — once; a receiving
+    /// arm that fails after that is left to the executive's give-up rule.
+    #[test]
+    fn an_object_the_receiving_arm_cannot_reach_goes_back_once() {
+        use crate::arm::Arm;
+        use schema::{Failure, FailureCause, ProceduralPolicy};
+        let lib = Library::builtin();
+        let schema = lib.schema("pick_and_place").unwrap();
+        let skills = SkillMap::new(&lib);
+        let mut policy = ArmPolicy {
+            object: "0".into(),
+            place: Some("bin-left".into()),
+            pick_arm: Arm::Right,
+            place_arm: Arm::Left,
+            passing: Passing::of(schema, &skills),
+            skills,
+            transferred: false,
+            at_object: vec![Arm::Right],
+            at_place: vec![Arm::Left],
+            at_handoff: Arm::BOTH.to_vec(),
+            failed_arms: Vec::new(),
+            short_descents: [0; 2],
+            stopped_approaches: [0; 2],
+            unreceived: 0,
+            hand_backs: 0,
+            rebindings: Vec::new(),
+        };
+        let arm = |b: &schema::Binding| b.arm.clone().unwrap();
+        // The right arm picks and carries to the handoff spot.
+        assert_eq!(arm(&policy.bind(schema, "idle", "reach_object")), "right");
+        let carry = policy.bind(schema, "carrying", "place");
+        assert_eq!((arm(&carry).as_str(), carry.place.as_deref()), ("right", Some(HANDOFF)));
+        // Put down: the left arm is to take it, and its reach stops on the way, twice.
+        let receive = policy.bind(schema, "transfer_placed", "reach_object");
+        assert_eq!(arm(&receive), "left");
+        let stopped = Failure::new(FailureCause::ApproachNotReached, "pre-grasp not reached (8 cm away)");
+        policy.failed(schema, "transfer_placed", "reach_object", &receive, &stopped);
+        assert!(policy.rebindings.is_empty());
+        assert_eq!(arm(&policy.bind(schema, "idle", "reach_object")), "left");
+        let short = Failure::new(FailureCause::StoppedShort, "grasp pose not reached (6 cm away)");
+        policy.failed(schema, "idle", "reach_object", &receive, &short);
+        assert_eq!(policy.rebindings, ["hand_back"]);
+        // Back to the right arm, which puts it on the handoff spot again.
+        assert_eq!(arm(&policy.bind(schema, "idle", "reach_object")), "right");
+        let carry = policy.bind(schema, "carrying", "place");
+        assert_eq!((arm(&carry).as_str(), carry.place.as_deref()), ("right", Some(HANDOFF)));
+        // The left arm fails again: no second hand-back.
+        let receive = policy.bind(schema, "transfer_placed", "reach_object");
+        assert_eq!(arm(&receive), "left");
+        for _ in 0..3 {
+            policy.failed(schema, "idle", "reach_object", &receive, &stopped);
+        }
+        assert_eq!(policy.rebindings, ["hand_back"]);
+        assert_eq!(arm(&policy.bind(schema, "idle", "reach_object")), "left");
+        // A failure that is not the arm's (the object is gone) never hands back.
+        let mut fresh = policy.clone();
+        fresh.hand_backs = 0;
+        let gone = Failure::new(FailureCause::Gone, "the object is gone");
+        for _ in 0..3 {
+            fresh.failed(schema, "idle", "reach_object", &receive, &gone);
+        }
+        assert_eq!(fresh.rebindings, ["hand_back"]);
+        assert_eq!(arm(&fresh.bind(schema, "idle", "reach_object")), "left");
+    }
+
     /// A 20 × 25 cm bin: an empty one takes the object at the end of its long side away from the
     /// hand (its middle when the hand is not known); with a can (radius 3 cm)
     /// already in the middle, a 3 cm object goes where the gap between them is widest (a corner:

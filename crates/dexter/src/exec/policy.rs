@@ -19,6 +19,11 @@ pub(super) const SHORT_DESCENTS: usize = 2;
 /// stop is retried with the way planned round what is seen then).
 pub(super) const STOPPED_APPROACHES: usize = 2;
 
+/// Times the object goes back to the arm that put it on the handoff spot when the arm to take it
+/// from there cannot get to it: that arm picks it up again and puts it on a spot planned clear of
+/// the failed reach.
+pub(super) const HAND_BACKS: usize = 1;
+
 /// The hand-to-hand pass a schema's graph spells out on its main path: a state whose action is a
 /// Place and from which the schema's plain edges lead (before any goal) to a state whose action is a
 /// reach to the object puts the object down for the other hand (a user's `pass_and_place`); the
@@ -112,6 +117,11 @@ pub struct ArmPolicy {
     pub(super) short_descents: [usize; 2],
     /// Approaches per arm that stopped on their way ([`FailureCause::ApproachNotReached`]).
     pub(super) stopped_approaches: [usize; 2],
+    /// Reaches of the placing arm to the object on the handoff spot that did not get there, since
+    /// it was last put there.
+    pub(super) unreceived: usize,
+    /// Times the object went back to the picking arm ([`HAND_BACKS`]).
+    pub(super) hand_backs: usize,
     /// ψ's rebindings after failures, in order (`other_arm`, `hand_over`, `gave_up: …`).
     pub rebindings: Vec<String>,
 }
@@ -165,6 +175,8 @@ impl ArmPolicy {
             failed_arms: Vec::new(),
             short_descents: [0; 2],
             stopped_approaches: [0; 2],
+            unreceived: 0,
+            hand_backs: 0,
             rebindings: Vec::new(),
         };
         // Prefer the arm on the object's side.
@@ -258,12 +270,35 @@ impl schema::ProceduralPolicy for ArmPolicy {
     fn failed(&mut self, schema: &schema::Schema, state: &str, action: &str, binding: &Binding, why: &Failure) {
         // The approach (hover, pre-grasp) failed; a descent stopped short (on the object) is not the
         // arm's failure.
-        if self.skills.skill(action) != Some(Skill::ReachObject) || self.handed(schema, state) {
+        if self.skills.skill(action) != Some(Skill::ReachObject) {
             return;
         }
         let Some(arm) = binding.arm.as_deref().and_then(Arm::parse) else {
             return;
         };
+        if self.handed(schema, state) {
+            // The arm to take the object from the handoff spot does not get there (a post the
+            // spot's ways were not planned round; a descent stopping short above it): after a
+            // second stop — the first is retried with the way planned round what is seen — the object goes back to the arm that put
+            // it there, which reaches it, and is put on a spot clear of the failed reaches. Left
+            // to the placing arm, it failed the same way until the executive gave up (development
+            // seeds 1–4, blocked arm: 10 of 20 failures).
+            if self.transferred
+                && arm == self.place_arm
+                && self.is_transfer()
+                && (why.effector_blocked() || why.cause == FailureCause::StoppedShort)
+                && self.hand_backs < HAND_BACKS
+            {
+                self.unreceived += 1;
+                if self.unreceived >= STOPPED_APPROACHES {
+                    self.unreceived = 0;
+                    self.hand_backs += 1;
+                    self.transferred = false;
+                    self.rebindings.push("hand_back".into());
+                }
+            }
+            return;
+        }
         // … unless it stops short again: the second descent of one arm that stops short
         // (after the first, the arm backed off and looked again) is the arm not getting there —
         // an object knocked over near the edge of its workspace.
