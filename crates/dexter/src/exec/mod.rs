@@ -97,24 +97,15 @@ mod tests {
         let lib = Library::builtin();
         let schema = lib.schema("pick_and_place").unwrap();
         let skills = SkillMap::new(&lib);
-        let mut policy = ArmPolicy {
-            object: "0".into(),
-            place: Some("bin-left".into()),
-            pick_arm: Arm::Right,
-            place_arm: Arm::Left,
-            passing: Passing::of(schema, &skills),
+        let mut policy = ArmPolicy::unassigned(
+            "0",
+            Some("bin-left"),
+            schema,
             skills,
-            transferred: false,
-            at_object: vec![Arm::Right],
-            at_place: vec![Arm::Left],
-            at_handoff: Arm::BOTH.to_vec(),
-            failed_arms: Vec::new(),
-            short_descents: [0; 2],
-            stopped_approaches: [0; 2],
-            unreceived: 0,
-            hand_backs: 0,
-            rebindings: Vec::new(),
-        };
+            [vec![Arm::Right], vec![Arm::Left], Arm::BOTH.to_vec()],
+        );
+        policy.pick_arm = Arm::Right;
+        policy.place_arm = Arm::Left;
         let arm = |b: &schema::Binding| b.arm.clone().unwrap();
         // The right arm picks and carries to the handoff spot.
         assert_eq!(arm(&policy.bind(schema, "idle", "reach_object")), "right");

@@ -160,8 +160,30 @@ impl ArmPolicy {
         };
         let hand_spot = Vec3::new(handoff[0], handoff[1], table_z);
         let at_handoff = arms_reaching(hw, table_z, &hand_spot)?;
-        let skills = SkillMap::new(library);
-        let mut policy = ArmPolicy {
+        let mut policy = ArmPolicy::unassigned(
+            object,
+            place,
+            schema,
+            SkillMap::new(library),
+            [at_object, at_place, at_handoff],
+        );
+        // Prefer the arm on the object's side.
+        let side = if object_at.y >= 0.0 { Arm::Left } else { Arm::Right };
+        Ok(policy.assign(side).map(|_| policy))
+    }
+
+    /// A policy for `object` (and `place`) over `schema`'s actions bound by `skills`, knowing which
+    /// arms reach the object, the place and the handoff spot (`reaching`, in that order), before
+    /// any arm is assigned (both `Left`) or has failed.
+    pub(super) fn unassigned(
+        object: &str,
+        place: Option<&str>,
+        schema: &schema::Schema,
+        skills: SkillMap,
+        reaching: [Vec<Arm>; 3],
+    ) -> ArmPolicy {
+        let [at_object, at_place, at_handoff] = reaching;
+        ArmPolicy {
             object: object.into(),
             place: place.map(str::to_string),
             pick_arm: Arm::Left,
@@ -178,10 +200,7 @@ impl ArmPolicy {
             unreceived: 0,
             hand_backs: 0,
             rebindings: Vec::new(),
-        };
-        // Prefer the arm on the object's side.
-        let side = if object_at.y >= 0.0 { Arm::Left } else { Arm::Right };
-        Ok(policy.assign(side).map(|_| policy))
+        }
     }
 
     /// The same policy with `arm` picking first when it reaches what the task needs (the arm a
