@@ -122,7 +122,7 @@ pub struct ArmPolicy {
     pub(super) unreceived: usize,
     /// Times the object went back to the picking arm ([`HAND_BACKS`]).
     pub(super) hand_backs: usize,
-    /// ψ's rebindings after failures, in order (`other_arm`, `hand_over`, `gave_up: …`).
+    /// ψ's rebindings after failures, in order (`other_arm`, `hand_over`, `hand_back`, `gave_up: …`).
     pub rebindings: Vec<String>,
 }
 
@@ -298,10 +298,10 @@ impl schema::ProceduralPolicy for ArmPolicy {
         if self.handed(schema, state) {
             // The arm to take the object from the handoff spot does not get there (a post the
             // spot's ways were not planned round; a descent stopping short above it): after a
-            // second stop — the first is retried with the way planned round what is seen — the object goes back to the arm that put
-            // it there, which reaches it, and is put on a spot clear of the failed reaches. Left
-            // to the placing arm, it failed the same way until the executive gave up (development
-            // seeds 1–4, blocked arm: 10 of 20 failures).
+            // second stop — the first is retried with the way planned round what is seen — the
+            // object goes back to the arm that put it there, which reaches it, and is put on a
+            // spot clear of the failed reaches. Left to the placing arm, it failed the same way
+            // until the executive gave up (development seeds 1–4, blocked arm: 10 of 20 failures).
             if self.transferred
                 && arm == self.place_arm
                 && self.is_transfer()
