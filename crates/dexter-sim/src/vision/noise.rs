@@ -80,17 +80,30 @@ fn quantile_table() -> &'static [f32; QUANTILES] {
 /// 4096 equiprobable normal quantiles (five deviates per 64-bit draw). Tails are cut at ±3.5σ,
 /// which is immaterial for noise that is then quantised to 8 bits; it is ~25× cheaper than
 /// Box–Muller, whose `ln`/`sqrt` per pair took a third of the render time.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct Gaussian {
+    table: &'static [f32; QUANTILES],
     rng: Generator,
     bits: u64,
     left: u32,
+}
+
+impl std::fmt::Debug for Gaussian {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // The quantile table is a constant: not printed.
+        f.debug_struct("Gaussian")
+            .field("rng", &self.rng)
+            .field("bits", &self.bits)
+            .field("left", &self.left)
+            .finish_non_exhaustive()
+    }
 }
 
 impl Gaussian {
     /// A source whose whole future is fixed by `seed`.
     pub fn new(seed: u64) -> Self {
         Self {
+            table: quantile_table(),
             rng: bayes::rng::seeded(seed),
             bits: 0,
             left: 0,
@@ -107,7 +120,7 @@ impl Gaussian {
         let i = (self.bits & (QUANTILES as u64 - 1)) as usize;
         self.bits >>= QUANTILE_BITS;
         self.left -= 1;
-        quantile_table()[i] as f64
+        self.table[i] as f64
     }
 }
 

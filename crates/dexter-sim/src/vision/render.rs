@@ -7,7 +7,9 @@
 //! sorted by that bound and binned into 8×8-pixel tiles; a pixel only tests the items of its tile
 //! whose rectangle holds it, nearest bound first, and stops as soon as the best hit is nearer than
 //! the next item's bound. Boxes, cylinders and balls are intersected analytically (parry casts
-//! cylinders with GJK, ~10× slower); other shapes by parry after a ray–bounding-sphere test.
+//! cylinders with GJK, ~10× slower); other shapes by parry after a ray–bounding-sphere test. The
+//! pixels' unit rays in the optical frame are computed once per set of intrinsics and kept (the
+//! same arithmetic as computing them per frame: images are bit-identical).
 
 use crate::convert::iso_to_glam;
 use crate::error::SimError;
@@ -305,6 +307,10 @@ pub struct Renderer {
     tile_start: Vec<u32>,
     tile_fill: Vec<u32>,
     tile_items: Vec<u32>,
+    /// Per pixel the unit ray direction in the optical frame and the inverse length of its
+    /// `z = 1` form (the depth of a hit at unit distance), for the intrinsics in `rays_for`.
+    rays: Vec<(DVec3, f64)>,
+    rays_for: [u64; 6],
     stats: RenderStats,
 }
 
@@ -352,6 +358,8 @@ impl Renderer {
             tile_start: Vec::new(),
             tile_fill: Vec::new(),
             tile_items: Vec::new(),
+            rays: Vec::new(),
+            rays_for: [0; 6],
             stats: RenderStats::default(),
         })
     }
@@ -555,20 +563,44 @@ impl Renderer {
         }
     }
 
+    /// Fills [`Renderer::rays`] for `camera`'s intrinsics (kept while they do not change).
+    fn optical_rays(&mut self, camera: &Camera) {
+        let key = [
+            camera.width as u64,
+            camera.height as u64,
+            camera.fx.to_bits(),
+            camera.fy.to_bits(),
+            camera.cx.to_bits(),
+            camera.cy.to_bits(),
+        ];
+        if key == self.rays_for && self.rays.len() == camera.pixel_count() {
+            return;
+        }
+        let (ifx, ify) = (1.0 / camera.fx, 1.0 / camera.fy);
+        self.rays.clear();
+        for v in 0..camera.height {
+            let yo = (v as f64 - camera.cy) * ify;
+            for u in 0..camera.width {
+                let d_opt = DVec3::new((u as f64 - camera.cx) * ifx, yo, 1.0);
+                let inv_norm = 1.0 / d_opt.length();
+                self.rays.push((d_opt * inv_norm, inv_norm));
+            }
+        }
+        self.rays_for = key;
+    }
+
     fn trace(&mut self, camera: &Camera, cam: &DPose3, scene: &RenderScene) {
+        self.optical_rays(camera);
         let (w, h) = (camera.width, camera.height);
         let tx = w.div_ceil(TILE) as usize;
         let origin = cam.translation;
-        let (ifx, ify) = (1.0 / camera.fx, 1.0 / camera.fy);
         let sigma = self.pixel_noise;
         let mut stats = self.stats;
         for v in 0..h {
-            let yo = (v as f64 - camera.cy) * ify;
             for u in 0..w {
                 let pix = v as usize * w as usize + u as usize;
-                let d_opt = DVec3::new((u as f64 - camera.cx) * ifx, yo, 1.0);
-                let inv_norm = 1.0 / d_opt.length();
-                let dir = cam.rotation * (d_opt * inv_norm);
+                let (d_unit, inv_norm) = self.rays[pix];
+                let dir = cam.rotation * d_unit;
                 let t_idx = (v / TILE) as usize * tx + (u / TILE) as usize;
                 let (s, e) = (self.tile_start[t_idx] as usize, self.tile_start[t_idx + 1] as usize);
                 let mut best_t = f64::INFINITY;
@@ -640,14 +672,15 @@ impl Renderer {
                         (base.map(|x| x * shade), Some(item.label), (best_t * inv_norm) as f32)
                     }
                 };
-                for (ch, x) in rgb.iter().enumerate() {
+                let out = &mut self.image.rgb[3 * pix..3 * pix + 3];
+                for (o, x) in out.iter_mut().zip(rgb) {
                     let noisy = if sigma > 0.0 {
                         x + sigma * self.noise.sample()
                     } else {
-                        *x
+                        x
                     };
                     // Round half up; `as u8` saturates (and maps NaN to 0).
-                    self.image.rgb[3 * pix + ch] = (noisy * 255.0 + 0.5).clamp(0.0, 255.0) as u8;
+                    *o = (noisy * 255.0 + 0.5) as u8;
                 }
                 self.labels[pix] = label;
                 self.depth[pix] = depth;
@@ -758,6 +791,40 @@ mod tests {
     use crate::convert::iso_to_glam;
     use bayes::rng::Draw;
     use control_basis::math::iso_from_xyz_rpy;
+
+    /// The per-pixel rays are kept while the intrinsics stay and rebuilt when they change: a
+    /// renderer that drew another camera first draws exactly what a fresh one draws.
+    #[test]
+    fn cached_rays_follow_the_intrinsics() {
+        use crate::scene::{CameraSpec, LightSpec};
+        use crate::vision::fixtures::{TABLE_FIXATION, head_cameras, typical_scene};
+        let (scene, _) = typical_scene(3, 6, true);
+        // Another size, then the same size with a narrower field of view (other focal lengths).
+        let small = CameraSpec {
+            width: 80,
+            height: 60,
+            ..CameraSpec::default()
+        };
+        let narrow = CameraSpec {
+            hfov_deg: 45.0,
+            ..CameraSpec::default()
+        };
+        let a = head_cameras(&small, Vec3::from(TABLE_FIXATION)).unwrap().left;
+        let a2 = head_cameras(&narrow, Vec3::from(TABLE_FIXATION)).unwrap().left;
+        let b = head_cameras(&CameraSpec::default(), Vec3::from(TABLE_FIXATION))
+            .unwrap()
+            .right;
+        let mut reused = Renderer::new(0.01, &LightSpec::default(), 9).unwrap();
+        reused.render(&a, &scene).unwrap();
+        reused.render(&a2, &scene).unwrap();
+        reused.reseed(9);
+        let mut fresh = Renderer::new(0.01, &LightSpec::default(), 9).unwrap();
+        for _ in 0..2 {
+            let img = reused.render(&b, &scene).unwrap().clone();
+            assert_eq!(&img, fresh.render(&b, &scene).unwrap());
+            assert_eq!(reused.depth(), fresh.depth());
+        }
+    }
 
     /// The slab box cast agrees with parry's.
     #[test]
