@@ -51,8 +51,12 @@ pub struct BackgroundBank {
 struct WarpView {
     a: Mat3,
     b: Vec3,
-    w: f64,
-    h: f64,
+    /// The view's largest pixel coordinates (width − 1, height − 1).
+    u_max: f64,
+    v_max: f64,
+    /// Its width in pixels and its index in the bank.
+    iw: usize,
+    view: usize,
 }
 
 /// Reused buffers of [`BackgroundBank::render`].
@@ -160,8 +164,10 @@ impl BackgroundBank {
             scratch.warps.push(WarpView {
                 a: kv * rv_t * ray,
                 b: kv * rv_t * (oc - v.position()),
-                w: v.width as f64,
-                h: v.height as f64,
+                u_max: v.width as f64 - 1.0,
+                v_max: v.height as f64 - 1.0,
+                iw: v.width as usize,
+                view: k,
             });
         }
         let dz_row = ray.row(2).transpose();
@@ -178,29 +184,24 @@ impl BackgroundBank {
                     f64::INFINITY
                 };
                 let pix = row as usize * w as usize + col as usize;
+                // The first view (nearest axis first) that sees the point: its index and the four
+                // calibration pixels around it (row-major indices).
                 let mut hit = None;
-                for (i, wv) in scratch.warps.iter().enumerate() {
+                for wv in &scratch.warps {
                     let p = if s.is_finite() { wv.b + wv.a * q * s } else { wv.a * q };
                     if p.z <= 1e-9 {
                         continue;
                     }
                     let (u, v) = (p.x / p.z, p.y / p.z);
-                    if u >= 0.0 && v >= 0.0 && u <= wv.w - 1.0 && v <= wv.h - 1.0 {
-                        let k = scratch.order[i].1;
-                        let valid = &self.views[k].valid;
-                        if !valid.is_empty() {
-                            let iw = wv.w as usize;
-                            let (u0, v0) = (u as usize, v as usize);
-                            let (u1, v1) = ((u0 + 1).min(iw - 1), (v0 + 1).min(wv.h as usize - 1));
-                            if !(valid[v0 * iw + u0]
-                                && valid[v0 * iw + u1]
-                                && valid[v1 * iw + u0]
-                                && valid[v1 * iw + u1])
-                            {
-                                continue;
-                            }
+                    if u >= 0.0 && v >= 0.0 && u <= wv.u_max && v <= wv.v_max {
+                        let (u0, v0) = (u as usize, v as usize);
+                        let (u1, v1) = ((u0 + 1).min(wv.iw - 1), (v0 + 1).min(wv.v_max as usize));
+                        let corners = [v0 * wv.iw + u0, v0 * wv.iw + u1, v1 * wv.iw + u0, v1 * wv.iw + u1];
+                        let valid = &self.views[wv.view].valid;
+                        if !valid.is_empty() && !corners.iter().all(|&i| valid[i]) {
+                            continue;
                         }
-                        hit = Some((k, u, v));
+                        hit = Some((wv.view, corners));
                         break;
                     }
                 }
@@ -210,21 +211,19 @@ impl BackgroundBank {
                         l.fill(0);
                         hh.fill(255);
                     }
-                    Some((k, u, v)) => {
+                    Some((k, corners)) => {
                         covered += 1;
-                        let im = &self.views[k].image;
-                        let iw = im.width as usize;
-                        let (u0, v0) = (u.floor() as usize, v.floor() as usize);
-                        let (u1, v1) = ((u0 + 1).min(iw - 1), (v0 + 1).min(im.height as usize - 1));
-                        l.fill(255);
-                        hh.fill(0);
-                        for (uu, vv) in [(u0, v0), (u1, v0), (u0, v1), (u1, v1)] {
-                            let px = im.px(vv * iw + uu);
+                        let im = &self.views[k].image.rgb;
+                        let (mut a, mut b) = ([255u8; 3], [0u8; 3]);
+                        for i in corners {
+                            let px = &im[3 * i..3 * i + 3];
                             for c in 0..3 {
-                                l[c] = l[c].min(px[c]);
-                                hh[c] = hh[c].max(px[c]);
+                                a[c] = a[c].min(px[c]);
+                                b[c] = b[c].max(px[c]);
                             }
                         }
+                        l.copy_from_slice(&a);
+                        hh.copy_from_slice(&b);
                     }
                 }
             }

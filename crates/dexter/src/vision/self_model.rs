@@ -45,6 +45,7 @@ pub struct SelfModel {
     front: Vec<(f64, f64)>,
     hull: Vec<(f64, f64)>,
     filled: Vec<bool>,
+    wide: Vec<bool>,
     margin: f64,
 }
 
@@ -140,6 +141,7 @@ impl SelfModel {
             front: Vec::new(),
             hull: Vec::new(),
             filled: Vec::new(),
+            wide: Vec::new(),
             margin,
         })
     }
@@ -175,19 +177,24 @@ impl SelfModel {
                 fill_convex(&self.hull, w, h, &mut self.filled);
             }
         }
-        // One pixel of dilation.
+        if w == 0 || h == 0 {
+            out.clear();
+            return Ok(());
+        }
+        // One pixel of dilation (3×3), separably: along the rows into `wide`, then down the columns.
+        self.wide.clear();
+        self.wide.resize(w * h, false);
+        for (src, dst) in self.filled.chunks_exact(w).zip(self.wide.chunks_exact_mut(w)) {
+            for u in 0..w {
+                dst[u] = src[u.saturating_sub(1)] || src[u] || src[(u + 1).min(w - 1)];
+            }
+        }
         out.clear();
         out.resize(w * h, false);
         for v in 0..h {
+            let (up, down) = (v.saturating_sub(1) * w, (v + 1).min(h - 1) * w);
             for u in 0..w {
-                if !self.filled[v * w + u] {
-                    continue;
-                }
-                for dv in v.saturating_sub(1)..=(v + 1).min(h - 1) {
-                    for du in u.saturating_sub(1)..=(u + 1).min(w - 1) {
-                        out[dv * w + du] = true;
-                    }
-                }
+                out[v * w + u] = self.wide[up + u] || self.wide[v * w + u] || self.wide[down + u];
             }
         }
         Ok(())
@@ -222,7 +229,9 @@ fn cross(o: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
 /// Andrew's monotone chain: the convex hull of `pts` (sorted in place), counter-clockwise (in
 /// image coordinates), into `hull`.
 fn convex_hull(pts: &mut [(f64, f64)], hull: &mut Vec<(f64, f64)>) {
-    pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    // Unstable: equal keys are equal points, so the order is the stable one's (and nothing is
+    // allocated, which the stable sort does beyond 20 points).
+    pts.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
     hull.clear();
     for &p in pts.iter() {
         while hull.len() >= 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0 {
