@@ -216,6 +216,16 @@ pub fn run_scene_logged(
     log: &mut dyn RunLog,
 ) -> Result<(Scene, ExecuteReport), SimError> {
     let scene = random_scene(base, config.objects, &mut bayes::rng::stream(config.seed, i as u64))?;
+    for o in &scene.spec.objects {
+        // The world's truth, for tracing one scene (`--only K`, `RUST_LOG=dexter_sim::experiment=debug`).
+        tracing::debug!(
+            "scene {i}: {} at ({:.3}, {:.3}), yaw {:.0}°",
+            o.presentation,
+            o.xy[0],
+            o.xy[1],
+            o.yaw_deg
+        );
+    }
     let seed = bayes::rng::stream(config.seed ^ 0x5EED_0F5C_E4E5, i as u64).next_u64();
     let model = schema::procedural::ProceduralModel::load(&config.model)?;
     let task = Task {
