@@ -239,7 +239,7 @@ fn confirm_unseen_coarse(
     tracks: Vec<SegmentPercept>,
 ) -> Result<Vec<SegmentPercept>, RobotError> {
     let ws = plant.workspace();
-    let coarse = |s: &SegmentPercept| s.extent.as_ref().is_none_or(|e| e.model == "coarse");
+    let coarse = |s: &SegmentPercept| measured(s).is_none();
     let too_high = |s: &SegmentPercept| s.centroid[2] - ws.table_z > COARSE_TOO_HIGH;
     let known: Vec<u32> = tracks.iter().map(|s| s.id).collect();
     let mut kept = Vec::with_capacity(tracks.len());
@@ -309,12 +309,15 @@ pub const MIN_OBJECT_RADIUS: f64 = 0.02;
 /// footprint (from a silhouette's area, which takes in what hides or touches it: a thermos 4 cm in
 /// radius measured 8.6 cm) or none counts [`MIN_OBJECT_RADIUS`].
 fn inscribed_radius(s: &SegmentPercept) -> f64 {
-    s.extent
-        .as_ref()
-        .filter(|e| e.model != "coarse")
-        .map_or(MIN_OBJECT_RADIUS, |e| {
-            e.half_minor.min(e.half_major).max(MIN_OBJECT_RADIUS)
-        })
+    measured(s).map_or(MIN_OBJECT_RADIUS, |e| {
+        e.half_minor.min(e.half_major).max(MIN_OBJECT_RADIUS)
+    })
+}
+
+/// A track's extent when it was measured on the support plane (not `coarse`: from a silhouette's
+/// size only).
+fn measured(s: &SegmentPercept) -> Option<&schema::SeenExtent> {
+    s.extent.as_ref().filter(|e| e.model != "coarse")
 }
 
 /// One track per object: of tracks whose footprints' inscribed circles overlap — a tall
@@ -328,13 +331,13 @@ fn inscribed_radius(s: &SegmentPercept) -> f64 {
 /// second track grasped at three times where the bottle had been (development seed 2, execute
 /// scene 33).
 fn one_per_footprint(seen: Vec<SegmentPercept>) -> Vec<SegmentPercept> {
-    let rank = |s: &SegmentPercept| (s.extent.as_ref().is_some_and(|e| e.model != "coarse"), s.seen);
+    let rank = |s: &SegmentPercept| (measured(s).is_some(), s.seen);
     let mut order: Vec<usize> = (0..seen.len()).collect();
     order.sort_by_key(|&i| std::cmp::Reverse(rank(&seen[i])));
     let mut keep = vec![false; seen.len()];
     for &i in &order {
         let (a, ra) = (&seen[i], inscribed_radius(&seen[i]));
-        let a_coarse = a.extent.as_ref().is_none_or(|e| e.model == "coarse");
+        let a_coarse = measured(a).is_none();
         let overlaps = (0..seen.len()).filter(|&j| keep[j]).find(|&j| {
             let b = &seen[j];
             let d = (a.centroid[0] - b.centroid[0]).hypot(a.centroid[1] - b.centroid[1]);
@@ -359,7 +362,7 @@ fn one_per_footprint(seen: Vec<SegmentPercept>) -> Vec<SegmentPercept> {
 /// Whether the point `p` (x, y) lies inside `b`'s measured footprint (the rectangle along its major
 /// axis; a coarse footprint, from a silhouette's area, counts as none).
 fn inside_footprint(p: [f64; 3], b: &SegmentPercept) -> bool {
-    let Some(e) = b.extent.as_ref().filter(|e| e.model != "coarse") else {
+    let Some(e) = measured(b) else {
         return false;
     };
     let (dx, dy) = (p[0] - e.center[0], p[1] - e.center[1]);
