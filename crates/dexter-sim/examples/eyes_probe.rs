@@ -13,8 +13,12 @@ use dexter_sim::physics::SimSettings;
 use dexter_sim::scene::Scene;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
+        .with_writer(std::io::stderr)
+        .init();
     let args: Vec<String> = std::env::args().collect();
-    let scene = Scene::builtin(args.get(1).map_or("sorting", String::as_str))?;
+    let scene = Scene::open(args.get(1).map_or("sorting", String::as_str))?;
     let x: f64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(0.55);
     let y: f64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(0.0);
     let z: f64 = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(0.03);
@@ -47,6 +51,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let j = hw.dof_index(name)?;
             let q = hw.joint_positions()[j];
             hw.set_joint_reference(j, q + d, 0.0);
+        }
+    }
+    // Optionally flex the right hand's fingers: `PROBE_FLEX=rad` on every medial joint.
+    if let Some(flex) = std::env::var("PROBE_FLEX").ok().and_then(|v| v.parse::<f64>().ok()) {
+        let names: Vec<String> = hw
+            .joint_names()
+            .iter()
+            .filter(|n| n.starts_with("right/bhand") && n.ends_with("med_joint"))
+            .cloned()
+            .collect();
+        for name in names {
+            let j = hw.dof_index(&name)?;
+            hw.set_joint_reference(j, flex, 0.0);
         }
     }
     for k in 0..10 {

@@ -127,3 +127,69 @@ fn the_calibration_is_the_same_for_every_run_in_a_workcell() {
     let direct = dexter_sim::calibrate::calibrate(&a, &Default::default(), 5).unwrap();
     assert_eq!(direct.view_count(), ca.view_count());
 }
+
+/// Lying things at the table's far corners (development seed 6, execute scenes 13 and 36: a spice
+/// jar and a can of peas on their sides, beyond the bins' far ends) are located where they lie:
+/// their centroid disparity is off by 1–2 pixels (a cap segmented in one camera, not the other),
+/// which triangulated them 7–9 cm nearer the cameras, and a phantom row took their place. The
+/// support-plane estimate of a lying thing, checked against its bottom edges, puts them within 2 cm.
+#[test]
+fn lying_things_at_the_far_corners_are_located_where_they_lie() {
+    if cfg!(debug_assertions) {
+        eprintln!("SKIPPED: renders and simulates; run with cargo test --release");
+        return;
+    }
+    let text = r#"
+version = 1
+name = "far-corners"
+catalog = "household.toml"
+seed = 5
+[table]
+height = 0.75
+center = [0.6, 0.0]
+size = [0.6, 1.4]
+[[places]]
+name = "bin-left"
+center = [0.55, 0.45]
+size = [0.2, 0.25]
+wall_height = 0.06
+[[places]]
+name = "bin-right"
+center = [0.55, -0.45]
+size = [0.2, 0.25]
+wall_height = 0.06
+[[objects]]
+presentation = "blue_spice-1"
+xy = [0.778, -0.380]
+yaw_deg = 200
+[[objects]]
+presentation = "peas_can-1"
+xy = [0.771, 0.380]
+yaw_deg = 209
+"#;
+    let assets = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/objects/far-corners.toml");
+    let scene = Scene::from_toml_str(text, &assets).unwrap();
+    let table_z = scene.spec.table.height;
+    let calibration = dexter_sim::calibrate::workcell_calibration(&scene).unwrap();
+    let mut sim = parked_sim(&scene, SimSettings::default()).unwrap();
+    let mut hw = SimRobot::new(&mut sim, &scene, 1).unwrap();
+    let mut eyes = Eyes::new(&hw, table_z, calibration).unwrap();
+    for i in 0..2 {
+        let truth = hw.sim().object_state(i).pose.translation.vector;
+        let head = SearchTrack::new(&hw).unwrap();
+        let mut body = dexter::body::Body::new();
+        head.look_at(&mut hw, &mut body, &truth).unwrap();
+        hw.advance(0.8).unwrap();
+        let nearest = eyes
+            .perceive(&mut hw, Pair::Head)
+            .unwrap()
+            .iter()
+            .filter_map(|b| b.centroid)
+            .map(|c| (c - truth).xy().norm())
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            nearest < 0.02,
+            "object {i} at {truth:?}: the nearest blob is {nearest:.3} m from it"
+        );
+    }
+}

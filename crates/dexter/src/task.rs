@@ -630,6 +630,7 @@ fn run_one(
         &d.event(Verdict::Execute, place.as_deref(), Some(arms), &d.reason),
     );
     plant.bind_arms(&[policy.pick_arm, policy.place_arm]);
+    plant.bind_object(&at);
     let arms_before = plant.arms_used.len();
     let execution = schema::execute(task.library, schema, plant, &mut policy, task.max_actions)?;
     let arms: Vec<String> = plant.arms_used[arms_before..]

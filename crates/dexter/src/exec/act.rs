@@ -30,13 +30,13 @@ impl SchemaPlant for RobotPlant<'_> {
     fn run(&mut self, action: &str, binding: &Binding) -> Result<ActionOutcome, RobotError> {
         let table_z = self.workspace.table_z;
         // ψ bound another arm (after a failure): observe its monitors too.
-        if let (Some(bound), Some(arm)) = (self.bound_arms.as_mut(), binding.arm.as_ref())
+        if let (Some(bound), Some(arm)) = (self.bound.arms.as_mut(), binding.arm.as_ref())
             && !bound.contains(arm)
         {
             bound.push(arm.clone());
         }
         if let (Some(a), Some(arm)) = (self.skills.index(Skill::ReachObject), binding.arm.as_ref()) {
-            self.reach_arm = Some((a, arm.clone()));
+            self.bound.reach = Some((a, arm.clone()));
         }
         let skill = self.skills.skill(action);
         let outcome = match skill {
@@ -137,6 +137,7 @@ impl SchemaPlant for RobotPlant<'_> {
                     (id, seen)
                 };
                 self.target = Some((id, seen.clone()));
+                self.bound.object_at = Some([seen.centroid.x, seen.centroid.y, seen.centroid.z]);
                 if let Some(s) = self
                     .percepts
                     .last()

@@ -177,4 +177,56 @@ mod tests {
         assert!(spot[1] < center[1] - 0.02, "{spot:?}");
         assert_eq!(free_spot(center, size, 0.08, &[(can, 0.03)], None), center);
     }
+
+    /// The reach monitor set, bound to an arm and to the object, converges only for a still, empty
+    /// hand of that arm near that object: the parked hand beside a phantom 30 cm from the bound
+    /// object is not at it (development seed 2, execute scene 29), the same hand near the object is.
+    #[test]
+    fn a_reach_is_bound_to_its_arm_and_its_object() {
+        use schema::monitor::{Hit, Observation};
+        let segment = |id: u32, at: [f64; 3]| schema::SegmentPercept {
+            id,
+            centroid: at,
+            seen: true,
+            pixels: [100, 100],
+            histogram: Vec::new(),
+            covariance: [0.0; 4],
+            colors: Vec::new(),
+            extent: None,
+        };
+        let percept = schema::Percept {
+            t: 0.0,
+            hands: Vec::new(),
+            segments: vec![segment(2, [0.56, -0.06, 0.81]), segment(5, [0.43, -0.34, 0.93])],
+            places: Vec::new(),
+            table_z: 0.75,
+            gaze: None,
+        };
+        let reach = 1;
+        let hit = |arm: &str, seg: u32| Hit {
+            action: reach,
+            arm: Some(arm.into()),
+            segment: Some(seg),
+            place: None,
+        };
+        let observation = |hits: Vec<Hit>| Observation {
+            t: 0.0,
+            x: vec![false; 4],
+            hits,
+        };
+        let mut bound = MonitorBinding {
+            arms: Some(vec!["right".into(), "left".into()]),
+            reach: Some((reach, "right".into())),
+            object_at: None,
+        };
+        let phantom = observation(vec![hit("right", 5)]);
+        assert!(bound.x(&phantom, &percept)[reach], "unbound: any segment near the hand");
+        bound.object_at = Some([0.56, -0.06, 0.81]);
+        assert!(!bound.x(&phantom, &percept)[reach], "a phantom beside the parked hand");
+        assert!(bound.x(&observation(vec![hit("right", 2)]), &percept)[reach]);
+        assert!(
+            !bound.x(&observation(vec![hit("left", 2)]), &percept)[reach],
+            "the other arm is not reaching"
+        );
+    }
 }

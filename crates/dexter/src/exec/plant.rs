@@ -178,28 +178,61 @@ pub(super) const SEARCH_GATE: f64 = 0.5;
 /// was planned has moved (a bump moves it 4–8 cm; a resting object's track wanders < 1 cm).
 pub(super) const MOVED_GATE: f64 = 0.03;
 
-/// The set predicates (4.17) over the monitors bound to `arms` (all when `None`); the monitor set
-/// of `reach` = (action index, arm) only over that arm's monitors — the arm ψ bound to the latest
-/// action: a reach is a controller of one arm and its object, and the other, parked hand resting
-/// near some segment (a phantom under it, a wall) is not reaching.
-pub(super) fn bound_x(
-    o: &schema::monitor::Observation,
-    arms: Option<&[String]>,
-    reach: Option<&(usize, String)>,
-) -> Vec<bool> {
-    let mut x = vec![false; o.x.len()];
-    for h in &o.hits {
-        if let Some((a, arm)) = reach
-            && h.action == *a
-            && h.arm.as_ref().is_some_and(|b| b != arm)
-        {
-            continue;
+/// The procedural resources ψ bound the monitors to (§3.3.1: convergence is a property of a
+/// controller with its resources), which [`MonitorBinding::x`] reads the set predicates (4.17) over.
+#[derive(Debug, Clone, Default)]
+pub(super) struct MonitorBinding {
+    /// The arms the procedural policy bound (None: all).
+    pub(super) arms: Option<Vec<String>>,
+    /// The reach monitor set's index and the arm ψ bound to the latest action.
+    pub(super) reach: Option<(usize, String)>,
+    /// Where the object this instance of the schema works on was last seen (when known).
+    pub(super) object_at: Option<[f64; 3]>,
+}
+
+/// How far (m, horizontally) from where the bound object was last seen a reach monitor's segment
+/// may be and still be that object: twice the reach radius, and a little more than an object
+/// pushed by the approaching fingers moves before the approach fails.
+pub(super) const BOUND_OBJECT_RADIUS: f64 = 0.10;
+
+impl MonitorBinding {
+    /// The set predicates (4.17) over the monitors bound to `arms` (all when `None`); the monitor
+    /// set of `reach` = (action index, arm) only over that arm's monitors — the arm ψ bound to the
+    /// latest action: a reach is a controller of one arm and its object, and the other, parked hand
+    /// resting near some segment (a phantom under it, a wall) is not reaching — and only over
+    /// segments within [`BOUND_OBJECT_RADIUS`] of the bound object: a parked hand near another
+    /// segment is not at this object (a can in a bin, matched in one camera with a sliver of it in
+    /// the other, triangulated beside the parked hand that had just put it there; the executive took
+    /// the next object's reach as done and grasped from the parked pose, development seed 2, execute
+    /// scene 29).
+    pub(super) fn x(&self, o: &schema::monitor::Observation, p: &schema::Percept) -> Vec<bool> {
+        let mut x = vec![false; o.x.len()];
+        for h in &o.hits {
+            if let Some((a, arm)) = &self.reach
+                && h.action == *a
+            {
+                if h.arm.as_ref().is_some_and(|b| b != arm) {
+                    continue;
+                }
+                let elsewhere = |at: &[f64; 3]| {
+                    h.segment
+                        .and_then(|id| p.segments.iter().find(|s| s.id == id))
+                        .is_some_and(|s| (s.centroid[0] - at[0]).hypot(s.centroid[1] - at[1]) > BOUND_OBJECT_RADIUS)
+                };
+                if self.object_at.as_ref().is_some_and(elsewhere) {
+                    continue;
+                }
+            }
+            if self
+                .arms
+                .as_ref()
+                .is_none_or(|arms| h.arm.as_ref().is_none_or(|a| arms.contains(a)))
+            {
+                x[h.action] = true;
+            }
         }
-        if arms.is_none_or(|arms| h.arm.as_ref().is_none_or(|a| arms.contains(a))) {
-            x[h.action] = true;
-        }
+        x
     }
-    x
 }
 
 /// Receives what happens during an execution (for logs).
@@ -243,8 +276,8 @@ pub struct RobotPlant<'a> {
     /// Palm pose when the last grasp converged.
     pub(super) grasp_palm: Option<Iso3>,
     pub(super) held: Option<Held>,
-    /// The arms the procedural policy bound (None: all); see [`RobotPlant::bind_arms`].
-    pub(super) bound_arms: Option<Vec<String>>,
+    /// The resources ψ bound the monitors to ([`RobotPlant::bind_arms`], [`RobotPlant::bind_object`]).
+    pub(super) bound: MonitorBinding,
     pub(super) handoff: [f64; 2],
     /// Where reaches to an object did not converge (x, y): a transfer's handoff spot keeps clear
     /// of them.
@@ -271,8 +304,6 @@ pub struct RobotPlant<'a> {
     pub(super) action_names: Vec<String>,
     /// The library's actions bound to Dexter's skills, by signature.
     pub(super) skills: SkillMap,
-    /// The reach monitor set's index and the arm ψ bound to the latest action ([`bound_x`]).
-    pub(super) reach_arm: Option<(usize, String)>,
     pub(super) sink: &'a mut dyn ExecSink,
     pub(super) t0: f64,
     pub(super) next_percept: f64,
@@ -331,7 +362,7 @@ impl<'a> RobotPlant<'a> {
             plan: None,
             grasp_palm: None,
             held: None,
-            bound_arms: None,
+            bound: MonitorBinding::default(),
             handoff: [workspace.table_center[0].min(0.55), 0.0],
             unreached: Vec::new(),
             stopped_short: Vec::new(),
@@ -343,7 +374,6 @@ impl<'a> RobotPlant<'a> {
             unseen: (None, 0),
             action_names: library.actions.iter().map(|a| a.name.clone()).collect(),
             skills: SkillMap::new(library),
-            reach_arm: None,
             plan_next_id: 0,
             sink,
             t0,
@@ -361,15 +391,27 @@ impl<'a> RobotPlant<'a> {
     /// (§3.3.1: convergence is a property of a controller with its procedural resources), so a hand
     /// still holding something from an earlier task does not pass for this task's grasp.
     pub fn bind_arms(&mut self, arms: &[Arm]) {
-        self.bound_arms = Some(arms.iter().map(|a| a.prefix().to_string()).collect());
+        self.bound.arms = Some(arms.iter().map(|a| a.prefix().to_string()).collect());
         // The first arm acts first.
         if let (Some(a), Some(arm)) = (self.skills.index(Skill::ReachObject), arms.first()) {
-            self.reach_arm = Some((a, arm.prefix().to_string()));
+            self.bound.reach = Some((a, arm.prefix().to_string()));
         }
         if let Some(p) = self.percepts.last() {
             let p = p.clone();
             let o = self.bank.observe(&p);
-            self.last_x = bound_x(&o, self.bound_arms.as_deref(), self.reach_arm.as_ref());
+            self.last_x = self.bound.x(&o, &p);
+        }
+    }
+
+    /// Binds the reach monitors to the object at `at` (where it was last seen; each reach to it
+    /// moves the binding to where it is then seen): a hand near another segment is not at it
+    /// (the reach monitors of this instance, §3.3.1).
+    pub fn bind_object(&mut self, at: &Vec3) {
+        self.bound.object_at = Some([at.x, at.y, at.z]);
+        if let Some(p) = self.percepts.last() {
+            let p = p.clone();
+            let o = self.bank.observe(&p);
+            self.last_x = self.bound.x(&o, &p);
         }
     }
 
@@ -633,7 +675,7 @@ impl<'a> RobotPlant<'a> {
         let t = self.hw.time_secs() - self.t0;
         let p = self.watcher.percept(self.hw, t)?;
         let o = self.bank.observe(&p);
-        self.last_x = bound_x(&o, self.bound_arms.as_deref(), self.reach_arm.as_ref());
+        self.last_x = self.bound.x(&o, &p);
         self.sink.percept(self.hw, self.watcher.eyes(), &p);
         self.percepts.push(p);
         self.next_percept = t + self.percept_period;
@@ -668,8 +710,7 @@ impl<'a> RobotPlant<'a> {
         let percepts = &mut self.percepts;
         let next = &mut self.next_percept;
         let sink = &mut *self.sink;
-        let bound_arms = self.bound_arms.clone();
-        let reach_arm = self.reach_arm.clone();
+        let bound = self.bound.clone();
         let mut callback = |h: &mut dyn Hardware, activity: &str| {
             sink.tick(h, activity);
             let t = h.time_secs() - t0;
@@ -677,7 +718,7 @@ impl<'a> RobotPlant<'a> {
                 match watcher.percept(h, t) {
                     Ok(p) => {
                         let o = bank.observe(&p);
-                        *last_x = bound_x(&o, bound_arms.as_deref(), reach_arm.as_ref());
+                        *last_x = bound.x(&o, &p);
                         sink.percept(h, watcher.eyes(), &p);
                         percepts.push(p);
                     }

@@ -47,7 +47,15 @@
 //!
 //! The result is checked against the triangulated point: if they disagree by more than
 //! [`SupportPlane::max_disagreement`] (the object is not on the table, lies in a bin, is held, is
-//! partly hidden, …), the triangulated point is kept.
+//! partly hidden, …), the triangulated point is kept — except for a thing lying on its side (a
+//! round estimate whose silhouettes are elongated across the image of the vertical in both cameras):
+//! its centroid disparity is the least reliable datum it offers (a cap segmented in one camera and
+//! not the other moves one centroid along its axis, near the epipolar direction), so the estimate is
+//! taken when it differs only along the line of sight, by at most
+//! [`SupportPlane::lying_disparity_px`] of disparity, and the thing's bottom edges, cast onto the
+//! table, put it there too — a depth cue that needs no disparity. (The stereo matcher then puts such
+//! an estimate back where its disparity says when that lies over another thing's footprint: a
+//! part of that object, segmented apart.)
 
 use crate::vision::segment::Segment;
 use control_basis::hardware::{Camera, Image};
@@ -108,6 +116,11 @@ pub struct SupportPlane {
     /// [`SupportPlane::step_sigmas`] noise standard deviations or this share of the top's colour
     /// (RGB norm), whichever is larger; more, and the top is not a flat face.
     pub flat_share: f64,
+    /// A round estimate of a thing lying across the image replaces the triangulated point even
+    /// farther away than [`SupportPlane::max_disagreement`], if it differs only along the line of
+    /// sight, by at most this many pixels of centroid disparity, and the thing's bottom edges put it
+    /// there too ([`SupportEstimator::estimate`]).
+    pub lying_disparity_px: f64,
 }
 
 impl SupportPlane {
@@ -131,6 +144,7 @@ impl SupportPlane {
             side_ratio: [0.25, 0.85],
             shading_tolerance: 0.15,
             flat_share: 0.02,
+            lying_disparity_px: 3.0,
         }
     }
 }
@@ -223,6 +237,8 @@ pub struct SupportEstimator {
     pixels: Vec<[f64; 3]>,
     heights: Vec<f64>,
     top: Vec<[f32; 3]>,
+    /// Scratch: cast bottom-edge offsets of one view ([`bottom_agrees`]).
+    offsets: Vec<f64>,
 }
 
 /// One walked image column: the image of the vertical line over a bottom-edge point `b`, from its
@@ -326,7 +342,27 @@ impl SupportEstimator {
             CentroidSource::Prism { height } => plane.max_disagreement + plane.disagreement_per_height * height,
             _ => plane.max_disagreement,
         };
-        ((p - triangulated).norm() <= tolerance).then_some((p, source, footprint))
+        let disagreement = (p - triangulated).norm();
+        let accepted = disagreement <= tolerance
+            || (matches!(source, CentroidSource::Round { .. })
+                && views.iter().all(|v| lies_across(v, &p))
+                && lying_depth_agrees(&views, &p, zc - plane.height, triangulated, plane, &mut self.offsets));
+        tracing::trace!(
+            "SUPPORT {source:?} at [{:.3}, {:.3}, {:.3}], triangulated [{:.3}, {:.3}, {:.3}]: {:.3} m apart (tolerance {tolerance:.3}): {}",
+            p.x,
+            p.y,
+            p.z,
+            triangulated.x,
+            triangulated.y,
+            triangulated.z,
+            disagreement,
+            if accepted {
+                "taken"
+            } else {
+                "kept the triangulated point"
+            }
+        );
+        accepted.then_some((p, source, footprint))
     }
 
     /// `Some(Some(h))` if the prism model applies: at least three and most columns show a shading
@@ -527,9 +563,134 @@ fn topmost_step(col: &[[f64; 3]], plane: &SupportPlane) -> Option<usize> {
     }
 }
 
+/// Whether a segment's silhouette (at least [`LYING_MIN_PIXELS`]) is elongated ([`ELONGATED`])
+/// across the image of the vertical through `p` (more than [`UPRIGHT_SLACK`] away from it): a thing
+/// lying on its side, not one
+/// standing up. A standing bottle without a flat top is elongated along the image of the vertical;
+/// so is one lying along the line of sight, foreshortened — neither passes.
+fn lies_across(v: &View<'_>, p: &Vec3) -> bool {
+    if v.segment.features.pixel_count < LYING_MIN_PIXELS {
+        return false;
+    }
+    let [[a, b], [_, d]] = v.segment.features.covariance;
+    let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    let (l_min, l_max) = (0.5 * (a + d) - disc, 0.5 * (a + d) + disc);
+    if l_max.is_nan() || l_max <= ELONGATED * l_min.max(0.0) {
+        return false;
+    }
+    let e = if b.abs() > 1e-12 {
+        [b, l_max - a]
+    } else if a >= d {
+        [1.0, 0.0]
+    } else {
+        [0.0, 1.0]
+    };
+    let (Some((u0, v0)), Some((u1, v1))) = (
+        v.camera.project_unbounded(p),
+        v.camera.project_unbounded(&(p + Vec3::new(0.0, 0.0, 0.05))),
+    ) else {
+        return false;
+    };
+    let (n, up) = (e[0].hypot(e[1]), (u1 - u0).hypot(v1 - v0));
+    n > 1e-12 && up > 1e-9 && (e[0] * (u1 - u0) + e[1] * (v1 - v0)).abs() / (n * up) < UPRIGHT_SLACK.cos()
+}
+
+/// Whether the support-plane estimate `p` (a lying thing of radius `r`) is where the things' bottom
+/// edges say it rests, while the triangulated point disagrees only along the line of sight, by at
+/// most [`SupportPlane::lying_disparity_px`] of centroid disparity.
+///
+/// The centroid disparity of a lying thing is the least reliable datum it offers: its axis runs
+/// across the image, and a part segmented in one camera and not the other (a white cap against the
+/// table, a cut end) moves one centroid along the axis, which is near the epipolar direction. At
+/// the table's far corners one pixel of disparity is 5–6 cm of range at 160 × 120: a lying spice
+/// jar (development seed 6, execute scene 13) triangulated 8.3 cm short of where its two centroid
+/// rays meet the plane of its measured radius, 0.4 cm from the truth. Its depth is then checked
+/// against a cue that needs no disparity: the lowest silhouette pixel of each image column, cast
+/// onto the table's plane, lies on the near side of a thing resting there, within about its radius
+/// of its axis ([`bottom_agrees`]), in both cameras.
+fn lying_depth_agrees(
+    views: &[View<'_>; 2],
+    p: &Vec3,
+    r: f64,
+    triangulated: &Vec3,
+    plane: &SupportPlane,
+    offsets: &mut Vec<f64>,
+) -> bool {
+    let (cl, cr) = (views[0].camera.position(), views[1].camera.position());
+    let eye = 0.5 * (cl + cr);
+    let sight = triangulated - eye;
+    let range = sight.norm();
+    let baseline = (cl - cr).norm();
+    let f = 0.25 * (views[0].camera.fx + views[0].camera.fy + views[1].camera.fx + views[1].camera.fy);
+    if !(range > 1e-6 && baseline > 1e-6) {
+        return false;
+    }
+    let s = sight / range;
+    let d = p - triangulated;
+    let along = d.dot(&s);
+    let across = (d - along * s).norm();
+    // Range error per pixel of disparity: range² / (f · baseline).
+    let along_px = along.abs() * f * baseline / (range * range);
+    let bottoms = [0, 1].map(|k| bottom_agrees(&views[k], p, r, plane.height, offsets));
+    tracing::trace!(
+        "lying: {along_px:.2} px of disparity along the line of sight, {across:.3} m across; bottom edges agree {bottoms:?}"
+    );
+    across <= plane.max_disagreement && along_px <= plane.lying_disparity_px && bottoms.iter().all(|b| *b)
+}
+
+/// Whether a segment's bottom edge puts a thing of radius `r` resting on the plane at `table` where
+/// `p` says: the median over its image columns of the lowest pixel's lower edge, cast onto the plane,
+/// lies before `p` along the camera's horizontal line of sight by no more than [`BOTTOM_SLACK`] × `r`
+/// (a cylinder's or sphere's lowest silhouette ray grazes its near side and meets the table between
+/// its contact line and about `r` nearer the camera), nor beyond it by more than [`BOTTOM_BEYOND`].
+fn bottom_agrees(view: &View<'_>, p: &Vec3, r: f64, table: f64, offsets: &mut Vec<f64>) -> bool {
+    let (img, cam) = (view.image, view.camera);
+    let (w, h) = (img.width as i64, img.height as i64);
+    let inside =
+        |u: i64, v: i64| u >= 0 && v >= 0 && u < w && v < h && view.components[(v * w + u) as usize] == view.id;
+    let c = cam.position();
+    let (sx, sy) = (p.x - c.x, p.y - c.y);
+    let n = sx.hypot(sy);
+    if n <= 1e-9 {
+        return false;
+    }
+    let [u0, v0, u1, v1] = view.segment.bbox;
+    offsets.clear();
+    for u in u0 as i64..=u1 as i64 {
+        let Some(vb) = (v0 as i64..=v1 as i64).rev().find(|&v| inside(u, v)) else {
+            continue;
+        };
+        let (o, d) = cam.ray(u as f64, vb as f64 + 0.5);
+        if let Some(b) = ray_at_height(&o, &d, table) {
+            offsets.push(((b.x - p.x) * sx + (b.y - p.y) * sy) / n);
+        }
+    }
+    if offsets.is_empty() {
+        return false;
+    }
+    let mid = offsets.len() / 2;
+    let median = *offsets.select_nth_unstable_by(mid, f64::total_cmp).1;
+    median >= -(BOTTOM_SLACK * r + BOTTOM_BEYOND) && median <= BOTTOM_BEYOND
+}
+
+/// See [`bottom_agrees`]: how many radii before a lying thing's centre its cast bottom edge may lie.
+const BOTTOM_SLACK: f64 = 1.5;
+
+/// See [`bottom_agrees`] (m): pixel quantisation of the bottom edge, about a pixel at table range.
+const BOTTOM_BEYOND: f64 = 0.012;
+
 /// Silhouettes whose covariance eigenvalues differ by more than this factor are elongated (a
 /// sphere's, stretched by 1/cos θ off-axis, stay below 1.4 in the field of view of 60°).
 const ELONGATED: f64 = 1.6;
+
+/// Least silhouette (px) whose elongation and axis [`lies_across`] reads: a blob of 20 px beside a
+/// lying spice jar (4 × 5 px) passed for a thing lying across, and a phantom row with it
+/// (development seed 4, execute scene 23); the lying things traced at the far corners showed 59–94.
+const LYING_MIN_PIXELS: usize = 40;
+
+/// An elongated silhouette whose major axis lies within this angle (rad) of the image of the
+/// vertical may be a thing standing up (the grasp planner's `VERTICAL_SLACK`).
+const UPRIGHT_SLACK: f64 = 0.35;
 
 /// Cells along the longer side of the window searched for a prism's footprint.
 const FOOTPRINT_CELLS: f64 = 64.0;
