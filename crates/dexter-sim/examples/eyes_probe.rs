@@ -1,5 +1,7 @@
 //! The robot's honest eyes against the world's truth, for debugging: `cargo run --release -p
-//! dexter-sim --example eyes_probe -- [scene] [x y [dz]]` looks at a point `dz` above the table and writes the head's
+//! dexter-sim --example eyes_probe -- [scene] [x y [dz]]` (a built-in scene name or a scene TOML file;
+//! `PROBE_ARM` offsets the right arm's joints, `PROBE_FLEX` flexes its fingers, `RUST_LOG` prints the
+//! vision's traces) looks at a point `dz` above the table and writes the head's
 //! left image, its predicted background, the self-mask from the robot's model and the renderer's
 //! true self-mask as PPM files in `/tmp/eyes_probe/`, and prints their agreement.
 
