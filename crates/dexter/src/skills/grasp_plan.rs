@@ -148,8 +148,8 @@ pub fn extent_of(blob: &StereoBlob, cams: &StereoCameras, table_z: f64) -> Optio
 pub(super) const LYING_ELONGATION: f64 = 1.6;
 
 /// An elongated silhouette whose major axis lies within this angle (rad) of the image of the
-/// vertical may be an object standing up ([`lying_footprint`]).
-pub(super) const VERTICAL_SLACK: f64 = 0.35;
+/// vertical may be an object standing up ([`lying_footprint`]; the vision's lying test uses the same).
+pub(super) const VERTICAL_SLACK: f64 = crate::vision::support::VERTICAL_SLACK;
 
 /// One camera's view of a segment for [`lying_footprint`]: its image centroid (px), its
 /// covariance (px²) and the camera.
@@ -184,27 +184,12 @@ pub fn lying_footprint(
     let mut sight = Vec3::zeros();
     for (uv, cov, cam) in views {
         sight += centroid - cam.position();
-        let [[a, b], [_, d]] = cov;
-        let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
-        let (l_min, l_max) = (0.5 * (a + d) - disc, 0.5 * (a + d) + disc);
+        let (l_min, l_max, e) = crate::vision::support::principal_axes(cov);
         if l_max.is_nan() || l_max <= LYING_ELONGATION * l_min.max(0.0) {
             return None;
         }
-        // The major eigenvector.
-        let e = if b.abs() > 1e-12 {
-            [b, l_max - a]
-        } else if a >= d {
-            [1.0, 0.0]
-        } else {
-            [0.0, 1.0]
-        };
-        let n = e[0].hypot(e[1]);
-        let e = [e[0] / n, e[1] / n];
-        // The image of the vertical through the centroid.
-        let (u0, v0) = cam.project_unbounded(centroid)?;
-        let (u1, v1) = cam.project_unbounded(&(centroid + Vec3::new(0.0, 0.0, 0.05)))?;
-        let up = (u1 - u0).hypot(v1 - v0);
-        if up > 1e-9 && (e[0] * (u1 - u0) + e[1] * (v1 - v0)).abs() / up > VERTICAL_SLACK.cos() {
+        // Along the image of the vertical through the centroid?
+        if crate::vision::support::cos_to_vertical(cam, centroid, e)? > VERTICAL_SLACK.cos() {
             upright = true;
         }
         let h = (3.0 * l_max).sqrt();

@@ -564,7 +564,7 @@ fn topmost_step(col: &[[f64; 3]], plane: &SupportPlane) -> Option<usize> {
 }
 
 /// Whether a segment's silhouette (at least [`LYING_MIN_PIXELS`]) is elongated ([`ELONGATED`])
-/// across the image of the vertical through `p` (more than [`UPRIGHT_SLACK`] away from it): a thing
+/// across the image of the vertical through `p` (more than [`VERTICAL_SLACK`] away from it): a thing
 /// lying on its side, not one
 /// standing up. A standing bottle without a flat top is elongated along the image of the vertical;
 /// so is one lying along the line of sight, foreshortened — neither passes.
@@ -572,12 +572,19 @@ fn lies_across(v: &View<'_>, p: &Vec3) -> bool {
     if v.segment.features.pixel_count < LYING_MIN_PIXELS {
         return false;
     }
-    let [[a, b], [_, d]] = v.segment.features.covariance;
-    let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
-    let (l_min, l_max) = (0.5 * (a + d) - disc, 0.5 * (a + d) + disc);
+    let (l_min, l_max, e) = principal_axes(v.segment.features.covariance);
     if l_max.is_nan() || l_max <= ELONGATED * l_min.max(0.0) {
         return false;
     }
+    cos_to_vertical(v.camera, p, e).is_some_and(|c| c < VERTICAL_SLACK.cos())
+}
+
+/// The principal axes of a silhouette's image covariance (px²): its least and largest eigenvalues
+/// and the unit major eigenvector.
+pub fn principal_axes(cov: [[f64; 2]; 2]) -> (f64, f64, [f64; 2]) {
+    let [[a, b], [_, d]] = cov;
+    let disc = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    let (l_min, l_max) = (0.5 * (a + d) - disc, 0.5 * (a + d) + disc);
     let e = if b.abs() > 1e-12 {
         [b, l_max - a]
     } else if a >= d {
@@ -585,14 +592,21 @@ fn lies_across(v: &View<'_>, p: &Vec3) -> bool {
     } else {
         [0.0, 1.0]
     };
-    let (Some((u0, v0)), Some((u1, v1))) = (
-        v.camera.project_unbounded(p),
-        v.camera.project_unbounded(&(p + Vec3::new(0.0, 0.0, 0.05))),
-    ) else {
-        return false;
-    };
-    let (n, up) = (e[0].hypot(e[1]), (u1 - u0).hypot(v1 - v0));
-    n > 1e-12 && up > 1e-9 && (e[0] * (u1 - u0) + e[1] * (v1 - v0)).abs() / (n * up) < UPRIGHT_SLACK.cos()
+    let n = e[0].hypot(e[1]);
+    (l_min, l_max, [e[0] / n, e[1] / n])
+}
+
+/// |cos| of the angle between the image direction `e` (unit) and the image, in `cam`, of the
+/// vertical through `p` (0 where that image is a point); `None` if `p` does not project.
+pub fn cos_to_vertical(cam: &Camera, p: &Vec3, e: [f64; 2]) -> Option<f64> {
+    let (u0, v0) = cam.project_unbounded(p)?;
+    let (u1, v1) = cam.project_unbounded(&(p + Vec3::new(0.0, 0.0, 0.05)))?;
+    let up = (u1 - u0).hypot(v1 - v0);
+    Some(if up > 1e-9 {
+        (e[0] * (u1 - u0) + e[1] * (v1 - v0)).abs() / up
+    } else {
+        0.0
+    })
 }
 
 /// Whether the support-plane estimate `p` (a lying thing of radius `r`) is where the things' bottom
@@ -689,8 +703,8 @@ const ELONGATED: f64 = 1.6;
 const LYING_MIN_PIXELS: usize = 40;
 
 /// An elongated silhouette whose major axis lies within this angle (rad) of the image of the
-/// vertical may be a thing standing up (the grasp planner's `VERTICAL_SLACK`).
-const UPRIGHT_SLACK: f64 = 0.35;
+/// vertical may be a thing standing up ([`lies_across`], and the grasp planner's lying footprint).
+pub const VERTICAL_SLACK: f64 = 0.35;
 
 /// Cells along the longer side of the window searched for a prism's footprint.
 const FOOTPRINT_CELLS: f64 = 64.0;
