@@ -467,6 +467,78 @@ mod tests {
         assert_eq!(tracker.tracks[0].centroid, near);
     }
 
+    /// Object permanence behind a tall thing: a track the cameras stop seeing because a post
+    /// stands between them and it is kept while the post is seen; the same track with nothing in
+    /// front of it is forgotten after [`tracker::FORGET_SECS`] (development seed 1, blocked arm,
+    /// scene 26: a box put down behind the post was forgotten and the receiving hand gave up).
+    #[test]
+    fn a_track_hidden_behind_a_tall_thing_is_kept_one_in_the_open_is_forgotten() {
+        let (l, r) = (camera([0.05, 0.03, 1.45]), camera([0.05, -0.03, 1.45]));
+        let cams = [&l, &r];
+        let no_mask: [&[bool]; 2] = [&[], &[]];
+        let object = SegmentPercept {
+            centroid: [0.72, 0.0, 0.7735],
+            extent: Some(schema::SeenExtent {
+                center: [0.72, 0.0],
+                ..track().extent.unwrap()
+            }),
+            ..track()
+        };
+        let at = Vec3::from(object.centroid);
+        // A 50 cm post between the cameras and the object, its silhouette 60 × 90 px around where
+        // the object would show.
+        let post = SegmentPercept {
+            id: 0,
+            centroid: [0.5, 0.0, 1.0],
+            extent: Some(schema::SeenExtent {
+                height: 0.5,
+                center: [0.5, 0.0],
+                major_axis: [0.0, 1.0],
+                half_major: 0.11,
+                half_minor: 0.03,
+                model: "standing".into(),
+            }),
+            ..track()
+        };
+        let post_at = Vec3::from(post.centroid);
+        let post_boxes = views(cams, at).map(|[u, v]| {
+            [
+                (u - 30.0) as u32,
+                (v - 45.0) as u32,
+                (u + 30.0) as u32,
+                (v + 45.0) as u32,
+            ]
+        });
+        for behind in [true, false] {
+            let mut tracker = Tracker::default();
+            tracker.update(
+                vec![object.clone()],
+                &[false],
+                &[views(cams, at)],
+                &[boxes_around(cams, at)],
+                &[],
+                cams,
+                no_mask,
+                0.0,
+                &[],
+            );
+            assert_eq!(tracker.tracks.len(), 1);
+            let id = tracker.tracks[0].id;
+            for i in 1..=30 {
+                let t = 0.1 * f64::from(i);
+                let (seen, boxes, views) = if behind {
+                    (vec![post.clone()], vec![post_boxes], vec![views(cams, post_at)])
+                } else {
+                    (Vec::new(), Vec::new(), Vec::new())
+                };
+                let cut = vec![false; seen.len()];
+                tracker.update(seen, &cut, &views, &boxes, &[], cams, no_mask, t, &[]);
+            }
+            let kept = tracker.tracks.iter().any(|tr| tr.id == id);
+            assert_eq!(kept, behind, "behind the post: {behind}");
+        }
+    }
+
     #[test]
     fn a_cut_view_far_from_a_whole_track_is_that_object_when_its_image_holds_it() {
         let (l, r) = (camera([0.05, 0.03, 1.45]), camera([0.05, -0.03, 1.45]));
