@@ -396,6 +396,9 @@ impl SchemaPlant for RobotPlant<'_> {
                 match r {
                     Ok(()) => ActionOutcome::Converged,
                     Err(why) => {
+                        if why.cause == FailureCause::Obstructed {
+                            self.remember_felt_obstacle(arm, &held, target);
+                        }
                         // Forget the hold only if the fingertips lost it (the carry may have stopped
                         // on an obstacle with the object still in the hand); then let go of what a
                         // finger may still touch.

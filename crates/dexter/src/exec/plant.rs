@@ -87,6 +87,13 @@ pub(super) const PLACE_LOOK_SECS: f64 = 0.6;
 /// measured on the table's plane, and a coarse silhouette disc may take a bin's wall along.
 pub(super) const IN_PLACE_RADIUS: f64 = 0.06;
 
+/// Half-extents (m) of the obstacle remembered where a carried object met one: across its way and
+/// along it ([`RobotPlant::remember_felt_obstacle`]).
+pub(super) const FELT_OBSTACLE_HALF: [f64; 2] = [0.06, 0.03];
+/// How far above the palm (m) an obstacle the carried object met is taken to reach: the carry
+/// goes round it, not over it.
+pub(super) const FELT_OBSTACLE_TOP: f64 = 0.10;
+
 /// Segments within this distance (m) of the transferred object's position are that object.
 pub(super) const MERGE_RADIUS: f64 = 0.05;
 /// The scan before a handoff spot is chosen looks at the scan points this close (m, across the
@@ -288,6 +295,9 @@ pub struct RobotPlant<'a> {
     /// Tall things measured from their edges, remembered while out of sight or hidden
     /// ([`RobotPlant::tall_things`]).
     pub(super) tall_seen: Vec<crate::route::Obstacle>,
+    /// Obstacles the carried object met on its way, felt by the fingertips and not seen
+    /// ([`RobotPlant::remember_felt_obstacle`]).
+    pub(super) felt: Vec<crate::route::Obstacle>,
     /// Where the object is to end up (the task's place centre, [`RobotPlant::set_destination`]):
     /// after a hand-over the failed arm carries it there from the handoff spot.
     pub(super) destination: Option<[f64; 2]>,
@@ -367,6 +377,7 @@ impl<'a> RobotPlant<'a> {
             unreached: Vec::new(),
             stopped_short: Vec::new(),
             tall_seen: Vec::new(),
+            felt: Vec::new(),
             destination: None,
             missed: false,
             doubt_checked: None,
@@ -486,13 +497,40 @@ impl<'a> RobotPlant<'a> {
         }
         let now_n = now.len();
         let mut all = now;
-        for o in &self.tall_seen {
+        for o in self.tall_seen.iter().chain(&self.felt) {
             if !all.contains(o) {
                 all.push(*o);
             }
         }
         tracing::trace!("tall things now {now_n}, remembered {:?}", self.tall_seen);
         all
+    }
+
+    /// The carried object met an obstacle on its way to `target` (x, y of where its centre was to
+    /// go), which the cameras did not show where it stands (a post that the carrying arm hides half
+    /// of, measured 8 cm nearer the head than it stood: the carry went round the wrong place and
+    /// met the post three times in a row, development seed 2, blocked arm, scene 26). What the
+    /// fingertips felt is remembered as a tall thing just ahead of the object, across its way
+    /// ([`FELT_OBSTACLE_HALF`]), up to [`FELT_OBSTACLE_TOP`] above the palm: the next carry goes round
+    /// it ([`RobotPlant::tall_things`]).
+    pub(super) fn remember_felt_obstacle(&mut self, arm: Arm, held: &Held, target: [f64; 2]) {
+        let palm = self.reach[arm.index()].tool_pose(self.hw).translation.vector;
+        let at = [palm.x + held.offset_xy[0], palm.y + held.offset_xy[1]];
+        let (dx, dy) = (target[0] - at[0], target[1] - at[1]);
+        let l = dx.hypot(dy);
+        if l < 1e-6 {
+            return;
+        }
+        let (ux, uy) = (dx / l, dy / l);
+        let ahead = held.radius + FELT_OBSTACLE_HALF[1];
+        let felt = crate::route::Obstacle {
+            center: [at[0] + ux * ahead, at[1] + uy * ahead],
+            major_axis: [-uy, ux],
+            half: FELT_OBSTACLE_HALF,
+            top: palm.z + FELT_OBSTACLE_TOP,
+        };
+        tracing::debug!("felt an obstacle on the way: {felt:?}");
+        self.felt.push(felt);
     }
 
     /// Where the palms of the hands that hold something are.
