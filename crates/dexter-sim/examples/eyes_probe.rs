@@ -1,6 +1,7 @@
 //! The robot's honest eyes against the world's truth, for debugging: `cargo run --release -p
 //! dexter-sim --example eyes_probe -- [scene] [x y [dz]]` (a built-in scene name or a scene TOML file;
-//! `PROBE_ARM` offsets the right arm's joints, `PROBE_FLEX` flexes its fingers, `RUST_LOG` prints the
+//! `PROBE_ARM` offsets the right arm's joints, `PROBE_FLEX` flexes its fingers, `PROBE_POST="x y yaw"`
+//! puts the blocked-arm fault's post on the table, `RUST_LOG` prints the
 //! vision's traces) looks at a point `dz` above the table and writes the head's
 //! left image, its predicted background, the self-mask from the robot's model and the renderer's
 //! true self-mask as PPM files in `/tmp/eyes_probe/`, and prints their agreement.
@@ -66,6 +67,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for name in names {
             let j = hw.dof_index(&name)?;
             hw.set_joint_reference(j, flex, 0.0);
+        }
+    }
+    // Optionally put the blocked-arm fault's 6 × 22 × 50 cm post on the table:
+    // `PROBE_POST="x y yaw"` (its 6 cm side along yaw).
+    if let Ok(post) = std::env::var("PROBE_POST") {
+        let v: Vec<f64> = post.split_whitespace().filter_map(|t| t.parse().ok()).collect();
+        if let [x, y, yaw] = v[..] {
+            let s = dexter_sim::fault::OBSTACLE_SIZE;
+            let half = Vec3::new(0.5 * s[0], 0.5 * s[1], 0.5 * s[2]);
+            let pose = control_basis::math::Iso3::from_parts(
+                Vec3::new(x, y, table_z + half.z).into(),
+                control_basis::math::Rot3::from_axis_angle(&Vec3::z_axis(), yaw),
+            );
+            hw.sim_mut().add_obstacle(&half, &pose);
         }
     }
     for k in 0..10 {

@@ -32,6 +32,56 @@ mod tests {
     use crate::actions::SkillMap;
     use schema::Library;
 
+    fn obstacle(center: [f64; 2]) -> crate::route::Obstacle {
+        crate::route::Obstacle {
+            center,
+            major_axis: [1.0, 0.0],
+            half: [0.08, 0.08],
+            top: 1.5,
+        }
+    }
+
+    /// Tall things measured are remembered; one seen only coarsely is remembered when it stands
+    /// near where a reach did not get through (development seed 3, blocked arm, scene 18: the
+    /// post, seen coarsely after it stopped the reach, was hidden by the arm that then held the
+    /// object, and the carry went straight into it), not elsewhere (a coarse blob may be a hand
+    /// merged with what it holds).
+    #[test]
+    fn tall_things_measured_or_by_a_failed_reach_are_remembered() {
+        let (measured, coarse_near, coarse_far) = ([0.5, 0.2], [0.51, -0.2], [0.7, 0.3]);
+        let now = [obstacle(measured), obstacle(coarse_near), obstacle(coarse_far)];
+        let unreached = [[0.63, -0.1]];
+        let kept: Vec<[f64; 2]> = tall_to_remember(&now, &[measured], &unreached)
+            .iter()
+            .map(|o| o.center)
+            .collect();
+        assert_eq!(kept, [measured, coarse_near]);
+        let kept = tall_to_remember(&now, &[measured], &[]);
+        assert_eq!(kept.len(), 1);
+    }
+
+    /// What a carried object met is remembered just ahead of it, across its way, above the palm.
+    #[test]
+    fn a_felt_obstacle_lies_ahead_of_the_carried_object_across_its_way() {
+        use control_basis::math::Vec3;
+        let held = crate::skills::Held {
+            offset_xy: [0.0, -0.01],
+            below: 0.1,
+            load: 3.0,
+            radius: 0.04,
+        };
+        let palm = Vec3::new(0.57, -0.11, 1.23);
+        let o = felt_obstacle(&palm, &held, [0.57, -0.45]).unwrap();
+        // The object at (0.57, −0.12), going −y: the obstacle 7 cm ahead, its long side along x.
+        assert!(
+            (o.center[0] - 0.57).abs() < 1e-9 && (o.center[1] + 0.19).abs() < 1e-9,
+            "{o:?}"
+        );
+        assert!(o.major_axis[0].abs() > 0.999, "{o:?}");
+        assert!((o.top - 1.33).abs() < 1e-9);
+        assert!(felt_obstacle(&palm, &held, [0.57, -0.12]).is_none());
+    }
+
     /// Red against red-and-orange overlaps by the shared red; red against blue not at all.
     #[test]
     fn colour_overlap_is_the_shared_share() {

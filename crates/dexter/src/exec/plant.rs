@@ -87,6 +87,11 @@ pub(super) const PLACE_LOOK_SECS: f64 = 0.6;
 /// measured on the table's plane, and a coarse silhouette disc may take a bin's wall along.
 pub(super) const IN_PLACE_RADIUS: f64 = 0.06;
 
+/// A tall thing seen only coarsely is remembered when it lies this close (m, horizontally) to where
+/// a reach did not get through ([`RobotPlant::tall_things`]): the blocking post stands 7–10 cm from
+/// the object's side, its coarse centroid up to 10 cm farther.
+pub(super) const UNREACHED_TALL_RADIUS: f64 = 0.25;
+
 /// Half-extents (m) of the obstacle remembered where a carried object met one: across its way and
 /// along it ([`RobotPlant::remember_felt_obstacle`]).
 pub(super) const FELT_OBSTACLE_HALF: [f64; 2] = [0.06, 0.03];
@@ -240,6 +245,46 @@ impl MonitorBinding {
         }
         x
     }
+}
+
+/// The obstacle a carried object met on its way to `target` (x, y), the palm at `palm` holding
+/// it as `held` describes: just ahead of the object along its way, across it
+/// ([`FELT_OBSTACLE_HALF`]), up to [`FELT_OBSTACLE_TOP`] above the palm. `None` at the target.
+pub(super) fn felt_obstacle(palm: &Vec3, held: &Held, target: [f64; 2]) -> Option<crate::route::Obstacle> {
+    let at = [palm.x + held.offset_xy[0], palm.y + held.offset_xy[1]];
+    let (dx, dy) = (target[0] - at[0], target[1] - at[1]);
+    let l = dx.hypot(dy);
+    if l < 1e-6 {
+        return None;
+    }
+    let (ux, uy) = (dx / l, dy / l);
+    let ahead = held.radius + FELT_OBSTACLE_HALF[1];
+    Some(crate::route::Obstacle {
+        center: [at[0] + ux * ahead, at[1] + uy * ahead],
+        major_axis: [-uy, ux],
+        half: FELT_OBSTACLE_HALF,
+        top: palm.z + FELT_OBSTACLE_TOP,
+    })
+}
+
+/// Which of the tall things seen `now` are remembered ([`RobotPlant::tall_things`]): those measured
+/// (their footprint centre among `measured`, from edges or the support plane), and those seen only
+/// coarsely within [`UNREACHED_TALL_RADIUS`] of a place where a reach did not get through
+/// (`unreached`).
+pub(super) fn tall_to_remember(
+    now: &[crate::route::Obstacle],
+    measured: &[[f64; 2]],
+    unreached: &[[f64; 2]],
+) -> Vec<crate::route::Obstacle> {
+    now.iter()
+        .filter(|o| {
+            measured.contains(&o.center)
+                || unreached
+                    .iter()
+                    .any(|u| (o.center[0] - u[0]).hypot(o.center[1] - u[1]) < UNREACHED_TALL_RADIUS)
+        })
+        .copied()
+        .collect()
 }
 
 /// Receives what happens during an execution (for logs).
@@ -488,8 +533,14 @@ impl<'a> RobotPlant<'a> {
                     .any(|h| (o.center[0] - h.x).hypot(o.center[1] - h.y) < HELD_UNDER_PALM)
         });
         // Each tall thing measured now widens the one remembered there (a view cut by an arm or by
-        // the image border measures a part of it), or is remembered.
-        for n in now.iter().filter(|o| measured.iter().any(|e| e.center == o.center)) {
+        // the image border measures a part of it), or is remembered; so does one seen only coarsely
+        // within [`UNREACHED_TALL_RADIUS`] of where a reach did not get through — what stopped the
+        // arm is no phantom (development seed 3, blocked arm, scene 18: the post, seen only as a
+        // coarse blob after the reach it stopped, was hidden by the arm holding the object when the
+        // carry was planned, and the carry went straight into it).
+        let centers: Vec<[f64; 2]> = measured.iter().map(|e| e.center).collect();
+        let unreached: Vec<[f64; 2]> = self.unreached.iter().map(|(_, u)| *u).collect();
+        for n in &tall_to_remember(&now, &centers, &unreached) {
             match self.tall_seen.iter_mut().find(|o| on(o, n.center, n.half[0])) {
                 Some(o) => *o = o.union(n),
                 None => self.tall_seen.push(*n),
@@ -515,22 +566,10 @@ impl<'a> RobotPlant<'a> {
     /// it ([`RobotPlant::tall_things`]).
     pub(super) fn remember_felt_obstacle(&mut self, arm: Arm, held: &Held, target: [f64; 2]) {
         let palm = self.reach[arm.index()].tool_pose(self.hw).translation.vector;
-        let at = [palm.x + held.offset_xy[0], palm.y + held.offset_xy[1]];
-        let (dx, dy) = (target[0] - at[0], target[1] - at[1]);
-        let l = dx.hypot(dy);
-        if l < 1e-6 {
-            return;
+        if let Some(felt) = felt_obstacle(&palm, held, target) {
+            tracing::debug!("felt an obstacle on the way: {felt:?}");
+            self.felt.push(felt);
         }
-        let (ux, uy) = (dx / l, dy / l);
-        let ahead = held.radius + FELT_OBSTACLE_HALF[1];
-        let felt = crate::route::Obstacle {
-            center: [at[0] + ux * ahead, at[1] + uy * ahead],
-            major_axis: [-uy, ux],
-            half: FELT_OBSTACLE_HALF,
-            top: palm.z + FELT_OBSTACLE_TOP,
-        };
-        tracing::debug!("felt an obstacle on the way: {felt:?}");
-        self.felt.push(felt);
     }
 
     /// Where the palms of the hands that hold something are.
