@@ -602,7 +602,7 @@ mod tests {
         });
         assert_eq!(s.segment(&two, &[]).unwrap().len(), 2);
         let plain = img(20, 16, |u, v| match (u, v) {
-            (5..9, 1..10) | (5..9, 11..14) => [0, 0, 200],
+            (5..9, 1..=9) | (5..9, 11..14) => [0, 0, 200],
             _ => [100, 100, 100],
         });
         assert_eq!(s.segment(&plain, &[]).unwrap().len(), 2);
