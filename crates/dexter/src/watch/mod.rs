@@ -403,6 +403,25 @@ mod tests {
         views(cams, p).map(|[u, v]| [(u - 10.0) as u32, (v - 8.0) as u32, (u + 10.0) as u32, (v + 8.0) as u32])
     }
 
+    /// A tracker that has seen `seg` whole once, at t = 0, inside a 20 × 16 px box.
+    fn seeded(seg: &SegmentPercept, cams: [&Camera; 2]) -> Tracker {
+        let at = Vec3::from(seg.centroid);
+        let mut tracker = Tracker::default();
+        tracker.update(
+            vec![seg.clone()],
+            &[false],
+            &[views(cams, at)],
+            &[boxes_around(cams, at)],
+            &[],
+            cams,
+            [&[], &[]],
+            0.0,
+            &[],
+        );
+        assert_eq!(tracker.tracks.len(), 1);
+        tracker
+    }
+
     /// A track measured on the support plane but never seen whole (a lying jar at the table's far
     /// corner, its silhouettes always touching the image border or the body) keeps its measured
     /// place when a cut view that could only be triangulated lands more than a track gate away — and
@@ -510,19 +529,7 @@ mod tests {
             ]
         });
         for behind in [true, false] {
-            let mut tracker = Tracker::default();
-            tracker.update(
-                vec![object.clone()],
-                &[false],
-                &[views(cams, at)],
-                &[boxes_around(cams, at)],
-                &[],
-                cams,
-                no_mask,
-                0.0,
-                &[],
-            );
-            assert_eq!(tracker.tracks.len(), 1);
+            let mut tracker = seeded(&object, cams);
             let id = tracker.tracks[0].id;
             for i in 1..=30 {
                 let t = 0.1 * f64::from(i);
@@ -544,21 +551,9 @@ mod tests {
         let (l, r) = (camera([0.05, 0.03, 1.45]), camera([0.05, -0.03, 1.45]));
         let cams = [&l, &r];
         let no_mask: [&[bool]; 2] = [&[], &[]];
-        let mut tracker = Tracker::default();
         let whole = track();
         let at = Vec3::from(whole.centroid);
-        tracker.update(
-            vec![whole.clone()],
-            &[false],
-            &[views(cams, at)],
-            &[boxes_around(cams, at)],
-            &[],
-            cams,
-            no_mask,
-            0.0,
-            &[],
-        );
-        assert_eq!(tracker.tracks.len(), 1);
+        let mut tracker = seeded(&whole, cams);
         // The arm hides most of it in one camera: the pair triangulates 14 cm off, above the table.
         let cut = SegmentPercept {
             centroid: [0.52, 0.05, 0.88],
