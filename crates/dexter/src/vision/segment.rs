@@ -307,10 +307,12 @@ impl Segmenter {
                         continue;
                     }
                     let (m, q) = (mv as usize * w + u, nv as usize * w + u);
-                    let wide = (0..3).any(|c| {
-                        f64::from(self.background_hi.rgb[3 * m + c]) - f64::from(self.background.rgb[3 * m + c])
-                            > SEAM_INTERVAL * seam_t
-                    });
+                    let wide = || {
+                        (0..3).any(|c| {
+                            f64::from(self.background_hi.rgb[3 * m + c]) - f64::from(self.background.rgb[3 * m + c])
+                                > SEAM_INTERVAL * seam_t
+                        })
+                    };
                     // … and the thing's own surface continues through it: its colour is within a
                     // foreground threshold of the pixels on both sides (a row of the table between
                     // two things is the table's colour, not theirs).
@@ -320,10 +322,10 @@ impl Segmenter {
                             .sum::<f64>()
                             <= seam_t * seam_t
                     };
-                    if wide
-                        && !self.foreground[m]
+                    if !self.foreground[m]
                         && self.foreground[q]
                         && self.component[q] == 0
+                        && wide()
                         && near(m, p as usize)
                         && near(m, q)
                     {
