@@ -73,6 +73,8 @@ pub struct ObjectReport {
     pub posterior: BTreeMap<String, f64>,
     /// log Bayes factor of relevance (from a model).
     pub log_bayes_factor: Option<f64>,
+    /// The segment's measured size (cm) the decision was made on ([`dexter::task::Decision::size_cm`]).
+    pub size_cm: Option<f64>,
     /// Arms used, in order.
     pub arms: Vec<String>,
     /// A hand-to-hand transfer was used.
@@ -113,6 +115,7 @@ impl ObjectReport {
             place,
             posterior,
             log_bayes_factor,
+            size_cm: None,
             arms: vec![],
             transfer: false,
             contingencies: vec![],
@@ -510,28 +513,34 @@ impl TaskSink for Judge<'_, '_> {
         let label = self.label();
         let (obj, duplicate) = self.current;
         let report = match &run.taken {
-            Taken::Ignored { why } => ObjectReport::not_executed(
-                label,
-                Some(d.segment),
-                Verdict::Ignore,
-                why.clone(),
-                None,
-                d.posterior.clone(),
-                d.log_bayes_factor,
-                self.final_position(d.at),
-                None,
-            ),
-            Taken::Skipped { place, why } => ObjectReport::not_executed(
-                label,
-                Some(d.segment),
-                Verdict::Skip,
-                why.clone(),
-                place.clone(),
-                d.posterior.clone(),
-                d.log_bayes_factor,
-                self.final_position(d.at),
-                Some("reach: out of both arms' workspace".into()),
-            ),
+            Taken::Ignored { why } => ObjectReport {
+                size_cm: d.size_cm,
+                ..ObjectReport::not_executed(
+                    label,
+                    Some(d.segment),
+                    Verdict::Ignore,
+                    why.clone(),
+                    None,
+                    d.posterior.clone(),
+                    d.log_bayes_factor,
+                    self.final_position(d.at),
+                    None,
+                )
+            },
+            Taken::Skipped { place, why } => ObjectReport {
+                size_cm: d.size_cm,
+                ..ObjectReport::not_executed(
+                    label,
+                    Some(d.segment),
+                    Verdict::Skip,
+                    why.clone(),
+                    place.clone(),
+                    d.posterior.clone(),
+                    d.log_bayes_factor,
+                    self.final_position(d.at),
+                    Some("reach: out of both arms' workspace".into()),
+                )
+            },
             Taken::Executed {
                 place,
                 arms,
@@ -578,6 +587,7 @@ impl TaskSink for Judge<'_, '_> {
                     place: place.clone(),
                     posterior: d.posterior.clone(),
                     log_bayes_factor: d.log_bayes_factor,
+                    size_cm: d.size_cm,
                     arms: arms.clone(),
                     transfer: *transfer,
                     contingencies: contingencies.clone(),

@@ -58,6 +58,8 @@ pub struct ObjectRow {
     pub place: String,
     /// ln B10.
     pub log_b10: Option<f64>,
+    /// The object's size as the robot measured it (cm), when it did.
+    pub size_cm: Option<f64>,
     /// Arms used.
     pub arms: String,
     /// Hand-to-hand transfer.
@@ -265,6 +267,7 @@ pub fn summarize(config: &ExperimentConfig, runs: &[(Scene, ExecuteReport)]) -> 
                 decision: o.decision,
                 place: o.place.clone().unwrap_or_else(|| "-".into()),
                 log_b10: o.log_bayes_factor,
+                size_cm: o.size_cm,
                 arms: o.arms.join(">"),
                 transfer: o.transfer,
                 placed: o.success,

@@ -89,6 +89,9 @@ pub struct Decision {
     pub posterior: BTreeMap<String, f64>,
     /// log B10 of task relevance.
     pub log_bayes_factor: Option<f64>,
+    /// The segment's measured size (cm): the geometric mean of its measured footprint and height
+    /// (`Features::size_cm`), `None` when they were not measured.
+    pub size_cm: Option<f64>,
     /// The arm the model expects the teacher would have used (for a task that puts nothing
     /// anywhere, the model's reference is the arm); ψ binds it first when it can.
     pub arm: Option<Arm>,
@@ -175,6 +178,7 @@ pub fn decide(
             place,
             posterior,
             log_bayes_factor: Some(lb),
+            size_cm: Features::from(seg).size_cm(),
             arm: if wants_place { None } else { Arm::parse(&p.map_place) },
         });
     }
@@ -206,13 +210,14 @@ pub fn look_over_table(plant: &mut RobotPlant<'_>) -> Result<Vec<SegmentPercept>
     let seen = one_per_footprint(confirm_unseen_coarse(plant, seen)?);
     for s in &seen {
         tracing::debug!(
-            "on the table: segment {} at ({:.3}, {:.3}, {:.3}) seen {} extent {:?}",
+            "on the table: segment {} at ({:.3}, {:.3}, {:.3}) seen {} extent {:?} colour terms {:?}",
             s.id,
             s.centroid[0],
             s.centroid[1],
             s.centroid[2],
             s.seen,
-            s.extent
+            s.extent,
+            s.colors
         );
     }
     Ok(seen)
@@ -489,6 +494,7 @@ pub fn run_task(
                 place: Ok(Some(p.clone())),
                 posterior: BTreeMap::new(),
                 log_bayes_factor: None,
+                size_cm: Features::from(s).size_cm(),
                 arm: None,
                 reason: format!("the demonstration placed its object in {p}"),
             })
@@ -501,6 +507,7 @@ pub fn run_task(
                 place: Ok(None),
                 posterior: BTreeMap::new(),
                 log_bayes_factor: None,
+                size_cm: Features::from(s).size_cm(),
                 arm: None,
                 reason: format!("the demonstration's `{}` is done to every object seen", task.schema),
             })

@@ -210,11 +210,11 @@ fn run_impl(args: &ExecuteExperimentOptions, progress: &dyn Progress) -> anyhow:
 
 fn write_csv(path: &Path, rows: &[ObjectRow]) -> Result<()> {
     let mut s = String::from(
-        "scene,object,color_class,size_class,intended,decision,place,log_b10,arms,transfer,placed,decision_correct,failure\n",
+        "scene,object,color_class,size_class,intended,decision,place,log_b10,size_cm,arms,transfer,placed,decision_correct,failure\n",
     );
     for r in rows {
         s.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
             r.scene,
             r.object,
             r.color_class,
@@ -223,6 +223,7 @@ fn write_csv(path: &Path, rows: &[ObjectRow]) -> Result<()> {
             r.decision,
             r.place,
             r.log_b10.map(|v| format!("{v:.3}")).unwrap_or_default(),
+            r.size_cm.map(|v| format!("{v:.2}")).unwrap_or_default(),
             r.arms,
             r.transfer,
             r.placed,
