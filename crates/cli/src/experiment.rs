@@ -95,6 +95,10 @@ pub struct SortingArgs {
     /// grey – white), in [0, 0.5].
     #[arg(long, default_value_t = pbd::schema::procedural::DEFAULT_COLOR_NEIGHBOUR_SHARE)]
     neighbour_share: f64,
+    /// The chromatic rule: an object's black, grey and white pixels are left out of its colour
+    /// when its chromatic terms cover at least this share of it, in [0, 1] (1 turns the rule off).
+    #[arg(long, default_value_t = pbd::schema::procedural::DEFAULT_CHROMATIC_SHARE)]
+    chromatic_share: f64,
     /// The unit of the size feature: `deci-pixels` (the seed's) or `cm` (the geometric mean of the
     /// measured bounding box).
     #[arg(long, default_value = "deci-pixels", value_parser = parse_size_unit)]
@@ -276,6 +280,7 @@ fn sorting(a: SortingArgs, out: &mut dyn Write) -> anyhow::Result<()> {
         background: a.background,
         uniform_base: a.uniform_base,
         neighbour_share: a.neighbour_share,
+        chromatic_share: a.chromatic_share,
         size_unit: a.size_unit,
     };
     let summary = pbd::experiment::sorting::run(&options, &Bars::new(a.json, true)?)?;

@@ -56,3 +56,134 @@ fn standing_objects_are_named_by_the_colour_of_most_of_their_surface() {
         );
     }
 }
+
+/// The shares of the colour terms in `counts`.
+fn shares(counts: &[u32; 10]) -> [f64; 10] {
+    let n = f64::from(counts.iter().sum::<u32>().max(1));
+    counts.map(|c| f64::from(c) / n)
+}
+
+/// Renders `shape` at `pose` with `colors` alone on the table (the robot's stereo settings, the
+/// table's plane known) and returns its measured extent model and its colour-term shares by pixels
+/// and by surface (`dexter::vision::color::surface_color_terms`).
+fn pixel_and_surface_shares(
+    shape: &dexter_sim::scene::Shape,
+    pose: control_basis::math::Iso3,
+    colors: &[dexter_sim::scene::ColorPatch],
+) -> (String, [f64; 10], Option<[f64; 10]>) {
+    use dexter::vision::stereo::Side;
+    use dexter::vision::{SegmentConfig, StereoConfig, SupportPlane};
+    use dexter_sim::scene::{CameraSpec, LightSpec};
+    use dexter_sim::vision::fixtures::{TABLE_FIXATION, TABLE_TOP, head_cameras, table_and_bins};
+    use dexter_sim::vision::{ItemLabel, RenderItem, StereoVision};
+
+    let spec = CameraSpec::default();
+    let cams = head_cameras(&spec, nalgebra::Vector3::from(TABLE_FIXATION)).unwrap();
+    let mut support = SupportPlane::at(TABLE_TOP);
+    support.pixel_noise = spec.pixel_noise;
+    let config = StereoConfig {
+        support: Some(support),
+        ..StereoConfig::default()
+    };
+    let mut sv = StereoVision::with_config(
+        &spec,
+        &LightSpec::default(),
+        3,
+        SegmentConfig::for_noise(spec.pixel_noise),
+        config,
+    )
+    .unwrap();
+    let mut scene = table_and_bins();
+    sv.capture_background(&cams, &scene).unwrap();
+    scene.push(RenderItem::from_catalog(shape, pose, colors, ItemLabel::Object(0)));
+    let blobs = sv.perceive(&cams, &scene).unwrap();
+    let blob = blobs
+        .iter()
+        .max_by_key(|b| b.left.map_or(0, |s| s.features.pixel_count))
+        .expect("the object is seen");
+    let seg = blob.left.expect("seen by the left camera");
+    let extent = dexter::skills::extent_of(blob, &cams, TABLE_TOP).expect("measured on the table");
+    let surface = dexter::vision::color::surface_color_terms(
+        &seg,
+        sv.segmenter(Side::Left),
+        sv.renderer(Side::Left).image(),
+        &cams.left,
+        &extent,
+        TABLE_TOP,
+    );
+    (
+        extent.model,
+        shares(&seg.features.color_terms),
+        surface.as_ref().map(shares),
+    )
+}
+
+const WHITE: [f64; 3] = [40.0, 0.04, 0.96];
+const BLUE: [f64; 3] = [220.0, 0.85, 0.75];
+const RED: [f64; 3] = [2.0, 0.85, 0.80];
+const BLUE_TERM: usize = 7;
+const RED_TERM: usize = 3;
+
+#[test]
+fn a_white_ball_with_a_blue_cap_is_mostly_white_by_surface_though_the_head_sees_mostly_blue() {
+    use dexter_sim::scene::{ColorPatch, Shape};
+    let ball = Shape::Sphere { radius: 0.03 };
+    let colors = [
+        ColorPatch {
+            hsv: WHITE,
+            fraction: 0.75,
+        },
+        ColorPatch {
+            hsv: BLUE,
+            fraction: 0.25,
+        },
+    ];
+    for (x, y) in [(0.6, 0.05), (0.5, -0.12), (0.72, 0.15)] {
+        let pose = dexter_sim::vision::fixtures::resting_pose(&ball, x, y, 0.3);
+        let (model, pixels, surface) = pixel_and_surface_shares(&ball, pose, &colors);
+        let surface = surface.unwrap_or_else(|| panic!("({x}, {y}): no surface colours for a {model} extent"));
+        assert_eq!(model, "round", "({x}, {y})");
+        assert!(
+            pixels[BLUE_TERM] > 0.45,
+            "({x}, {y}): the head sees the cap large: {pixels:?}"
+        );
+        assert!(
+            (0.12..0.38).contains(&surface[BLUE_TERM]),
+            "({x}, {y}): the cap is a quarter of the ball's surface: {surface:?} (pixels {pixels:?})"
+        );
+    }
+}
+
+#[test]
+fn a_lying_capsule_is_weighed_band_by_band_along_its_axis() {
+    use control_basis::math::{Iso3, Rot3};
+    use dexter_sim::scene::{ColorPatch, Shape};
+    let capsule = Shape::Capsule {
+        radius: 0.03,
+        height: 0.08,
+    };
+    let colors = [
+        ColorPatch {
+            hsv: RED,
+            fraction: 0.3,
+        },
+        ColorPatch {
+            hsv: WHITE,
+            fraction: 0.7,
+        },
+    ];
+    for (x, y, yaw) in [(0.6, 0.05, 0.2), (0.55, -0.1, 0.6), (0.7, 0.12, -0.4)] {
+        let pose = Iso3::from_parts(
+            nalgebra::Translation3::new(x, y, dexter_sim::vision::fixtures::TABLE_TOP + 0.03 + 1e-4),
+            Rot3::from_axis_angle(&nalgebra::Vector3::z_axis(), yaw)
+                * Rot3::from_axis_angle(&nalgebra::Vector3::x_axis(), std::f64::consts::FRAC_PI_2),
+        );
+        let (model, pixels, surface) = pixel_and_surface_shares(&capsule, pose, &colors);
+        let surface = surface.unwrap_or_else(|| panic!("({x}, {y}): no surface colours for a {model} extent"));
+        assert_eq!(model, "lying", "({x}, {y})");
+        assert!(
+            (0.18..0.42).contains(&surface[RED_TERM]),
+            "({x}, {y}): red is 30 % of the capsule's length: {surface:?} (pixels {pixels:?})"
+        );
+    }
+}

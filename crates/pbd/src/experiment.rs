@@ -78,6 +78,11 @@ pub struct SortingOptions {
     /// term given to each perceptually neighbouring term (0 ≤ ε ≤ ½; default
     /// [`schema::procedural::DEFAULT_COLOR_NEIGHBOUR_SHARE`]).
     pub neighbour_share: f64,
+    /// The chromatic rule's share ([`schema::procedural::Hyper::color_chromatic_share`]): an
+    /// object's black, grey and white pixels are left out when its chromatic terms cover at least
+    /// this share (0 ≤ share ≤ 1, 1 turns the rule off; default
+    /// [`schema::procedural::DEFAULT_CHROMATIC_SHARE`]).
+    pub chromatic_share: f64,
     /// The unit of the size feature: the seed's deci-pixels (the default: these are the seed's
     /// experiments, its objects at one distance from the cameras) or `cm`, the metric size the robot
     /// measures (features rendered by this build carry it; older feature banks do not).
@@ -103,6 +108,7 @@ impl Default for SortingOptions {
             background: 0,
             uniform_base: false,
             neighbour_share: schema::procedural::DEFAULT_COLOR_NEIGHBOUR_SHARE,
+            chromatic_share: schema::procedural::DEFAULT_CHROMATIC_SHARE,
             size_unit: schema::procedural::SizeUnit::DeciPixels,
         }
     }

@@ -4,8 +4,9 @@
 //!
 //! `tests/data/household_features.json` holds those features: every presentation of
 //! `assets/objects/household.toml` rendered in 4 seeded views by the simulator's vision pipeline
-//! (Dexter's head cameras, background subtraction, stereo matching, the kept bins of the 64-colour
-//! histogram, the kept colour terms and the left/right pixel counts), written by
+//! (Dexter's head cameras, background subtraction, stereo matching with the table's plane known,
+//! the kept bins of the 64-colour histogram, the kept colour terms weighed by the surface each
+//! pixel stands for, the left/right pixel counts and the measured dimensions), written by
 //! `pbd experiment sorting --feature color --views 4 --seed 1 --dump-features FILE -o DIR`.
 
 use std::path::{Path, PathBuf};

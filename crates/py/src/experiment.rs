@@ -251,6 +251,14 @@ struct SortingConfig {
     /// The share of an object's colour term given to each neighbouring term.
     #[serde(default = "default_neighbour_share")]
     neighbour_share: f64,
+    /// The chromatic rule's share (an object's achromatic pixels are left out when its chromatic
+    /// terms cover at least this share).
+    #[serde(default = "default_chromatic_share")]
+    chromatic_share: f64,
+}
+
+fn default_chromatic_share() -> f64 {
+    pbd::schema::procedural::DEFAULT_CHROMATIC_SHARE
 }
 
 fn default_neighbour_share() -> f64 {
@@ -297,6 +305,7 @@ fn sorting_trial(py: Python<'_>, config: &Bound<'_, PyAny>, trial: usize) -> PyR
         background: c.background,
         uniform_base: c.uniform_base,
         neighbour_share: c.neighbour_share,
+        chromatic_share: c.chromatic_share,
         ..Default::default()
     };
     let (result, _) = runner::run(py, None, |progress| {

@@ -1,6 +1,8 @@
 //! Colour conversions, the 64-bin HSV colour histogram of §5.1.2.1 and the colour terms
 //! ([`schema::percept::COLOR_TERMS`]) the procedural model counts.
 
+use control_basis::math::Vec3;
+
 /// Number of colours L in the discrete colour feature (§5.1.2.1: "one of L=64 colors").
 pub const HISTOGRAM_BINS: usize = 64;
 
@@ -255,6 +257,170 @@ pub fn kept_color_terms(counts: &[u32; 10]) -> Vec<(u8, f64)> {
         .collect();
     let total: f64 = kept.iter().map(|k| f64::from(k.1)).sum();
     kept.into_iter().map(|(t, c)| (t, f64::from(c) / total)).collect()
+}
+
+/// How far (m) outside a measured footprint the ray of a top-face pixel may meet the top's plane
+/// ([`surface_color_terms`]): the footprint's own measurement error.
+const TOP_FACE_SLACK: f64 = 0.005;
+
+/// Bands along a round object's axis (its height for a sphere, its length for a thing lying on
+/// its side) that [`surface_color_terms`] weighs equally.
+const SURFACE_BANDS: usize = 6;
+
+/// The fewest pixels of a band for its colours to count ([`surface_color_terms`]).
+const MIN_BAND_PIXELS: u32 = 3;
+
+/// How far (m) beyond the measured radius a pixel's ray may pass and still be taken as seeing the
+/// round surface ([`surface_color_terms`]): the measurement's own error.
+const ROUND_SLACK: f64 = 0.006;
+
+/// The colour-term counts of a view `seg` of a measured object (in the camera `cam`, whose `image`
+/// and `segmenter` made it), weighted by the surface each pixel stands for: a teacher names the
+/// colour that covers most of an object's surface, and the head, looking down, sees its top out
+/// of proportion (a peanut-butter jar with a blue lid and a red label looked blue; a white
+/// sugar-cube box with a blue top, blue; a white ball with a blue cap, blue).
+///
+/// * **A flat top** (`prism`, `standing_whole`: the measured top on a table at `table_z`): each
+///   pixel's ray meets the plane of the top inside the footprint — a top pixel — or not — a side
+///   pixel; the top's pixels then carry the top's share of the surface, A_top / (A_top + A_sides) =
+///   a·b / (a·b + (a + b)·h) for half extents a, b and height h (the same for a box and a
+///   cylinder), and the sides' pixels the rest, each face's colours taken as the visible part shows
+///   them.
+/// * **Round** (`round`, a ball of the measured radius on the table; `lying`, a round
+///   cross-section lying along the footprint's major axis): each pixel's ray meets the fitted
+///   surface at a height on the ball (a position along the lying thing's axis); the axis is cut
+///   into [`SURFACE_BANDS`] equal bands, each band's colours are taken as its visible pixels show
+///   them, and the bands seen count equally — a ball's zones of equal height have equal area
+///   (Archimedes), as do a cylinder's of equal length — so the cap the head looks down on counts
+///   for its share of the surface, not of the image.
+///
+/// Of a view cut by the image border or the robot's body too: the shares come from the measured
+/// extent, not from the pixels. `None` (keep the pixel counts) for other extents, a view that is
+/// not the segmenter's own segment (split by colour, say), a flat top without pixels of both
+/// faces, or a round view whose pixels mostly miss the fitted surface or that shows fewer than
+/// two bands.
+pub fn surface_color_terms(
+    seg: &crate::vision::Segment,
+    segmenter: &crate::vision::Segmenter,
+    image: &crate::vision::Image,
+    cam: &crate::vision::Camera,
+    extent: &schema::SeenExtent,
+    table_z: f64,
+) -> Option<[u32; 10]> {
+    let shape = match extent.model.as_str() {
+        "prism" | "standing_whole" => Fitted::FlatTop,
+        "round" => Fitted::Ball,
+        "lying" => Fitted::Lying,
+        _ => return None,
+    };
+    let label = segmenter.segments().iter().position(|s| s == seg)? as u32 + 1;
+    let comp = segmenter.component_map();
+    let w = image.width as usize;
+    if comp.len() != image.pixel_count() {
+        return None;
+    }
+    let (a, b, h) = (extent.half_major, extent.half_minor, extent.height);
+    if !(a > 0.0 && b > 0.0 && h > 0.0) {
+        return None;
+    }
+    let axis = [extent.major_axis[0], extent.major_axis[1]];
+    let top_z = table_z + h;
+    // Flat top: [top, sides]; round: one row per band.
+    let mut faces = [[0u32; 10]; SURFACE_BANDS];
+    let (mut n, mut missed) = (0u32, 0u32);
+    for v in seg.bbox[1]..=seg.bbox[3] {
+        for u in seg.bbox[0]..=seg.bbox[2] {
+            let i = v as usize * w + u as usize;
+            if comp.get(i) != Some(&label) {
+                continue;
+            }
+            n += 1;
+            let (o, d) = cam.ray(f64::from(u), f64::from(v));
+            let face = match shape {
+                Fitted::FlatTop => {
+                    let on_top = d.z < -1e-9 && {
+                        let t = (top_z - o.z) / d.z;
+                        let (x, y) = (o.x + t * d.x - extent.center[0], o.y + t * d.y - extent.center[1]);
+                        let along = x * axis[0] + y * axis[1];
+                        let across = -x * axis[1] + y * axis[0];
+                        along.abs() <= a + TOP_FACE_SLACK && across.abs() <= b + TOP_FACE_SLACK
+                    };
+                    usize::from(!on_top)
+                }
+                Fitted::Ball | Fitted::Lying => {
+                    let r = 0.5 * h + ROUND_SLACK;
+                    // The fitted axis: vertical through the ball's centre, or horizontal along
+                    // the footprint's major axis at the lying thing's mid-height.
+                    let e = match shape {
+                        Fitted::Ball => Vec3::new(0.0, 0.0, 1.0),
+                        _ => Vec3::new(axis[0], axis[1], 0.0),
+                    };
+                    let c = Vec3::new(extent.center[0], extent.center[1], table_z + 0.5 * h);
+                    let wv = o - c;
+                    let (dp, wp) = (d - e * d.dot(&e), wv - e * wv.dot(&e));
+                    let (qa, qb, qc) = match shape {
+                        // A ball: the full distance to the centre.
+                        Fitted::Ball => (1.0, wv.dot(&d), wv.dot(&wv) - r * r),
+                        _ => (dp.dot(&dp), wp.dot(&dp), wp.dot(&wp) - r * r),
+                    };
+                    let disc = qb * qb - qa * qc;
+                    if !(disc >= 0.0 && qa > 1e-12) {
+                        missed += 1;
+                        continue;
+                    }
+                    let t = (-qb - disc.sqrt()) / qa;
+                    let along = (wv + d * t).dot(&e);
+                    let half = match shape {
+                        Fitted::Ball => 0.5 * h,
+                        _ => a,
+                    };
+                    let x = ((along + half) / (2.0 * half)).clamp(0.0, 1.0 - 1e-9);
+                    (x * SURFACE_BANDS as f64) as usize
+                }
+            };
+            let rgb = image.px(i).map(|c| f64::from(c) / 255.0);
+            faces[face][usize::from(color_term(rgb_to_hsv(rgb)))] += 1;
+        }
+    }
+    let count = |f: &[u32; 10]| f.iter().sum::<u32>();
+    let weights: Vec<(usize, f64)> = match shape {
+        Fitted::FlatTop => {
+            if count(&faces[0]) == 0 || count(&faces[1]) == 0 {
+                return None;
+            }
+            let top_share = a * b / (a * b + (a + b) * h);
+            vec![(0, top_share), (1, 1.0 - top_share)]
+        }
+        _ => {
+            let seen: Vec<usize> = (0..SURFACE_BANDS)
+                .filter(|&k| count(&faces[k]) >= MIN_BAND_PIXELS)
+                .collect();
+            if 2 * missed > n || seen.len() < 2 {
+                return None;
+            }
+            let each = 1.0 / seen.len() as f64;
+            seen.into_iter().map(|k| (k, each)).collect()
+        }
+    };
+    let n = f64::from(n - missed);
+    Some(std::array::from_fn(|t| {
+        let share: f64 = weights
+            .iter()
+            .map(|&(k, wk)| wk * f64::from(faces[k][t]) / f64::from(count(&faces[k])))
+            .sum();
+        (share * n).round() as u32
+    }))
+}
+
+/// The shape [`surface_color_terms`] fits to a measured extent.
+#[derive(Clone, Copy)]
+enum Fitted {
+    /// A flat top over vertical sides.
+    FlatTop,
+    /// A ball resting on the table.
+    Ball,
+    /// A round cross-section lying along the footprint's major axis.
+    Lying,
 }
 
 #[cfg(test)]

@@ -310,7 +310,8 @@ impl Watcher {
             let segmenter = self.eyes.pipeline(Pair::Head).segmenter(crate::vision::Side::Left);
             for (s, l) in seen.iter_mut().zip(&left_views) {
                 if let Some(e) = &s.extent
-                    && let Some(counts) = surface_color_terms(l, segmenter, image, &cams.left, e, table_z)
+                    && let Some(counts) =
+                        crate::vision::color::surface_color_terms(l, segmenter, image, &cams.left, e, table_z)
                 {
                     s.colors = crate::vision::color::kept_color_terms(&counts);
                 }

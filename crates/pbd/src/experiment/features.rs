@@ -1,14 +1,19 @@
 //! Features of every presentation of a catalog, rendered with the simulator's vision pipeline:
 //! the object alone on the table (with the two bins) in front of Dexter's head cameras, segmented
-//! by background subtraction, matched in stereo, and reduced to the kept bins of the 64-colour
-//! histogram, the colour terms, the left/right pixel counts and the measured extent on the support
-//! plane (the metric size) — what `pbd record` stores per segment.
+//! by background subtraction, matched in stereo with the table's plane known (the robot's own
+//! settings), and reduced to the kept bins of the 64-colour histogram, the colour terms weighed by
+//! the surface each pixel stands for (`dexter::vision::color::surface_color_terms`), the left/right
+//! pixel counts and the measured extent on the support plane (the metric size) — what `pbd record`
+//! stores per segment.
 //!
 //! Each presentation is rendered in several *variants* (seeded position jitter, yaw and pixel
 //! noise), so trials see the object as it would be presented again: not the same pixels twice.
 
 use anyhow::{Context, bail};
 use bayes::rng::Draw;
+use dexter::vision::color::surface_color_terms;
+use dexter::vision::stereo::Side;
+use dexter::vision::{SegmentConfig, StereoConfig, SupportPlane};
 use dexter_sim::scene::{CameraSpec, Catalog, LightSpec};
 use dexter_sim::vision::fixtures::{TABLE_FIXATION, TABLE_TOP, head_cameras, table_and_bins};
 use dexter_sim::vision::{ItemLabel, RenderItem, StereoVision};
@@ -62,7 +67,16 @@ pub fn render_bank(
     let light = LightSpec::default();
     let cams = head_cameras(&spec, Vector3::from(TABLE_FIXATION))?;
     let base = table_and_bins();
-    let mut vision = StereoVision::new(&spec, &light, seed)?;
+    // The robot's own settings (`dexter::eyes`): segmentation for the cameras' pixel noise and the
+    // table's plane known, so that objects standing on it are measured on it (height, footprint).
+    let mut support = SupportPlane::at(TABLE_TOP);
+    support.pixel_noise = spec.pixel_noise;
+    let stereo = StereoConfig {
+        support: Some(support),
+        ..StereoConfig::default()
+    };
+    let mut vision =
+        StereoVision::with_config(&spec, &light, seed, SegmentConfig::for_noise(spec.pixel_noise), stereo)?;
     vision.capture_background(&cams, &base)?;
     let mut presentations = Vec::new();
     let mut features = Vec::new();
@@ -99,7 +113,11 @@ pub fn render_bank(
             let Some(blob) = best else {
                 bail!("presentation {name}: the object is not visible to the head cameras");
             };
-            let seg = blob.left.or(blob.right).context("blob without segments")?;
+            let (seg, side, cam) = match (blob.left, blob.right) {
+                (Some(l), _) => (l, Side::Left, &cams.left),
+                (None, Some(r)) => (r, Side::Right, &cams.right),
+                (None, None) => bail!("presentation {name}: a blob without segments"),
+            };
             let h = &seg.features.histogram;
             let kept: Vec<usize> = h.kept_bins().collect();
             let total: f64 = kept.iter().map(|&i| f64::from(h.counts[i])).sum();
@@ -107,6 +125,23 @@ pub fn render_bank(
                 .iter()
                 .map(|&i| (i as u8, f64::from(h.counts[i]) / total.max(1.0)))
                 .collect();
+            // The robot's measurement of the object on the support plane (the metric size), and
+            // its colours by surface where that measurement gives the top and the sides (what the
+            // robot's watch computes: `dexter::vision::color::surface_color_terms`).
+            let extent = dexter::skills::extent_of(blob, &cams, TABLE_TOP);
+            let terms = extent
+                .as_ref()
+                .and_then(|e| {
+                    surface_color_terms(
+                        &seg,
+                        vision.segmenter(side),
+                        vision.renderer(side).image(),
+                        cam,
+                        e,
+                        TABLE_TOP,
+                    )
+                })
+                .unwrap_or(seg.features.color_terms);
             let percept = SegmentPercept {
                 id: 0,
                 centroid: blob.centroid.map_or([0.0; 3], |c| [c.x, c.y, c.z]),
@@ -117,9 +152,8 @@ pub fn render_bank(
                 ],
                 histogram,
                 covariance: [0.0; 4],
-                colors: dexter::vision::color::kept_color_terms(&seg.features.color_terms),
-                // The robot's measurement of the object on the support plane (the metric size).
-                extent: dexter::skills::extent_of(blob, &cams, TABLE_TOP),
+                colors: dexter::vision::color::kept_color_terms(&terms),
+                extent,
             };
             views.push(Features::from(&percept));
             tick();

@@ -101,7 +101,8 @@ def sorting_trial(config: Dict[str, Any], trial: int) -> Dict[str, Any]:
     ``catalog`` (TOML path; default the built-in household catalog — rendered once per process) or
     ``features`` (a bank written by ``pbd experiment sorting --dump-features``); optional
     ``test_catalog`` / ``test_features``, ``background``, ``uniform_base`` (colour base measure uniform
-    over the colour terms) and ``neighbour_share`` (ε given to each neighbouring colour term). Returns the trial's
+    over the colour terms), ``neighbour_share`` (ε given to each neighbouring colour term) and
+    ``chromatic_share`` (the chromatic rule's share, default 0.5). Returns the trial's
     row of the experiment's CSV: ``correct``, ``tested``, ``success_rate``, ``chi2_p_value`` (``None``
     with ``chi2_not_computed`` saying why when the test cannot be computed), ``map_structure``,
     ``map_structure_probability``, and for relevance ``auc`` and ``accuracy_at_threshold``.
@@ -119,7 +120,8 @@ def sorting(output: "os.PathLike[str] | str" = "experiment-sorting", *, progress
     """The whole sorting experiment (``pbd experiment sorting``): ``feature`` (``color`` | ``size`` |
     ``relevance`` | ``incremental`` | ``selection``), ``classes``, ``trials``, ``max_examples``,
     ``structure``, ``views``, ``seed``, ``catalog`` or ``features`` (a feature bank), ``dump_features``,
-    ``test_catalog`` / ``test_features``, ``background``, ``uniform_base``, ``neighbour_share``.
+    ``test_catalog`` / ``test_features``, ``background``, ``uniform_base``, ``neighbour_share``,
+    ``chromatic_share``.
     Writes the CSVs, ``summary.md`` and the SVG figures into ``output``; returns the summary
     (``rows`` per class set and number of examples, ``notes``, ``files``). One trial of it:
     :func:`sorting_trial`."""

@@ -320,8 +320,14 @@ pub const DEFAULT_COLOR_BASE: [f64; COLORS] = [0.119, 0.156, 0.162, 0.131, 0.118
 /// (`pbd experiment sorting --neighbour-share`).
 pub const DEFAULT_COLOR_NEIGHBOUR_SHARE: f64 = 0.0;
 
-/// Default chromatic share of the chromatic rule ([`Features::color_draws`]): 0.3.
-pub const DEFAULT_CHROMATIC_SHARE: f64 = 0.3;
+/// Default chromatic share of the chromatic rule ([`Features::color_draws`]): 0.5 — an object's
+/// black, grey and white are left out when its chromatic terms cover at least half of it, the
+/// colour a teacher names being the one that covers most of the surface. Chosen on the generated
+/// development catalogs (`pbd sim catalog --seed 201..=205`, relevance red + blue, 20 trials,
+/// three examples per class, colours by surface): mean ROC AUC 0.929 / 0.941 / 0.942 / 0.944 /
+/// 0.942 / 0.939 at 0.3 / 0.4 / 0.45 / 0.5 / 0.55 / 0.6. It was 0.3 while colours were counted by
+/// pixels, when the head's view of an object's top weighed more than its surface.
+pub const DEFAULT_CHROMATIC_SHARE: f64 = 0.5;
 
 /// Default structure prior, indexed like [`Connectivity::ALL`]: the three structures with at most
 /// one feature equally likely, and a place that depends on colour *and* size e³ ≈ 20 times less

@@ -217,14 +217,18 @@ fn plan(args: &SortingOptions) -> anyhow::Result<(Vec<String>, Label, Hyper)> {
     let mut hyper = Hyper {
         structure,
         color_neighbour_share: args.neighbour_share,
+        color_chromatic_share: args.chromatic_share,
         ..Hyper::default().with_size_unit(args.size_unit)
     };
     if args.uniform_base {
         hyper.color_base = vec![1.0 / schema::procedural::COLORS as f64; schema::procedural::COLORS];
     }
-    hyper
-        .validate()
-        .with_context(|| format!("--neighbour-share {}", args.neighbour_share))?;
+    hyper.validate().with_context(|| {
+        format!(
+            "--neighbour-share {}, --chromatic-share {}",
+            args.neighbour_share, args.chromatic_share
+        )
+    })?;
     Ok((classes, label, hyper))
 }
 
