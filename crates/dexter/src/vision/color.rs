@@ -321,6 +321,18 @@ pub fn surface_color_terms(
     }
     let axis = [extent.major_axis[0], extent.major_axis[1]];
     let top_z = table_z + h;
+    // A round fit: its radius, its axis — vertical through the ball's centre, or horizontal along
+    // the footprint's major axis at the lying thing's mid-height — and the half length banded.
+    let r = 0.5 * h + ROUND_SLACK;
+    let e = match shape {
+        Fitted::Ball => Vec3::new(0.0, 0.0, 1.0),
+        _ => Vec3::new(axis[0], axis[1], 0.0),
+    };
+    let c = Vec3::new(extent.center[0], extent.center[1], table_z + 0.5 * h);
+    let half = match shape {
+        Fitted::Ball => 0.5 * h,
+        _ => a,
+    };
     // Flat top: [top, sides]; round: one row per band.
     let mut faces = [[0u32; 10]; SURFACE_BANDS];
     let (mut n, mut missed) = (0u32, 0u32);
@@ -344,14 +356,6 @@ pub fn surface_color_terms(
                     usize::from(!on_top)
                 }
                 Fitted::Ball | Fitted::Lying => {
-                    let r = 0.5 * h + ROUND_SLACK;
-                    // The fitted axis: vertical through the ball's centre, or horizontal along
-                    // the footprint's major axis at the lying thing's mid-height.
-                    let e = match shape {
-                        Fitted::Ball => Vec3::new(0.0, 0.0, 1.0),
-                        _ => Vec3::new(axis[0], axis[1], 0.0),
-                    };
-                    let c = Vec3::new(extent.center[0], extent.center[1], table_z + 0.5 * h);
                     let wv = o - c;
                     let (dp, wp) = (d - e * d.dot(&e), wv - e * wv.dot(&e));
                     let (qa, qb, qc) = match shape {
@@ -366,10 +370,6 @@ pub fn surface_color_terms(
                     }
                     let t = (-qb - disc.sqrt()) / qa;
                     let along = (wv + d * t).dot(&e);
-                    let half = match shape {
-                        Fitted::Ball => 0.5 * h,
-                        _ => a,
-                    };
                     let x = ((along + half) / (2.0 * half)).clamp(0.0, 1.0 - 1e-9);
                     (x * SURFACE_BANDS as f64) as usize
                 }
