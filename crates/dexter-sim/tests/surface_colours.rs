@@ -72,19 +72,14 @@ fn pixel_and_surface_shares(
     colors: &[dexter_sim::scene::ColorPatch],
 ) -> (String, [f64; 10], Option<[f64; 10]>) {
     use dexter::vision::stereo::Side;
-    use dexter::vision::{SegmentConfig, StereoConfig, SupportPlane};
+    use dexter::vision::{SegmentConfig, StereoConfig};
     use dexter_sim::scene::{CameraSpec, LightSpec};
     use dexter_sim::vision::fixtures::{TABLE_FIXATION, TABLE_TOP, head_cameras, table_and_bins};
     use dexter_sim::vision::{ItemLabel, RenderItem, StereoVision};
 
     let spec = CameraSpec::default();
     let cams = head_cameras(&spec, nalgebra::Vector3::from(TABLE_FIXATION)).unwrap();
-    let mut support = SupportPlane::at(TABLE_TOP);
-    support.pixel_noise = spec.pixel_noise;
-    let config = StereoConfig {
-        support: Some(support),
-        ..StereoConfig::default()
-    };
+    let config = StereoConfig::on_table(TABLE_TOP, spec.pixel_noise);
     let mut sv = StereoVision::with_config(
         &spec,
         &LightSpec::default(),

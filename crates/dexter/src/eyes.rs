@@ -16,7 +16,7 @@ use crate::body::Body;
 use crate::calibration::Calibration;
 use crate::error::RobotError;
 use crate::vision::{
-    Frame, SegmentConfig, SelfModel, StereoBlob, StereoCameras, StereoConfig, StereoPipeline, SupportPlane, WarpScratch,
+    Frame, SegmentConfig, SelfModel, StereoBlob, StereoCameras, StereoConfig, StereoPipeline, WarpScratch,
 };
 
 /// The backgrounds are warped again when a camera moved by more than this (px at the image scale).
@@ -97,12 +97,7 @@ impl Eyes {
             }
             let cameras = [hw.camera_index(l)?, hw.camera_index(r)?];
             let info = &hw.cameras()[cameras[0]];
-            let mut support = SupportPlane::at(table_z);
-            support.pixel_noise = info.pixel_noise;
-            let config = StereoConfig {
-                support: Some(support),
-                ..StereoConfig::default()
-            };
+            let config = StereoConfig::on_table(table_z, info.pixel_noise);
             Ok(PairState {
                 frames: [
                     hw.cameras()[cameras[0]].optical_frame.clone(),

@@ -163,6 +163,20 @@ impl Default for StereoConfig {
     }
 }
 
+impl StereoConfig {
+    /// The robot's settings for a table whose top is at `table_z` (m), seen by cameras of pixel
+    /// noise σ = `pixel_noise`: the defaults with the table's plane known, so that objects standing
+    /// on it are measured on it (height, footprint).
+    pub fn on_table(table_z: f64, pixel_noise: f64) -> Self {
+        let mut support = SupportPlane::at(table_z);
+        support.pixel_noise = pixel_noise;
+        Self {
+            support: Some(support),
+            ..Self::default()
+        }
+    }
+}
+
 /// An object seen by one or both cameras.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StereoBlob {

@@ -13,7 +13,7 @@ use anyhow::{Context, bail};
 use bayes::rng::Draw;
 use dexter::vision::color::surface_color_terms;
 use dexter::vision::stereo::Side;
-use dexter::vision::{SegmentConfig, StereoConfig, SupportPlane};
+use dexter::vision::{SegmentConfig, StereoConfig};
 use dexter_sim::scene::{CameraSpec, Catalog, LightSpec};
 use dexter_sim::vision::fixtures::{TABLE_FIXATION, TABLE_TOP, head_cameras, table_and_bins};
 use dexter_sim::vision::{ItemLabel, RenderItem, StereoVision};
@@ -69,12 +69,7 @@ pub fn render_bank(
     let base = table_and_bins();
     // The robot's own settings (`dexter::eyes`): segmentation for the cameras' pixel noise and the
     // table's plane known, so that objects standing on it are measured on it (height, footprint).
-    let mut support = SupportPlane::at(TABLE_TOP);
-    support.pixel_noise = spec.pixel_noise;
-    let stereo = StereoConfig {
-        support: Some(support),
-        ..StereoConfig::default()
-    };
+    let stereo = StereoConfig::on_table(TABLE_TOP, spec.pixel_noise);
     let mut vision =
         StereoVision::with_config(&spec, &light, seed, SegmentConfig::for_noise(spec.pixel_noise), stereo)?;
     vision.capture_background(&cams, &base)?;
