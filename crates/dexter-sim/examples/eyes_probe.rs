@@ -3,7 +3,7 @@
 //! `PROBE_ARM` offsets the right arm's joints, `PROBE_FLEX` flexes its fingers, `PROBE_POST="x y yaw"`
 //! puts the blocked-arm fault's post on the table, `RUST_LOG` prints the
 //! vision's traces) looks at a point `dz` above the table and writes the head's
-//! left image, its predicted background, the self-mask from the robot's model and the renderer's
+//! left and right images, its predicted background, the self-mask from the robot's model and the renderer's
 //! true self-mask as PPM files in `/tmp/eyes_probe/`, and prints their agreement.
 
 use control_basis::hardware::Image;
@@ -101,6 +101,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     std::fs::create_dir_all("/tmp/eyes_probe")?;
     let (im, _) = eyes.images(Pair::Head);
     im.save_ppm("/tmp/eyes_probe/image.ppm")?;
+    eyes.images(Pair::Head).1.save_ppm("/tmp/eyes_probe/image_right.ppm")?;
     let mask = eyes.self_masks(Pair::Head).0.to_vec();
     let mut truth = Vec::new();
     hw.sim_cameras().true_self_mask(0, &mut truth);
@@ -119,6 +120,31 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     paint(seg.foreground(), 2).save_ppm("/tmp/eyes_probe/foreground.ppm")?;
     if let Some(bg) = seg.background() {
         bg.save_ppm("/tmp/eyes_probe/background_lo.ppm")?;
+    }
+    let seg_right = eyes.pipeline(Pair::Head).segmenter(Side::Right);
+    let (_, im_right) = eyes.images(Pair::Head);
+    let mut fg_right = im_right.clone();
+    for (i, &b) in seg_right.foreground().iter().enumerate() {
+        if b {
+            fg_right.rgb[3 * i + 2] = 255;
+        }
+    }
+    fg_right.save_ppm("/tmp/eyes_probe/foreground_right.ppm")?;
+    for (name, side) in [("left", Side::Left), ("right", Side::Right)] {
+        for s in eyes.pipeline(Pair::Head).segmenter(side).segments() {
+            let c = s.features.mean_rgb;
+            println!(
+                "  {name} segment: {} px at ({:.1}, {:.1}), bbox {:?}, mean rgb ({:.2}, {:.2}, {:.2}), cut {}",
+                s.features.pixel_count,
+                s.features.centroid[0],
+                s.features.centroid[1],
+                s.bbox,
+                c[0],
+                c[1],
+                c[2],
+                s.cut_off()
+            );
+        }
     }
     let both = mask.iter().zip(&truth).filter(|(a, b)| **a && **b).count();
     let model_only = mask.iter().zip(&truth).filter(|(a, b)| **a && !**b).count();

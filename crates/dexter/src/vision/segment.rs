@@ -410,76 +410,118 @@ impl Segmenter {
         true
     }
 
-    /// Splits segment `index` (of the last [`Segmenter::segment`] on `image`) in two by colour:
-    /// each pixel goes to the histogram, `a` or `b`, that gives its colour bin the larger share;
-    /// pixels whose bin neither holds (or both equally) go to the part whose centroid is nearer. Part `a` replaces
-    /// the segment, part `b` is appended (and labelled in the component map). Used when the other
-    /// camera of a stereo pair sees two objects where this one sees one component (they touch in
-    /// this view). Returns `false`, changing nothing, when either part would have fewer than
-    /// `min_pixels` or less than `min_share` of the segment.
+    /// Splits segment `index` (of the last [`Segmenter::segment`] on `image`) in two by colour, from
+    /// the colour terms ([`color_term`]) of the two objects as the other camera sees them (`a`, `b`:
+    /// pixel counts per term). A pixel whose term one object shows at least [`SPLIT_TERM_RATIO`] times
+    /// as often as the other (by share) seeds that object's part; every other pixel joins the part of
+    /// the nearest seed through the segment (a breadth-first growth over 8-neighbours). Part `a`
+    /// replaces the segment, part `b` is appended (and labelled in the component map). Used when the
+    /// other camera of a stereo pair sees two objects where this one sees one component (they touch
+    /// in this view). Returns `false`, changing nothing, when either object seeds no pixel, or either
+    /// part would have fewer than `min_pixels` or less than `min_share` of the segment.
+    ///
+    /// **Why terms and growth.** The 64-bin histogram's 90° hue cells put a red can and the yellow
+    /// top of a blue box in one cell: a per-pixel vote by bin gave the box's top to the can, and a
+    /// vote without growth scatters colours both objects show (a white base, a grey label) over both
+    /// parts. Terms tell red from yellow, and growth keeps each part in one piece around what only
+    /// that object shows.
     pub fn split_by_colour(
         &mut self,
         image: &Image,
         index: usize,
-        a: &ColorHistogram,
-        b: &ColorHistogram,
+        a: &[u32; 10],
+        b: &[u32; 10],
         min_share: f64,
     ) -> bool {
         let (w, h) = (image.width as usize, image.height as usize);
         let Some(seg) = self.segments.get(index).copied() else {
             return false;
         };
-        if self.component.len() != w * h {
+        if self.component.len() != w * h || image.rgb.len() != 3 * w * h {
             return false;
         }
+        let share = |c: &[u32; 10]| {
+            let n = c.iter().map(|&x| f64::from(x)).sum::<f64>().max(1.0);
+            c.map(|x| f64::from(x) / n)
+        };
+        let (sa, sb) = (share(a), share(b));
         let id = index as u32 + 1;
-        let (na, nb) = (a.normalized(), b.normalized());
-        // Scratch: `stack` holds the pixels of part a, `pixels` those of part b, `rejected` the
-        // undecided ones (all three are free between frames and reserved to the image size).
-        self.stack.clear();
-        self.pixels.clear();
+        let new_id = self.segments.len() as u32 + 1;
+        // Seeds: `rejected` is the growth queue (free between frames, reserved to the image size).
         self.rejected.clear();
+        let (mut seeds_a, mut seeds_b) = (0usize, 0usize);
         let [u0, v0, u1, v1] = seg.bbox;
-        for v in v0 as usize..=(v1 as usize).min(h - 1) {
-            for u in u0 as usize..=(u1 as usize).min(w - 1) {
+        let (u1, v1) = ((u1 as usize).min(w - 1), (v1 as usize).min(h - 1));
+        for v in v0 as usize..=v1 {
+            for u in u0 as usize..=u1 {
                 let p = v * w + u;
                 if self.component[p] != id {
                     continue;
                 }
                 let c = image.px(p);
-                let bin = hsv_bin(rgb_to_hsv(c.map(|x| f64::from(x) / 255.0)));
-                if na[bin] > nb[bin] {
-                    self.stack.push(p as u32);
-                } else if nb[bin] > na[bin] {
-                    self.pixels.push(p as u32);
-                } else {
+                let t = usize::from(color_term(rgb_to_hsv(c.map(|x| f64::from(x) / 255.0))));
+                if sa[t] > 0.0 && sa[t] >= SPLIT_TERM_RATIO * sb[t] {
+                    seeds_a += 1;
                     self.rejected.push(p as u32);
+                } else if sb[t] > 0.0 && sb[t] >= SPLIT_TERM_RATIO * sa[t] {
+                    seeds_b += 1;
+                    self.component[p] = new_id;
+                    self.rejected.push(p as u32);
+                } else {
+                    self.component[p] = UNDECIDED;
                 }
             }
         }
-        let mean = |px: &[u32]| {
-            let n = px.len().max(1) as f64;
-            let (su, sv) = px.iter().fold((0.0, 0.0), |(su, sv), &p| {
-                (su + (p as usize % w) as f64, sv + (p as usize / w) as f64)
-            });
-            (su / n, sv / n)
-        };
-        if self.stack.is_empty() || self.pixels.is_empty() {
-            return false;
-        }
-        let (ca, cb) = (mean(&self.stack), mean(&self.pixels));
-        for k in 0..self.rejected.len() {
-            let p = self.rejected[k];
-            let (u, v) = ((p as usize % w) as f64, (p as usize / w) as f64);
-            if (u - ca.0).hypot(v - ca.1) <= (u - cb.0).hypot(v - cb.1) {
-                self.stack.push(p);
-            } else {
-                self.pixels.push(p);
+        if seeds_a > 0 && seeds_b > 0 {
+            let mut head = 0;
+            while head < self.rejected.len() {
+                let p = self.rejected[head] as usize;
+                head += 1;
+                let label = self.component[p];
+                let (u, v) = (p % w, p / w);
+                for vv in v.saturating_sub(1)..=(v + 1).min(h - 1) {
+                    for uu in u.saturating_sub(1)..=(u + 1).min(w - 1) {
+                        let q = vv * w + uu;
+                        if self.component[q] == UNDECIDED {
+                            self.component[q] = label;
+                            self.rejected.push(q as u32);
+                        }
+                    }
+                }
             }
         }
-        self.finish_split(image, index, seg.features.pixel_count, min_share)
+        self.stack.clear();
+        self.pixels.clear();
+        for v in v0 as usize..=v1 {
+            for u in u0 as usize..=u1 {
+                let p = v * w + u;
+                let c = self.component[p];
+                if c == new_id {
+                    self.pixels.push(p as u32);
+                } else if c == id || c == UNDECIDED {
+                    // Unreached (no seed of either object): the segment stays whole.
+                    self.component[p] = id;
+                    self.stack.push(p as u32);
+                }
+            }
+        }
+        if seeds_a == 0 || seeds_b == 0 || !self.finish_split(image, index, seg.features.pixel_count, min_share) {
+            for &p in &self.pixels {
+                self.component[p as usize] = id;
+            }
+            return false;
+        }
+        true
     }
 }
+
+/// A colour term seeds an object's part in [`Segmenter::split_by_colour`] when that object shows it
+/// at least this many times as often (by share of its pixels) as the other: colours both show (a
+/// white base, a grey label, shading) are left to the growth.
+pub const SPLIT_TERM_RATIO: f64 = 3.0;
+
+/// A pixel of a segment being split that neither object's colours claim yet.
+const UNDECIDED: u32 = u32::MAX - 1;
 
 /// Whether any of `pixels` is next to (or on) a pixel of `mask` (empty = no mask).
 fn touches_mask(mask: &[bool], pixels: &[u32], w: usize, h: usize) -> bool {
@@ -625,12 +667,12 @@ mod tests {
         });
         s.set_background(&bg);
         assert_eq!(s.segment(&im, &[]).unwrap().len(), 1);
-        let hist = |rgb: [u8; 3]| {
-            let mut h = ColorHistogram::default();
-            h.counts[crate::vision::color::rgb8_bin(rgb)] = 10;
-            h
+        let terms = |rgb: [u8; 3]| {
+            let mut t = [0u32; 10];
+            t[usize::from(color_term(rgb_to_hsv(rgb.map(|x| f64::from(x) / 255.0))))] = 10;
+            t
         };
-        let (red, blue, green) = (hist([200, 0, 0]), hist([0, 0, 200]), hist([0, 200, 0]));
+        let (red, blue, green) = (terms([200, 0, 0]), terms([0, 0, 200]), terms([0, 200, 0]));
         // A part below the share asked for: nothing changes.
         assert!(!s.split_by_colour(&im, 0, &red, &blue, 0.5));
         assert_eq!(s.segments().len(), 1);
@@ -646,6 +688,57 @@ mod tests {
         assert!(!s.split_by_colour(&im, 0, &green, &blue, 0.15));
         assert_eq!(s.segments().len(), 1);
         assert!(!s.split_by_colour(&im, 7, &red, &blue, 0.15));
+    }
+
+    /// A red can touching a blue box with a yellow top, each on a white base: the histogram's 90°
+    /// hue cell holds red and yellow, so a vote by bin gave the box's top to the can. By colour
+    /// terms the top is the box's, and the white bases (both objects show white) go with the
+    /// colours they touch.
+    #[test]
+    fn a_split_by_colour_terms_keeps_each_object_whole() {
+        let bg = img(24, 12, |_, _| [100, 100, 100]);
+        let (red, blue, yellow, white) = ([200, 20, 20], [20, 40, 200], [230, 210, 30], [235, 235, 235]);
+        let im = img(24, 12, |u, v| match (u, v) {
+            (2..6, 4..8) => red,
+            (2..5, 8..10) => white,
+            (6..12, 1..4) => yellow,
+            (6..12, 4..8) => blue,
+            (7..12, 8..10) => white,
+            _ => [100, 100, 100],
+        });
+        let mut s = Segmenter::new(SegmentConfig {
+            diff_threshold: 0.1,
+            min_pixels: 3,
+        });
+        s.set_background(&bg);
+        assert_eq!(s.segment(&im, &[]).unwrap().len(), 1);
+        let term = |rgb: [u8; 3]| usize::from(color_term(rgb_to_hsv(rgb.map(|x| f64::from(x) / 255.0))));
+        // As the other camera sees them: the box 18 yellow, 24 blue, 10 white; the can 16 red, 6 white.
+        let mut boxed = [0u32; 10];
+        boxed[term(yellow)] = 18;
+        boxed[term(blue)] = 24;
+        boxed[term(white)] = 10;
+        let mut can = [0u32; 10];
+        can[term(red)] = 16;
+        can[term(white)] = 6;
+        assert_eq!(
+            crate::vision::color::rgb8_bin(red) / 16,
+            crate::vision::color::rgb8_bin(yellow) / 16
+        );
+        assert!(s.split_by_colour(&im, 0, &boxed, &can, 0.15));
+        let segs = s.segments();
+        assert_eq!(segs.len(), 2);
+        // The box: its top, its blue front and its base; the can: red and its base.
+        assert_eq!(segs[0].features.pixel_count, 18 + 24 + 10);
+        assert_eq!(segs[1].features.pixel_count, 16 + 6);
+        assert_eq!(segs[1].bbox, [2, 4, 5, 9]);
+        // Neither object shows anything: no split, nothing changed.
+        assert_eq!(s.segment(&im, &[]).unwrap().len(), 1);
+        let mut green = [0u32; 10];
+        green[term([20, 200, 20])] = 10;
+        assert!(!s.split_by_colour(&im, 0, &green, &can, 0.15));
+        assert_eq!(s.segments().len(), 1);
+        assert!(s.component_map().iter().all(|&c| c <= 1));
     }
 
     #[test]
