@@ -193,3 +193,71 @@ yaw_deg = 209
         );
     }
 }
+
+/// A can lying 17 cm behind a box standing on its side, nearly in line with the cameras, is one
+/// component in both images; split by colour (green can, orange box) the two parts lie 17 cm apart
+/// in range, so they are two objects, each located within 4 cm (before, one coarse track between
+/// them: the can was never seen; development seed 1, execute scene 20).
+#[test]
+fn two_objects_one_behind_the_other_are_seen_as_two() {
+    if cfg!(debug_assertions) {
+        eprintln!("SKIPPED: renders and simulates; run with cargo test --release");
+        return;
+    }
+    let text = r#"
+version = 1
+name = "one-behind-the-other"
+catalog = "household.toml"
+seed = 5
+[table]
+height = 0.75
+center = [0.6, 0.0]
+size = [0.6, 1.4]
+[[places]]
+name = "bin-left"
+center = [0.55, 0.45]
+size = [0.2, 0.25]
+wall_height = 0.06
+[[places]]
+name = "bin-right"
+center = [0.55, -0.45]
+size = [0.2, 0.25]
+wall_height = 0.06
+[[objects]]
+presentation = "peas_can-1"
+xy = [0.697, 0.165]
+yaw_deg = 125
+[[objects]]
+presentation = "tide-1"
+xy = [0.534, 0.178]
+yaw_deg = 86
+"#;
+    let assets = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/objects/one-behind.toml");
+    let scene = Scene::from_toml_str(text, &assets).unwrap();
+    let table_z = scene.spec.table.height;
+    let calibration = dexter_sim::calibrate::workcell_calibration(&scene).unwrap();
+    let mut sim = parked_sim(&scene, SimSettings::default()).unwrap();
+    let mut hw = SimRobot::new(&mut sim, &scene, 1).unwrap();
+    let mut eyes = Eyes::new(&hw, table_z, calibration).unwrap();
+    let truth: Vec<_> = (0..2)
+        .map(|i| hw.sim().object_state(i).pose.translation.vector)
+        .collect();
+    let head = SearchTrack::new(&hw).unwrap();
+    let mut body = dexter::body::Body::new();
+    head.look_at(&mut hw, &mut body, &(0.5 * (truth[0] + truth[1])))
+        .unwrap();
+    hw.advance(0.8).unwrap();
+    let blobs: Vec<_> = eyes
+        .perceive(&mut hw, Pair::Head)
+        .unwrap()
+        .iter()
+        .filter_map(|b| b.centroid)
+        .collect();
+    for (i, t) in truth.iter().enumerate() {
+        let nearest = blobs.iter().map(|c| (c - t).xy().norm()).fold(f64::INFINITY, f64::min);
+        assert!(
+            nearest < 0.04,
+            "object {i} at {t:?}: the nearest blob is {nearest:.3} m from it ({blobs:?})"
+        );
+    }
+}

@@ -389,6 +389,29 @@ impl Segmenter {
         self.finish_split(image, index, seg.features.pixel_count, min_share)
     }
 
+    /// Undoes the last split of segment `index` (by [`Segmenter::split_by_colour`] or
+    /// [`Segmenter::split_by_rows`], the last segment being its part `b`): the two parts are one
+    /// segment again, `whole` (the segment as it was before the split).
+    pub fn undo_split(&mut self, index: usize, whole: Segment) {
+        let last = self.segments.len();
+        if index + 1 >= last {
+            return;
+        }
+        let (part, id) = (last as u32, index as u32 + 1);
+        let [u0, v0, u1, v1] = whole.bbox.map(|x| x as usize);
+        let width = self.background.width as usize;
+        for v in v0..=v1 {
+            for u in u0..=u1 {
+                let p = v * width + u;
+                if p < self.component.len() && self.component[p] == part {
+                    self.component[p] = id;
+                }
+            }
+        }
+        self.segments.pop();
+        self.segments[index] = whole;
+    }
+
     /// The end of a split: part `a` (in `stack`) replaces segment `index`, part `b` (in `pixels`)
     /// is appended and labelled, if both hold at least `min_pixels` and `min_share` of `n` pixels.
     fn finish_split(&mut self, image: &Image, index: usize, n: usize, min_share: f64) -> bool {
@@ -732,6 +755,13 @@ mod tests {
         assert_eq!(segs[0].features.pixel_count, 18 + 24 + 10);
         assert_eq!(segs[1].features.pixel_count, 16 + 6);
         assert_eq!(segs[1].bbox, [2, 4, 5, 9]);
+        // Undone, the segment is whole again, in the list and in the component map.
+        let whole = s.segment(&im, &[]).unwrap()[0];
+        let map = s.component_map().to_vec();
+        assert!(s.split_by_colour(&im, 0, &boxed, &can, 0.15));
+        s.undo_split(0, whole);
+        assert_eq!(s.segments(), &[whole]);
+        assert_eq!(s.component_map(), &map[..]);
         // Neither object shows anything: no split, nothing changed.
         assert_eq!(s.segment(&im, &[]).unwrap().len(), 1);
         let mut green = [0u32; 10];

@@ -449,7 +449,12 @@ mod tests {
             frame(&mut tracker, vec![whole.clone(), cut_at(0.14)], &[false, true], 0.0);
             assert_eq!(tracker.tracks.len(), 2);
             // The cut view comes nearer (4 cm, then 9 cm: each within the cut gate of its track).
-            frame(&mut tracker, vec![whole.clone(), cut_at(y.max(0.10))], &[false, true], 0.1);
+            frame(
+                &mut tracker,
+                vec![whole.clone(), cut_at(y.max(0.10))],
+                &[false, true],
+                0.1,
+            );
             frame(&mut tracker, vec![whole.clone(), cut_at(y)], &[false, true], 0.2);
             assert_eq!(tracker.tracks.len(), if merged { 1 } else { 2 }, "cut view at y = {y}");
         }
