@@ -211,6 +211,11 @@ impl Eyes {
     pub fn pipeline(&self, pair: Pair) -> &StereoPipeline {
         &self.pairs[pair.index()].pipeline
     }
+
+    /// The pipeline of `pair`, to change its settings ([`StereoPipeline::set_config`]).
+    pub fn pipeline_mut(&mut self, pair: Pair) -> &mut StereoPipeline {
+        &mut self.pairs[pair.index()].pipeline
+    }
 }
 
 /// Whether an image is (nearly) black throughout — the lens covered: mean brightness below 4 of

@@ -389,6 +389,78 @@ impl Segmenter {
         self.finish_split(image, index, seg.features.pixel_count, min_share)
     }
 
+    /// Splits segment `index` (of the last [`Segmenter::segment`] on `image`) in two by the 64-bin
+    /// colour histograms `a` and `b` (the split of [`crate::vision::StereoPipeline`] for objects that
+    /// touch in one view only; [`Segmenter::split_by_colour`] splits by colour terms):
+    /// each pixel goes to the histogram, `a` or `b`, that gives its colour bin the larger share;
+    /// pixels whose bin neither holds (or both equally) go to the part whose centroid is nearer. Part `a` replaces
+    /// the segment, part `b` is appended (and labelled in the component map). Used when the other
+    /// camera of a stereo pair sees two objects where this one sees one component (they touch in
+    /// this view). Returns `false`, changing nothing, when either part would have fewer than
+    /// `min_pixels` or less than `min_share` of the segment.
+    pub fn split_by_histogram(
+        &mut self,
+        image: &Image,
+        index: usize,
+        a: &ColorHistogram,
+        b: &ColorHistogram,
+        min_share: f64,
+    ) -> bool {
+        let (w, h) = (image.width as usize, image.height as usize);
+        let Some(seg) = self.segments.get(index).copied() else {
+            return false;
+        };
+        if self.component.len() != w * h {
+            return false;
+        }
+        let id = index as u32 + 1;
+        let (na, nb) = (a.normalized(), b.normalized());
+        // Scratch: `stack` holds the pixels of part a, `pixels` those of part b, `rejected` the
+        // undecided ones (all three are free between frames and reserved to the image size).
+        self.stack.clear();
+        self.pixels.clear();
+        self.rejected.clear();
+        let [u0, v0, u1, v1] = seg.bbox;
+        for v in v0 as usize..=(v1 as usize).min(h - 1) {
+            for u in u0 as usize..=(u1 as usize).min(w - 1) {
+                let p = v * w + u;
+                if self.component[p] != id {
+                    continue;
+                }
+                let c = image.px(p);
+                let bin = hsv_bin(rgb_to_hsv(c.map(|x| f64::from(x) / 255.0)));
+                if na[bin] > nb[bin] {
+                    self.stack.push(p as u32);
+                } else if nb[bin] > na[bin] {
+                    self.pixels.push(p as u32);
+                } else {
+                    self.rejected.push(p as u32);
+                }
+            }
+        }
+        let mean = |px: &[u32]| {
+            let n = px.len().max(1) as f64;
+            let (su, sv) = px.iter().fold((0.0, 0.0), |(su, sv), &p| {
+                (su + (p as usize % w) as f64, sv + (p as usize / w) as f64)
+            });
+            (su / n, sv / n)
+        };
+        if self.stack.is_empty() || self.pixels.is_empty() {
+            return false;
+        }
+        let (ca, cb) = (mean(&self.stack), mean(&self.pixels));
+        for k in 0..self.rejected.len() {
+            let p = self.rejected[k];
+            let (u, v) = ((p as usize % w) as f64, (p as usize / w) as f64);
+            if (u - ca.0).hypot(v - ca.1) <= (u - cb.0).hypot(v - cb.1) {
+                self.stack.push(p);
+            } else {
+                self.pixels.push(p);
+            }
+        }
+        self.finish_split(image, index, seg.features.pixel_count, min_share)
+    }
+
     /// Undoes the last split of segment `index` (by [`Segmenter::split_by_colour`] or
     /// [`Segmenter::split_by_rows`], the last segment being its part `b`): the two parts are one
     /// segment again, `whole` (the segment as it was before the split).
@@ -438,9 +510,9 @@ impl Segmenter {
     /// pixel counts per term). A pixel whose term one object shows at least [`SPLIT_TERM_RATIO`] times
     /// as often as the other (by share) seeds that object's part; every other pixel joins the part of
     /// the nearest seed through the segment (a breadth-first growth over 8-neighbours). Part `a`
-    /// replaces the segment, part `b` is appended (and labelled in the component map). Used when the
-    /// other camera of a stereo pair sees two objects where this one sees one component (they touch
-    /// in this view). Returns `false`, changing nothing, when either object seeds no pixel, or either
+    /// replaces the segment, part `b` is appended (and labelled in the component map). Used for two
+    /// objects one behind the other, one component in both views (the stereo pipeline undoes the
+    /// split when the parts lie at one depth, [`Segmenter::undo_split`]). Returns `false`, changing nothing, when either object seeds no pixel, or either
     /// part would have fewer than `min_pixels` or less than `min_share` of the segment.
     ///
     /// **Why terms and growth.** The 64-bin histogram's 90° hue cells put a red can and the yellow
