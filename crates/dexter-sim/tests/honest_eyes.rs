@@ -128,20 +128,13 @@ fn the_calibration_is_the_same_for_every_run_in_a_workcell() {
     assert_eq!(direct.view_count(), ca.view_count());
 }
 
-/// Lying things at the table's far corners (development seed 6, execute scenes 13 and 36: a spice
-/// jar and a can of peas on their sides, beyond the bins' far ends) are located where they lie:
-/// their centroid disparity is off by 1–2 pixels (a cap segmented in one camera, not the other),
-/// which triangulated them 7–9 cm nearer the cameras, and a phantom row took their place. The
-/// support-plane estimate of a lying thing, checked against its bottom edges, puts them within 2 cm.
-#[test]
-fn lying_things_at_the_far_corners_are_located_where_they_lie() {
-    if cfg!(debug_assertions) {
-        eprintln!("SKIPPED: renders and simulates; run with cargo test --release");
-        return;
-    }
-    let text = r#"
+/// The execute experiment's workcell (the table and bins of `sorting-demo`, the household catalog)
+/// with `objects` (`[[objects]]` tables).
+fn workcell(name: &str, objects: &str) -> Scene {
+    let text = format!(
+        r#"
 version = 1
-name = "far-corners"
+name = "{name}"
 catalog = "household.toml"
 seed = 5
 [table]
@@ -158,6 +151,26 @@ name = "bin-right"
 center = [0.55, -0.45]
 size = [0.2, 0.25]
 wall_height = 0.06
+{objects}"#
+    );
+    let assets = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../assets/objects/{name}.toml"));
+    Scene::from_toml_str(&text, &assets).unwrap()
+}
+
+/// Lying things at the table's far corners (development seed 6, execute scenes 13 and 36: a spice
+/// jar and a can of peas on their sides, beyond the bins' far ends) are located where they lie:
+/// their centroid disparity is off by 1–2 pixels (a cap segmented in one camera, not the other),
+/// which triangulated them 7–9 cm nearer the cameras, and a phantom row took their place. The
+/// support-plane estimate of a lying thing, checked against its bottom edges, puts them within 2 cm.
+#[test]
+fn lying_things_at_the_far_corners_are_located_where_they_lie() {
+    if cfg!(debug_assertions) {
+        eprintln!("SKIPPED: renders and simulates; run with cargo test --release");
+        return;
+    }
+    let scene = workcell(
+        "far-corners",
+        r#"
 [[objects]]
 presentation = "blue_spice-1"
 xy = [0.778, -0.380]
@@ -166,9 +179,8 @@ yaw_deg = 200
 presentation = "peas_can-1"
 xy = [0.771, 0.380]
 yaw_deg = 209
-"#;
-    let assets = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/objects/far-corners.toml");
-    let scene = Scene::from_toml_str(text, &assets).unwrap();
+"#,
+    );
     let table_z = scene.spec.table.height;
     let calibration = dexter_sim::calibrate::workcell_calibration(&scene).unwrap();
     let mut sim = parked_sim(&scene, SimSettings::default()).unwrap();
@@ -205,25 +217,9 @@ fn two_objects_one_behind_the_other_are_seen_as_two() {
         eprintln!("SKIPPED: renders and simulates; run with cargo test --release");
         return;
     }
-    let text = r#"
-version = 1
-name = "one-behind-the-other"
-catalog = "household.toml"
-seed = 5
-[table]
-height = 0.75
-center = [0.6, 0.0]
-size = [0.6, 1.4]
-[[places]]
-name = "bin-left"
-center = [0.55, 0.45]
-size = [0.2, 0.25]
-wall_height = 0.06
-[[places]]
-name = "bin-right"
-center = [0.55, -0.45]
-size = [0.2, 0.25]
-wall_height = 0.06
+    let scene = workcell(
+        "one-behind-the-other",
+        r#"
 [[objects]]
 presentation = "peas_can-1"
 xy = [0.697, 0.165]
@@ -232,9 +228,8 @@ yaw_deg = 125
 presentation = "tide-1"
 xy = [0.534, 0.178]
 yaw_deg = 86
-"#;
-    let assets = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/objects/one-behind.toml");
-    let scene = Scene::from_toml_str(text, &assets).unwrap();
+"#,
+    );
     let table_z = scene.spec.table.height;
     let calibration = dexter_sim::calibrate::workcell_calibration(&scene).unwrap();
     let mut sim = parked_sim(&scene, SimSettings::default()).unwrap();
