@@ -762,16 +762,16 @@ mod tests {
         });
         s.set_background(&bg);
         assert_eq!(s.segment(&im, &[]).unwrap().len(), 1);
-        let terms = |rgb: [u8; 3]| {
-            let mut t = [0u32; 10];
-            t[usize::from(color_term(rgb_to_hsv(rgb.map(|x| f64::from(x) / 255.0))))] = 10;
-            t
+        let hist = |rgb: [u8; 3]| {
+            let mut h = ColorHistogram::default();
+            h.counts[crate::vision::color::rgb8_bin(rgb)] = 10;
+            h
         };
-        let (red, blue, green) = (terms([200, 0, 0]), terms([0, 0, 200]), terms([0, 200, 0]));
+        let (red, blue, green) = (hist([200, 0, 0]), hist([0, 0, 200]), hist([0, 200, 0]));
         // A part below the share asked for: nothing changes.
-        assert!(!s.split_by_colour(&im, 0, &red, &blue, 0.5));
+        assert!(!s.split_by_histogram(&im, 0, &red, &blue, 0.5));
         assert_eq!(s.segments().len(), 1);
-        assert!(s.split_by_colour(&im, 0, &red, &blue, 0.15));
+        assert!(s.split_by_histogram(&im, 0, &red, &blue, 0.15));
         let segs = s.segments();
         assert_eq!(segs.len(), 2);
         assert_eq!((segs[0].features.pixel_count, segs[1].features.pixel_count), (16, 20));
@@ -780,9 +780,9 @@ mod tests {
         assert_eq!((s.component_map()[3 * 20 + 5], s.component_map()[3 * 20 + 6]), (1, 2));
         // A histogram no pixel of the segment falls in: no split.
         assert_eq!(s.segment(&im, &[]).unwrap().len(), 1);
-        assert!(!s.split_by_colour(&im, 0, &green, &blue, 0.15));
+        assert!(!s.split_by_histogram(&im, 0, &green, &blue, 0.15));
         assert_eq!(s.segments().len(), 1);
-        assert!(!s.split_by_colour(&im, 7, &red, &blue, 0.15));
+        assert!(!s.split_by_histogram(&im, 7, &red, &blue, 0.15));
     }
 
     /// A red can touching a blue box with a yellow top, each on a white base: the histogram's 90°
