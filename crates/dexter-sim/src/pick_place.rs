@@ -11,8 +11,8 @@ use control_basis::{Hardware, Plant};
 use dexter::control::{HandControl, ReachControl};
 use dexter::eyes::Eyes;
 use dexter::skills::{
-    GraspPlan, Held, Observer, choose_arm, finger_arc, grasp_and_lift, locate_object, lower_until_supported,
-    plan_top_grasp, plan_top_grasp_geometry, release_and_retreat, transport_over,
+    GraspPlan, Held, Observer, choose_arm, contact_center, finger_arc, grasp_and_lift, locate_object,
+    lower_until_supported, plan_top_grasp, plan_top_grasp_geometry, release_and_retreat, transport_over,
 };
 use serde::Serialize;
 
@@ -71,6 +71,10 @@ pub struct PickPlaceReport {
     /// Force closure of the held grasp after the lift, from the world's contacts (for the report
     /// only): (closure, margin, grasp-map rank).
     pub force_closure: Option<(bool, f64, usize)>,
+    /// After the lift, where the robot puts the object's centre in its hand against the truth
+    /// (horizontal distance, m): `[as the fingertips feel it, as seen before the grasp]`
+    /// ([`dexter::skills::contact_center`], [`Held::felt_at`]; the truth for the report only).
+    pub in_hand_error: Option<[f64; 2]>,
 }
 
 /// Plans a top-down grasp of an object of known `shape` at `pose` (the teacher's view of the world:
@@ -205,7 +209,8 @@ pub fn pick_and_place_in(
                   phases: Vec<(String, f64)>,
                   weighed: Option<(f64, f64)>,
                   vision_error: Option<f64>,
-                  closure: Option<(bool, f64, usize)>| {
+                  closure: Option<(bool, f64, usize)>,
+                  in_hand_error: Option<[f64; 2]>| {
         let s = hw.sim();
         let p = s.object_state(obj).pose.translation.vector;
         let wall_time = wall.elapsed().as_secs_f64();
@@ -226,6 +231,7 @@ pub fn pick_and_place_in(
             weighed,
             vision_error,
             force_closure: closure,
+            in_hand_error,
         }
     };
     let located = match located {
@@ -238,6 +244,7 @@ pub fn pick_and_place_in(
                 false,
                 why.message,
                 phases,
+                None,
                 None,
                 None,
                 None,
@@ -316,9 +323,17 @@ pub fn pick_and_place_in(
             weighed,
             Some(vision_error),
             closure,
+            None,
         ));
     }
-    let held = Held::new(&seen, &plan.grasp, table_z, g.weighed.unwrap_or(0.0));
+    // Where the object sits in the hand: where the fingertips feel it (it moves as the fingers
+    // close and lift it), else where it was seen.
+    let palm = reach.tool_pose(&hw).translation.vector;
+    let seen_hold = Held::new(&seen, &plan.grasp, table_z, g.weighed.unwrap_or(0.0));
+    let held = seen_hold.felt_at(&palm, contact_center(&hw, arm));
+    let now = hw.sim().object_state(obj).pose.translation.vector;
+    let off = |h: &Held| (palm.x + h.offset_xy[0] - now.x).hypot(palm.y + h.offset_xy[1] - now.y);
+    let in_hand_error = Some([off(&held), off(&seen_hold)]);
     // Transport: up to a safe height, over the place.
     phases.push(("transport".into(), hw.time_secs() - t0));
     if let Err(why) = transport_over(
@@ -341,6 +356,7 @@ pub fn pick_and_place_in(
             weighed,
             Some(vision_error),
             closure,
+            in_hand_error,
         ));
     }
     // Place: lower until the support takes the load.
@@ -385,5 +401,6 @@ pub fn pick_and_place_in(
         weighed,
         Some(vision_error),
         closure,
+        in_hand_error,
     ))
 }

@@ -14,6 +14,12 @@
 //! a tare was tried and fails, because the closing fingers press the object down onto the table).
 //! The check is therefore: at most 1 % of the runs outside 12 %, each listed.
 //!
+//! And where the robot puts the lifted object in its hand (`dexter::skills::contact_center`: the
+//! fingertips that touch it), against the truth: the object moves as the fingers close and lift it,
+//! so the view before the grasp put it a median 27 mm off (seed 1), the fingertips 3.8 mm (balls,
+//! whose fingertips curl under them unevenly, 16–19 mm). Checked: median ≤ 5 mm and below the
+//! seen one, ≥ 95 % within 20 mm.
+//!
 //! CI runs the quick form, one seed (`every_catalog_object_into_every_reachable_bin`, 86 runs); the
 //! full sweep over three seeds (258 runs) is `#[ignore]`d:
 //! `cargo test --release -p dexter-sim --test integration pick_place_catalog:: -- --ignored --nocapture`.
@@ -96,6 +102,8 @@ fn sweep(seeds: &[u64]) {
     let mut worst_weight: f64 = 0.0;
     let mut weight_failures = Vec::new();
     let mut vision: Vec<f64> = Vec::new();
+    // Where the robot puts the lifted object in its hand against the truth: (felt, seen), m.
+    let mut in_hand: Vec<[f64; 2]> = Vec::new();
     for (o, p, s, r) in &results {
         match r {
             Ok(r) => {
@@ -104,6 +112,16 @@ fn sweep(seeds: &[u64]) {
                 lifted += r.lifted as usize;
                 if let Some(v) = r.vision_error {
                     vision.push(v);
+                }
+                if let Some(e) = r.in_hand_error {
+                    if e[0] > 0.01 {
+                        println!(
+                            "in the hand {o} seed {s}: felt {:.1} mm off, seen {:.1} mm off",
+                            1000.0 * e[0],
+                            1000.0 * e[1]
+                        );
+                    }
+                    in_hand.push(e);
                 }
                 if let Some((m, t)) = r.weighed {
                     let e = ((m - t) / t).abs();
@@ -136,6 +154,23 @@ fn sweep(seeds: &[u64]) {
             vision.len()
         );
     }
+    // The object in the hand after the lift: where the fingertips feel it, against where it was
+    // seen before the fingers closed (the object moves as they close and lift it).
+    let median = |k: usize| {
+        let mut v: Vec<f64> = in_hand.iter().map(|e| e[k]).collect();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+    };
+    // Balls are felt 16-19 mm off (their fingertips curl under them unevenly; seen: 42-44 mm off),
+    // the rest within 10 mm (seed 1, when this check was written).
+    let felt_within = in_hand.iter().filter(|e| e[0] <= 0.02).count();
+    println!(
+        "object in the hand after the lift, horizontal error: felt median {:.1} mm ({felt_within}/{} within \
+         20 mm), seen before the grasp median {:.1} mm",
+        1000.0 * median(0),
+        in_hand.len(),
+        1000.0 * median(1)
+    );
     let wall = start.elapsed().as_secs_f64();
     println!(
         "pick-and-place: {ok}/{n} succeeded ({:.1} %); grasp-and-lift held {lifted}/{n} ({:.1} %); \
@@ -149,6 +184,13 @@ fn sweep(seeds: &[u64]) {
     assert!(
         lifted as f64 >= 0.95 * n as f64,
         "grasp-and-lift {lifted}/{n} below 95 %"
+    );
+    assert!(
+        felt_within as f64 >= 0.95 * in_hand.len() as f64 && median(0) <= 0.005 && median(0) < median(1),
+        "the felt place of the object in the hand: {felt_within}/{} within 20 mm, median {:.1} mm (seen {:.1} mm)",
+        in_hand.len(),
+        1000.0 * median(0),
+        1000.0 * median(1)
     );
     println!("weighing off by more than 12 %: {weight_failures:?}");
     // At most 1 % of the runs, and at least one allowed (the quick form has 86 runs).

@@ -8,7 +8,7 @@ use crate::actions::Skill;
 use crate::arm::Arm;
 use crate::error::RobotError;
 use crate::skills::{
-    FingerRoom, GRASP_FINGER_ROOM, Held, approach_grasp, close_grasp, finger_arc, idle, lift_and_weigh,
+    FingerRoom, GRASP_FINGER_ROOM, Held, approach_grasp, close_grasp, contact_center, finger_arc, idle, lift_and_weigh,
     lower_until_supported, park_pose, plan_top_grasp_among, release_and_retreat, run_until, touch_object,
     transport_over,
 };
@@ -295,7 +295,18 @@ impl SchemaPlant for RobotPlant<'_> {
                     let g = self.with_observer(|hw, reach, _, obs| lift_and_weigh(hw, &mut reach[k], &plan, obs))?;
                     if g.lifted {
                         let load = g.weighed.unwrap_or(0.0);
-                        self.held = Some(Held::new(&seen, &grasp_palm, table_z, load));
+                        // Where the object sits in the hand: where the fingers feel it, not where
+                        // it was seen before they closed.
+                        let seen_hold = Held::new(&seen, &grasp_palm, table_z, load);
+                        let palm = self.reach[k].tool_pose(self.hw).translation.vector;
+                        let held = seen_hold.felt_at(&palm, contact_center(self.hw, arm));
+                        tracing::debug!(
+                            "held: offset from the palm {:?} as seen, {:?} as felt (palm {:?})",
+                            seen_hold.offset_xy,
+                            held.offset_xy,
+                            [palm.x, palm.y, palm.z]
+                        );
+                        self.held = Some(held);
                         ActionOutcome::Converged
                     } else {
                         // Let go of whatever is left so that a re-grasp starts from an open hand.
@@ -367,6 +378,15 @@ impl SchemaPlant for RobotPlant<'_> {
                 self.reach[k].avoid = self.tall_things();
                 if !self.reach[k].avoid.is_empty() {
                     tracing::debug!("carrying round {:?}", self.reach[k].avoid);
+                    // The way round a tall thing may pass the other arm, parked over the table's
+                    // near corner on its side (its parked hand took the carried object's load three
+                    // times: development seed 1, blocked arm, scene 25): stowed out to its side
+                    // first, if it holds nothing and touches nothing (a hand resting on the carried
+                    // object takes part of its load; moving it away, the carry took the change for
+                    // the object meeting an obstacle: development seed 1, blocked arm, scene 7).
+                    if self.touch(arm.other()).loaded == 0 {
+                        self.stow(arm.other())?;
+                    }
                 }
                 let transfer = binding.transfer;
                 let r = self.with_observer(|hw, reach, hand, obs| {

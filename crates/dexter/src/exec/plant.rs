@@ -661,7 +661,9 @@ impl<'a> RobotPlant<'a> {
         if !touch.holding() || touch.load < MIN_LOAD {
             return None;
         }
-        self.held = Some(Held::new(seen, &palm, self.workspace.table_z, touch.load));
+        let now = self.reach[arm.index()].tool_pose(self.hw).translation.vector;
+        let felt = crate::skills::contact_center(self.hw, arm);
+        self.held = Some(Held::new(seen, &palm, self.workspace.table_z, touch.load).felt_at(&now, felt));
         self.held
     }
 
@@ -1045,24 +1047,29 @@ impl<'a> RobotPlant<'a> {
     /// Moves each arm that holds nothing to its stowed pose ([`stow_pose`]), out of the head's view
     /// of the table. Whether any arm moved.
     pub(crate) fn stow_free_arms(&mut self) -> Result<bool, RobotError> {
-        let table_z = self.workspace.table_z;
         let mut moved = false;
         for arm in Arm::BOTH {
-            if self.touch(arm).holding() {
-                continue;
-            }
-            let k = arm.index();
-            let stow = stow_pose(arm, table_z);
-            if (self.reach[k].tool_pose(self.hw).translation.vector - stow.translation.vector).norm() < 0.03 {
-                continue;
-            }
-            self.with_observer(|hw, reach, _, obs| {
-                reach[k].set_goal(hw, stow);
-                run_until(hw, &mut reach[k], obs, 3.0, |h, r| r.at_goal(h, 0.02, 0.1));
-            })?;
-            moved = true;
+            moved |= self.stow(arm)?;
         }
         Ok(moved)
+    }
+
+    /// Moves `arm` to its stowed pose ([`stow_pose`]) unless it holds something or is there
+    /// already. Whether it moved.
+    pub(crate) fn stow(&mut self, arm: Arm) -> Result<bool, RobotError> {
+        if self.touch(arm).holding() {
+            return Ok(false);
+        }
+        let k = arm.index();
+        let stow = stow_pose(arm, self.workspace.table_z);
+        if (self.reach[k].tool_pose(self.hw).translation.vector - stow.translation.vector).norm() < 0.03 {
+            return Ok(false);
+        }
+        self.with_observer(|hw, reach, _, obs| {
+            reach[k].set_goal(hw, stow);
+            run_until(hw, &mut reach[k], obs, 3.0, |h, r| r.at_goal(h, 0.02, 0.1));
+        })?;
+        Ok(true)
     }
 
     /// [`RobotPlant::search_within`]'s scan of the table from where the arms are.
