@@ -122,9 +122,29 @@ impl SchemaPlant for RobotPlant<'_> {
                             c.x, c.y, c.z
                         ))
                     } else if self.unseen.1 > 1 {
+                        // A tall thing hides a stretch of table behind it from the head: the
+                        // object may lie there rather than have left the table.
+                        let mut tall: Vec<[f64; 2]> = Vec::new();
+                        for o in self.tall_things() {
+                            if tall
+                                .iter()
+                                .all(|t| (t[0] - o.center[0]).hypot(t[1] - o.center[1]) > 0.05)
+                            {
+                                tall.push(o.center);
+                            }
+                        }
+                        let hiding: Vec<String> = tall.iter().map(|t| format!("({:.2}, {:.2})", t[0], t[1])).collect();
+                        let whereabouts = if hiding.is_empty() {
+                            "it left the table".to_string()
+                        } else {
+                            format!(
+                                "it left the table, or lies hidden from the head behind the tall thing at {}",
+                                hiding.join(" or ")
+                            )
+                        };
                         Some(format!(
                             "the object is gone: not seen where it was last seen ({:.2}, {:.2}) nor anywhere on the \
-                             table, twice (it left the table)",
+                             table, twice ({whereabouts})",
                             c.x, c.y
                         ))
                     } else {
