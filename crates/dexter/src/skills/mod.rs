@@ -750,14 +750,18 @@ pub const FINGERTIP_CLEARANCE: f64 = 0.01;
 /// The height (m) of the lowest fingertip centre of `arm`'s hand, from the robot's model at the
 /// measured joint angles (`None` if the model has no such links).
 fn lowest_fingertip(hw: &dyn Hardware, arm: Arm) -> Option<f64> {
+    fingertips(hw, arm).iter().flatten().map(|p| p.z).reduce(f64::min)
+}
+
+/// The fingertip centres (F1, F2, F3) of `arm`'s hand, from the robot's model at the measured
+/// joint angles (`None` for a link the model does not have).
+fn fingertips(hw: &dyn Hardware, arm: Arm) -> [Option<Vec3>; 3] {
     let mut body = Body::new();
-    (1..=3)
-        .filter_map(|f| {
-            body.pose(hw, &format!("{}/bhand/finger_{f}/tip_link", arm.prefix()))
-                .ok()
-                .map(|p| p.translation.z)
-        })
-        .reduce(f64::min)
+    [1, 2, 3].map(|f| {
+        body.pose(hw, &format!("{}/bhand/finger_{f}/tip_link", arm.prefix()))
+            .ok()
+            .map(|p| p.translation.vector)
+    })
 }
 
 /// Where (world x, y) the object held in `arm`'s hand sits, from the fingers that touch it: the
@@ -774,17 +778,12 @@ pub fn contact_center(hw: &dyn Hardware, arm: Arm) -> Option<[f64; 2]> {
     if !loaded(&tips[2]) {
         return None;
     }
-    let mut body = Body::new();
-    let mut at = |f: usize| {
-        body.pose(hw, &format!("{}/bhand/finger_{f}/tip_link", arm.prefix()))
-            .ok()
-            .map(|p| p.translation.vector)
-    };
-    let thumb = at(3)?;
+    let at = fingertips(hw, arm);
+    let thumb = at[2]?;
     let (mut sum, mut n) = (Vec3::zeros(), 0.0);
-    for (f, tip) in tips[..2].iter().enumerate() {
+    for (tip, p) in tips[..2].iter().zip(&at[..2]) {
         if loaded(tip)
-            && let Some(p) = at(f + 1)
+            && let Some(p) = p
         {
             sum += p;
             n += 1.0;
