@@ -361,11 +361,34 @@ impl Segmenter {
     /// sees one component. Returns `false`, changing nothing, when either part would have fewer than
     /// `min_pixels` or less than `min_share` of the segment.
     pub fn split_by_rows(&mut self, image: &Image, index: usize, a: f64, b: f64, min_share: f64) -> bool {
+        if !a.is_finite() || !b.is_finite() {
+            return false;
+        }
+        self.split_by(
+            image,
+            index,
+            |_, v| (v as f64 - a).abs() > (v as f64 - b).abs(),
+            min_share,
+        )
+    }
+
+    /// Splits segment `index` (of the last [`Segmenter::segment`] on `image`) in two by pixel: those
+    /// for which `to_b(u, v)` holds form part `b`, the others part `a`. Part `a` replaces the segment,
+    /// part `b` is appended, as in [`Segmenter::split_by_colour`]. Returns `false`, changing
+    /// nothing, when either part would have fewer than `min_pixels` or less than `min_share` of the
+    /// segment.
+    pub fn split_by(
+        &mut self,
+        image: &Image,
+        index: usize,
+        to_b: impl Fn(usize, usize) -> bool,
+        min_share: f64,
+    ) -> bool {
         let (w, h) = (image.width as usize, image.height as usize);
         let Some(seg) = self.segments.get(index).copied() else {
             return false;
         };
-        if self.component.len() != w * h || !a.is_finite() || !b.is_finite() {
+        if self.component.len() != w * h {
             return false;
         }
         let id = index as u32 + 1;
@@ -373,16 +396,15 @@ impl Segmenter {
         self.pixels.clear();
         let [u0, v0, u1, v1] = seg.bbox;
         for v in v0 as usize..=(v1 as usize).min(h - 1) {
-            let to_a = (v as f64 - a).abs() <= (v as f64 - b).abs();
             for u in u0 as usize..=(u1 as usize).min(w - 1) {
                 let p = v * w + u;
                 if self.component[p] != id {
                     continue;
                 }
-                if to_a {
-                    self.stack.push(p as u32);
-                } else {
+                if to_b(u, v) {
                     self.pixels.push(p as u32);
+                } else {
+                    self.stack.push(p as u32);
                 }
             }
         }

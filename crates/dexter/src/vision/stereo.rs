@@ -152,6 +152,15 @@ pub struct StereoConfig {
     /// 2 more duplicate segments, but with it the `reach_and_touch` demonstration of
     /// `crates/pbd/tests/any_schema.rs` was executed with a touch that lost the block three times.
     pub split_occluding: bool,
+    /// Split a matched pair whose upper rows lie farther from the cameras than its lower rows, by
+    /// a step in range ([`StereoPipeline::split_by_depth`]): an object standing behind another and
+    /// showing above it, of any colours. Off by default: on development seeds 1–10 (the perception
+    /// experiment, 500 objects; measured before rows lost below or above the measured ones were
+    /// allowed) it halves the objects missed at the look over the table (34 → 16; duplicate and
+    /// phantom segments 5 → 6), but in execution (development seeds 1–8, the same form) it placed 400 of 423 executed objects against 401 of 419 without: more objects are
+    /// seen and decided on right (decisions 1,084 / 1,203 against 1,072 / 1,204), and the ones it
+    /// adds, in clutter, fail more often.
+    pub split_by_depth: bool,
 }
 
 impl Default for StereoConfig {
@@ -166,6 +175,7 @@ impl Default for StereoConfig {
             depth_correction: DepthCorrection::None,
             support: None,
             split_occluding: false,
+            split_by_depth: false,
         }
     }
 }
@@ -456,6 +466,63 @@ const OCCLUDING_MIN_SHARE: f64 = 0.15;
 /// 2 duplicate segments (33 and 2 without the split).
 const OCCLUDING_DEPTH: f64 = 0.10;
 
+/// See [`StereoPipeline::split_by_depth`]: rows on each side of a candidate split whose edges'
+/// median ranges are compared.
+const DEPTH_WINDOW_ROWS: usize = 3;
+/// See [`StereoPipeline::split_by_depth`]: the least step (m) in the median range of an edge
+/// between the rows just above and just below a split.
+const DEPTH_STEP: f64 = 0.06;
+/// See [`StereoPipeline::split_by_depth`]: the least share of the rows between a segment's first
+/// and last measured rows whose two edges are measured (neither beside the robot's body, both
+/// matched in the other view).
+const DEPTH_MIN_ROWS_MEASURED: f64 = 0.75;
+/// See [`StereoPipeline::split_by_depth`]: the least share of a segment's rows between its first
+/// and last measured rows.
+const DEPTH_MIN_SPAN: f64 = 0.5;
+
+/// The row index `k` of `rows` (`[v, left edge range, right edge range, …]`, top row first) that
+/// begins the lower part of a split by [`StereoPipeline::split_by_depth`], if any, with the median
+/// ranges of the upper (far) and lower (near) parts: of the rows with a step on either edge and a
+/// receding upper part, the one whose parts differ most.
+fn depth_step(rows: &[[f64; 8]], sorted: &mut Vec<f64>) -> Option<(usize, f64, f64)> {
+    let n = rows.len();
+    if n < 2 * DEPTH_WINDOW_ROWS {
+        return None;
+    }
+    let mut median = |part: &[[f64; 8]], cols: &[usize]| -> f64 {
+        sorted.clear();
+        for r in part {
+            for &c in cols {
+                sorted.push(r[c]);
+            }
+        }
+        sorted.sort_unstable_by(f64::total_cmp);
+        let m = sorted.len();
+        if m == 0 {
+            return f64::NAN;
+        }
+        if m % 2 == 1 {
+            sorted[m / 2]
+        } else {
+            0.5 * (sorted[m / 2 - 1] + sorted[m / 2])
+        }
+    };
+    let mut best: Option<(f64, usize, f64, f64)> = None;
+    for k in DEPTH_WINDOW_ROWS..=n - DEPTH_WINDOW_ROWS {
+        let (above, below) = (&rows[k - DEPTH_WINDOW_ROWS..k], &rows[k..k + DEPTH_WINDOW_ROWS]);
+        let step = (median(above, &[1]) - median(below, &[1])).max(median(above, &[2]) - median(below, &[2]));
+        if step.is_nan() || step < DEPTH_STEP {
+            continue;
+        }
+        let (far, near) = (median(&rows[..k], &[1, 2]), median(&rows[k..], &[1, 2]));
+        let recede = far - near;
+        if recede >= OCCLUDING_DEPTH && best.is_none_or(|(b, ..)| recede > b) {
+            best = Some((recede, k, far, near));
+        }
+    }
+    best.map(|(_, k, far, near)| (k, far, near))
+}
+
 /// One camera's view of a matched object for [`anchored_centroids`].
 struct CutView<'a> {
     segment: &'a Segment,
@@ -591,6 +658,13 @@ pub struct StereoPipeline {
     background_cams: Option<StereoCameras>,
     support: SupportEstimator,
     edges: EdgeScratch,
+    /// Scratch of [`StereoPipeline::split_by_depth`]: per row the left and right edges' distances
+    /// along the table (m) and their columns in both images, and values to take medians of.
+    rows: Vec<[f64; 8]>,
+    sorted: Vec<f64>,
+    /// Scratch of [`StereoPipeline::split_by_depth`]: the rows (left, right image) that show both
+    /// objects side by side.
+    mixed: Vec<[f64; 2]>,
 }
 
 fn side_index(side: Side) -> usize {
@@ -619,6 +693,9 @@ impl StereoPipeline {
             background_cams: None,
             support: SupportEstimator::new(),
             edges: EdgeScratch::default(),
+            rows: Vec::new(),
+            sorted: Vec::new(),
+            mixed: Vec::new(),
         }
     }
 
@@ -720,6 +797,16 @@ impl StereoPipeline {
         // parts lie at different depths, then match again (at most twice; when enabled).
         for _ in 0..if self.config.split_occluding { 2 } else { 0 } {
             if !self.split_occluding(cams, [frames[0].image, frames[1].image]) {
+                break;
+            }
+            let [sl, sr] = &self.segmenters;
+            self.matcher
+                .match_segments(cams, sl.segments(), sr.segments(), &self.config, out);
+        }
+        // Objects one behind the other of any colours: split where the silhouettes' edges step
+        // back in range, then match again (at most twice; when enabled).
+        for _ in 0..if self.config.split_by_depth { 2 } else { 0 } {
+            if !self.split_by_depth(cams, [frames[0].image, frames[1].image]) {
                 break;
             }
             let [sl, sr] = &self.segmenters;
@@ -909,6 +996,183 @@ impl StereoPipeline {
                 apart,
                 if apart >= OCCLUDING_DEPTH { "kept" } else { "undone" }
             );
+            if apart >= OCCLUDING_DEPTH {
+                return true;
+            }
+            self.segmenters[0].undo_split(i, l);
+            self.segmenters[1].undo_split(j, r);
+        }
+        false
+    }
+
+    /// One split of a matched pair that is two objects, one behind the other and showing above it
+    /// (one component in each camera), whatever their colours: per image row, the silhouette's
+    /// left and right edges of the two views are triangulated (the right view's rows shifted by
+    /// the pair's vertical disparity) and measured along the table from the cameras. The pair is
+    /// split between two rows where both
+    /// - the edges of the [`DEPTH_WINDOW_ROWS`] rows above lie at least [`DEPTH_STEP`] farther (the
+    ///   median, on either edge) than those of the rows below — a step, not a slope, and
+    /// - all edges above lie a median [`OCCLUDING_DEPTH`] farther than all edges below,
+    ///
+    /// and the split is kept when the two parts, matched again, triangulate [`OCCLUDING_DEPTH`]
+    /// apart with the upper one farther. A single object shows neither: a box's top face recedes
+    /// by at most its depth over its rows, and one lying along the line of sight recedes smoothly
+    /// (a 15 cm tin end-on: 7.5 cm between its halves, no step). Pairs cut by the image border are
+    /// left alone, and so are the rows whose edge lies beside the robot's body (an edge there is
+    /// the cut's, not the object's) — and the whole pair when fewer than
+    /// [`DEPTH_MIN_ROWS_MEASURED`] of the rows between its first and last measured ones are left
+    /// (a hand holding the object), or those span less than [`DEPTH_MIN_SPAN`] of its rows.
+    ///
+    /// A coffee can standing 13 cm in front of a lying peanut-butter jar, both mostly red, was one
+    /// segment in both views — one coarse track 20 cm tall between them — and the jar was never
+    /// seen; over development seeds 1, 6, 7 and 8, 13 objects went unseen at the look over the
+    /// table, most of them behind another object this way.
+    fn split_by_depth(&mut self, cams: &StereoCameras, images: [&Image; 2]) -> bool {
+        let mid = 0.5 * (cams.left.position() + cams.right.position());
+        let w = images[0].width as usize;
+        for i in 0..self.matcher.match_of_left.len() {
+            let Some((j, tri)) = self.matcher.match_of_left[i] else {
+                continue;
+            };
+            let j = j as usize;
+            let (l, r) = (self.segmenters[0].segments()[i], self.segmenters[1].segments()[j]);
+            if l.touches_border || r.touches_border || l.bbox[3] < l.bbox[1] + 2 * DEPTH_WINDOW_ROWS as u32 {
+                continue;
+            }
+            // The right camera's row of a left pixel: its ray at the pair's range, projected (the
+            // cameras verge, so rows do not correspond; the range's error moves it little).
+            let range = tri.range_a;
+            let right_row = |u: f64, v: f64| -> Option<f64> {
+                let (o, d) = cams.left.ray(u, v);
+                cams.right.project_unbounded(&(o + d * range)).map(|(_, vr)| vr)
+            };
+            let (ml, mr) = (self.segmenters[0].component_map(), self.segmenters[1].component_map());
+            let (sl, sr) = (self.segmenters[0].self_mask(), self.segmenters[1].self_mask());
+            let h = images[0].height as usize;
+            // A row's outermost pixel of component `id` on one side (`right`), as an edge (px),
+            // unless it lies beside the robot's body (there the edge is the body's).
+            let edge = |m: &[u32], mask: &[bool], id: u32, v: usize, bbox: &[u32; 4], right: bool| -> Option<f64> {
+                if v >= h {
+                    return None;
+                }
+                let row = m.get(v * w..(v + 1) * w)?;
+                let (u0, u1) = (bbox[0] as usize, (bbox[2] as usize).min(w - 1));
+                let u = if right {
+                    (u0..=u1).rev().find(|&u| row[u] == id)?
+                } else {
+                    (u0..=u1).find(|&u| row[u] == id)?
+                };
+                let beside = if right { u.checked_add(1) } else { u.checked_sub(1) };
+                if beside.is_some_and(|b| b < w && mask.get(v * w + b).copied().unwrap_or(false)) {
+                    return None;
+                }
+                Some(if right { u as f64 + 0.5 } else { u as f64 - 0.5 })
+            };
+            self.rows.clear();
+            for v in l.bbox[1]..=l.bbox[3] {
+                let vf = f64::from(v);
+                // [v, left range, right range, left u0, left u1, right u0, right u1, right v].
+                let mut row = [vf, f64::NAN, f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0];
+                for (k, right) in [false, true].into_iter().enumerate() {
+                    let Some(ul) = edge(ml, sl, i as u32 + 1, v as usize, &l.bbox, right) else {
+                        continue;
+                    };
+                    let Some(vr) = right_row(ul, vf).filter(|vr| vr.is_finite() && *vr >= 0.0) else {
+                        continue;
+                    };
+                    let Some(ur) = edge(mr, sr, j as u32 + 1, vr.round() as usize, &r.bbox, right) else {
+                        continue;
+                    };
+                    if let Some(t) = triangulate(cams, [ul, vf], [ur, vr]) {
+                        row[1 + k] = (t.point - mid).xy().norm();
+                        row[3 + k] = ul;
+                        row[5 + k] = ur;
+                        row[7] += 0.5 * vr;
+                    }
+                }
+                if row[1].is_finite() && row[2].is_finite() {
+                    self.rows.push(row);
+                }
+            }
+            // An object the robot's body hides much of (a hand holding it, an arm across it) has
+            // its edges beside the body on many rows: what is left is not its outline. Rows lost
+            // below or above the measured ones (the chest or a parked forearm hiding the bottom of
+            // a can) leave an outline; rows lost among them do not.
+            let rows_seen = f64::from(l.bbox[3] - l.bbox[1] + 1);
+            let span = match (self.rows.first(), self.rows.last()) {
+                (Some(a), Some(b)) => b[0] - a[0] + 1.0,
+                _ => continue,
+            };
+            if (self.rows.len() as f64) < DEPTH_MIN_ROWS_MEASURED * span || span < DEPTH_MIN_SPAN * rows_seen {
+                continue;
+            }
+            let Some((k, far, near)) = depth_step(&self.rows, &mut self.sorted) else {
+                continue;
+            };
+            let v_split = self.rows[k][0];
+            let u_mid = 0.5 * (f64::from(l.bbox[0]) + f64::from(l.bbox[2]));
+            // The boundary between the rows, in the right image.
+            let Some(vr_split) = right_row(u_mid, v_split - 0.5).filter(|v| v.is_finite()) else {
+                continue;
+            };
+            // Rows above the split with one edge near and one far show both objects side by side:
+            // there the near one's pixels are those within its outline's columns on the first row
+            // below the split where both its edges are seen (it stands upright in the image).
+            let is_near = |x: f64| (x - near).abs() < (x - far).abs();
+            let span = self.rows[k..]
+                .iter()
+                .find(|r| is_near(r[1]) && is_near(r[2]))
+                .map(|r| ([r[3], r[4]], [r[5], r[6]]));
+            self.mixed.clear();
+            if span.is_some() {
+                for r in &self.rows[..k] {
+                    if is_near(r[1]) != is_near(r[2]) {
+                        self.mixed.push([r[0], r[7]]);
+                    }
+                }
+            }
+            let mixed = &self.mixed;
+            let within = |u: usize, cols: [f64; 2]| (u as f64) > cols[0] && (u as f64) < cols[1];
+            let (nl, nr) = (self.segmenters[0].segments().len(), self.segmenters[1].segments().len());
+            let lower_left = |u: usize, v: usize| {
+                v as f64 >= v_split
+                    || span.is_some_and(|(cols, _)| within(u, cols) && mixed.iter().any(|m| m[0] == v as f64))
+            };
+            if !self.segmenters[0].split_by(images[0], i, lower_left, MERGED_MIN_PART) {
+                continue;
+            }
+            let lower_right = |u: usize, v: usize| {
+                v as f64 > vr_split
+                    || span
+                        .is_some_and(|(_, cols)| within(u, cols) && mixed.iter().any(|m| (m[1] - v as f64).abs() < 0.5))
+            };
+            if !self.segmenters[1].split_by(images[1], j, lower_right, MERGED_MIN_PART) {
+                self.segmenters[0].undo_split(i, l);
+                continue;
+            }
+            let (sl, sr) = (self.segmenters[0].segments(), self.segmenters[1].segments());
+            let upper = triangulate(cams, sl[i].features.centroid, sr[j].features.centroid);
+            let lower = triangulate(cams, sl[nl].features.centroid, sr[nr].features.centroid);
+            let along = |t: &Triangulation| (t.point - mid).xy().norm();
+            let apart = match (upper, lower) {
+                (Some(u), Some(d)) => along(&u) - along(&d),
+                _ => 0.0,
+            };
+            if tracing::enabled!(tracing::Level::TRACE) {
+                let profile: String = self
+                    .rows
+                    .iter()
+                    .map(|r| format!(" {}:{:.3}/{:.3}", r[0], r[1], r[2]))
+                    .collect();
+                tracing::trace!(
+                    "DEPTH split of [{:.1}, {:.1}] / [{:.1}, {:.1}] at row {v_split}: parts {apart:.3} m apart along the table: {}; row: left/right edge's range{profile}",
+                    l.features.centroid[0],
+                    l.features.centroid[1],
+                    r.features.centroid[0],
+                    r.features.centroid[1],
+                    if apart >= OCCLUDING_DEPTH { "kept" } else { "undone" }
+                );
+            }
             if apart >= OCCLUDING_DEPTH {
                 return true;
             }
