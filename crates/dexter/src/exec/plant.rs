@@ -740,6 +740,15 @@ impl<'a> RobotPlant<'a> {
         self.workspace
     }
 
+    /// What the fixed chassis pair sees of the objects at `points` ([`Watcher::chassis_measure`]).
+    pub fn chassis_measure(
+        &mut self,
+        points: &[[f64; 3]],
+        gate: f64,
+    ) -> Result<Vec<Option<crate::watch::ChassisMeasure>>, RobotError> {
+        self.watcher.chassis_measure(self.hw, points, gate)
+    }
+
     /// The latest percept.
     pub fn last_percept(&self) -> Option<&Percept> {
         self.percepts.last()

@@ -23,6 +23,15 @@ mod tracker;
 use images::*;
 use tracker::*;
 
+/// What the chassis pair measured of an object the head saw coarsely ([`Watcher::chassis_measure`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChassisMeasure {
+    /// Its extent on the support plane, when both chassis views were whole and measured it.
+    pub extent: Option<schema::SeenExtent>,
+    /// Its kept colour terms (by surface with an extent, else by the whole view's pixels).
+    pub colors: Vec<(u8, f64)>,
+}
+
 /// Builds percepts from the robot's sensors at the observation rate.
 #[derive(Debug)]
 pub struct Watcher {
@@ -144,6 +153,117 @@ impl Watcher {
         self.head.can_look_at(hw, &mut self.body, target, margin)
     }
 
+    /// What the fixed chassis pair sees, now, of the objects at `points` (world; the head's
+    /// coarse centroids): for each point, the one stereo blob with a view cut by neither the image
+    /// border nor the robot's body whose box holds the point's image in that camera — `None` when
+    /// no blob or more than one does, or when that blob is another point's too. Of a blob whole in both cameras and measured on the support
+    /// plane (prism, round, lying, standing — not `coarse`) within `gate` (m) of the point on the
+    /// table: its extent and its colours by surface; otherwise the colour terms of its whole view
+    /// by pixels (a side view from in front of the chest: the sides, not the top) and no extent.
+    /// The chassis pair looks at the table from in front of the chest, under the head, so it sees
+    /// whole what stands near the robot, where the chest hides the lower part of the head's view
+    /// ([`crate::task::look_over_table`]).
+    pub fn chassis_measure(
+        &mut self,
+        hw: &mut dyn Hardware,
+        points: &[[f64; 3]],
+        gate: f64,
+    ) -> Result<Vec<Option<ChassisMeasure>>, RobotError> {
+        let cams = self.eyes.cameras(hw, Pair::Chassis)?;
+        let table_z = self.table_z;
+        let blobs = self.eyes.perceive(hw, Pair::Chassis)?.to_vec();
+        let image = self.eyes.images(Pair::Chassis).0;
+        let segmenter = self.eyes.pipeline(Pair::Chassis).segmenter(crate::vision::Side::Left);
+        let holds = |s: &Option<crate::vision::Segment>, cam: &crate::vision::Camera, p: &Vec3| {
+            s.is_some_and(|s| {
+                !s.cut_off()
+                    && cam.project(p).is_some_and(|(u, v)| {
+                        u >= f64::from(s.bbox[0])
+                            && u <= f64::from(s.bbox[2]) + 1.0
+                            && v >= f64::from(s.bbox[1])
+                            && v <= f64::from(s.bbox[3]) + 1.0
+                    })
+            })
+        };
+        // Each point's one blob, then only the blobs one point alone found (an object in front of
+        // another hides it from the chassis pair too, and its blob holds both points' images).
+        let which: Vec<Option<usize>> = points
+            .iter()
+            .map(|q| {
+                let p = Vec3::from(*q);
+                let mut found = (0..blobs.len())
+                    .filter(|&k| holds(&blobs[k].left, &cams.left, &p) || holds(&blobs[k].right, &cams.right, &p));
+                match (found.next(), found.next()) {
+                    (Some(k), None) => Some(k),
+                    _ => None,
+                }
+            })
+            .collect();
+        let mut out = Vec::with_capacity(points.len());
+        for (q, k) in points.iter().zip(&which) {
+            let p = Vec3::from(*q);
+            let Some(k) = *k else {
+                tracing::trace!(
+                    "CHASSIS at [{:.3}, {:.3}, {:.3}] (image {:?}): no one blob of {:?}",
+                    p.x,
+                    p.y,
+                    p.z,
+                    cams.left.project(&p),
+                    blobs
+                        .iter()
+                        .map(|b| (
+                            b.centroid,
+                            b.left.map(|s| (s.cut_off(), s.bbox)),
+                            b.right.map(|s| (s.cut_off(), s.bbox))
+                        ))
+                        .collect::<Vec<_>>()
+                );
+                out.push(None);
+                continue;
+            };
+            if which.iter().filter(|&&o| o == Some(k)).count() > 1 {
+                out.push(None);
+                continue;
+            }
+            let b = &blobs[k];
+            tracing::trace!(
+                "CHASSIS at [{:.3}, {:.3}, {:.3}]: blob {:?} left {:?} right {:?}",
+                p.x,
+                p.y,
+                p.z,
+                b.centroid,
+                b.left.map(|s| (s.features.pixel_count, s.cut_off(), s.bbox)),
+                b.right.map(|s| (s.features.pixel_count, s.cut_off(), s.bbox))
+            );
+            let measured = match (b.centroid, b.left, b.right) {
+                (Some(c), Some(l), Some(r)) if !l.cut_off() && !r.cut_off() && c.z > table_z - BELOW_TABLE => {
+                    let seg = segment_percept(b, &l, &r, c, &cams, table_z);
+                    seg.extent
+                        .filter(|e| e.model != "coarse" && (e.center[0] - p.x).hypot(e.center[1] - p.y) < gate)
+                        .map(|e| {
+                            let colors = crate::vision::color::surface_color_terms(
+                                &l, segmenter, image, &cams.left, &e, table_z,
+                            )
+                            .map_or(seg.colors, |counts| crate::vision::color::kept_color_terms(&counts));
+                            ChassisMeasure {
+                                extent: Some(e),
+                                colors,
+                            }
+                        })
+                }
+                _ => None,
+            };
+            let whole = [b.left, b.right].into_iter().flatten().find(|s| !s.cut_off());
+            out.push(measured.or_else(|| {
+                whole.map(|s| ChassisMeasure {
+                    extent: None,
+                    colors: crate::vision::color::kept_color_terms(&s.features.color_terms),
+                })
+            }));
+        }
+        Ok(out)
+    }
+
     /// One percept at time `t` (s since the start of the run): captures the head's stereo pair,
     /// segments it, updates the tracks.
     pub fn percept(&mut self, hw: &mut dyn Hardware, t: f64) -> Result<Percept, RobotError> {
@@ -255,26 +375,7 @@ impl Watcher {
                 }
                 continue;
             };
-            let mut histogram: Vec<(u8, f64)> = Vec::new();
-            let h = &l.features.histogram;
-            let kept: Vec<usize> = h.kept_bins().collect();
-            let total: f64 = kept.iter().map(|&i| h.counts[i] as f64).sum();
-            if total > 0.0 {
-                for i in kept {
-                    histogram.push((i as u8, h.counts[i] as f64 / total));
-                }
-            }
-            let cov = b.mean_covariance();
-            let seg = SegmentPercept {
-                id: 0,
-                centroid: [c.x, c.y, c.z],
-                seen: true,
-                pixels: [l.features.pixel_count as u32, r.features.pixel_count as u32],
-                histogram,
-                covariance: [cov[0][0], cov[0][1], cov[1][0], cov[1][1]],
-                colors: crate::vision::color::kept_color_terms(&l.features.color_terms),
-                extent: crate::skills::extent_of(b, &cams, table_z),
-            };
+            let seg = segment_percept(b, &l, &r, c, &cams, table_z);
             // Foveated: the segment's image centroid near the principal point in both cameras.
             let off = |s: &crate::vision::Segment, cam: &crate::vision::Camera| {
                 let u = (s.features.centroid[0] - cam.cx) / cam.width as f64;
@@ -343,6 +444,40 @@ impl Watcher {
             table_z: self.table_z,
             gaze,
         })
+    }
+}
+
+/// The percept of one stereo blob matched in both cameras (`l`, `r`) and triangulated at `c`:
+/// its left view's colours and hue histogram, both pixel counts, and its extent on the support
+/// plane ([`crate::skills::extent_of`]); colours by pixels (the caller weighs them by surface
+/// where the extent allows). Not yet a track (`id` 0).
+fn segment_percept(
+    b: &crate::vision::StereoBlob,
+    l: &crate::vision::Segment,
+    r: &crate::vision::Segment,
+    c: Vec3,
+    cams: &crate::vision::StereoCameras,
+    table_z: f64,
+) -> SegmentPercept {
+    let mut histogram: Vec<(u8, f64)> = Vec::new();
+    let h = &l.features.histogram;
+    let kept: Vec<usize> = h.kept_bins().collect();
+    let total: f64 = kept.iter().map(|&i| h.counts[i] as f64).sum();
+    if total > 0.0 {
+        for i in kept {
+            histogram.push((i as u8, h.counts[i] as f64 / total));
+        }
+    }
+    let cov = b.mean_covariance();
+    SegmentPercept {
+        id: 0,
+        centroid: [c.x, c.y, c.z],
+        seen: true,
+        pixels: [l.features.pixel_count as u32, r.features.pixel_count as u32],
+        histogram,
+        covariance: [cov[0][0], cov[0][1], cov[1][0], cov[1][1]],
+        colors: crate::vision::color::kept_color_terms(&l.features.color_terms),
+        extent: crate::skills::extent_of(b, cams, table_z),
     }
 }
 
