@@ -749,6 +749,11 @@ impl<'a> RobotPlant<'a> {
         self.watcher.chassis_measure(self.hw, points, gate)
     }
 
+    /// Puts track `id` where the chassis pair measured it ([`Watcher::locate`]).
+    pub fn locate(&mut self, id: u32, extent: &schema::SeenExtent) -> bool {
+        self.watcher.locate(id, extent)
+    }
+
     /// The latest percept.
     pub fn last_percept(&self) -> Option<&Percept> {
         self.percepts.last()

@@ -818,7 +818,13 @@ impl StereoPipeline {
         }
         if let Some(plane) = self.config.support {
             for blob in out.iter_mut() {
-                self.refine_on_support(cams, [frames[0].image, frames[1].image], blob, &plane);
+                self.refine_on_support(
+                    cams,
+                    [frames[0].image, frames[1].image],
+                    [frames[0].self_mask, frames[1].self_mask],
+                    blob,
+                    &plane,
+                );
                 if blob.source == CentroidSource::Triangulated
                     && blob
                         .raw_centroid
@@ -1283,11 +1289,20 @@ impl StereoPipeline {
         blob.footprint = Some(fp);
     }
 
-    /// Replaces a matched blob's centroid by the support-plane estimate when it applies.
+    /// Replaces a matched blob's centroid by the support-plane estimate when it applies — not when
+    /// the robot's body hides the bottom of either view ([`cut_sides`]) and neither view lies
+    /// across the image of the vertical (a thing lying on its side, whose width the sphere's
+    /// radius reads): the sphere is placed by its silhouettes' centroids and sized by their area,
+    /// the prism's footprint by where its bottom points fall in the silhouettes, and a view whose
+    /// lower part the chest hides shows the top and upper sides only. A coffee can (9 cm across,
+    /// 0.43 m in front of the robot) seen so by the head was taken for a sphere resting 5 cm
+    /// beyond it (development seed 1, execute scene 21), another for a prism 4 cm beyond it (seed 2,
+    /// scene 9), and the hand closed on the air there and pushed the can off the table.
     fn refine_on_support(
         &mut self,
         cams: &StereoCameras,
         images: [&Image; 2],
+        masks: [&[bool]; 2],
         blob: &mut StereoBlob,
         plane: &SupportPlane,
     ) {
@@ -1297,6 +1312,18 @@ impl StereoPipeline {
         let Some((il, ir)) = self.component_ids(blob) else {
             return;
         };
+        let bottom_hidden = [(0, l, il), (1, r, ir)].into_iter().any(|(k, seg, id)| {
+            let cam = if k == 0 { &cams.left } else { &cams.right };
+            seg.touches_robot
+                && cut_sides(&CutView {
+                    segment: seg,
+                    components: self.segmenters[k].component_map(),
+                    id,
+                    mask: masks[k],
+                    width: cam.width as usize,
+                    height: cam.height as usize,
+                })[3]
+        });
         let views = [
             View {
                 camera: &cams.left,
@@ -1313,7 +1340,17 @@ impl StereoPipeline {
                 id: ir,
             },
         ];
+        let lying = views.iter().any(|v| crate::vision::support::lies_across(v, &tri));
         if let Some((p, source, footprint)) = self.support.estimate(views, &tri, plane) {
+            if bottom_hidden && !lying && matches!(source, CentroidSource::Round { .. }) {
+                tracing::trace!(
+                    "SUPPORT {source:?} at [{:.3}, {:.3}, {:.3}] not taken: the robot's body hides the bottom of a view",
+                    p.x,
+                    p.y,
+                    p.z
+                );
+                return;
+            }
             blob.centroid = Some(p);
             blob.source = source;
             blob.footprint = footprint;

@@ -568,7 +568,7 @@ fn topmost_step(col: &[[f64; 3]], plane: &SupportPlane) -> Option<usize> {
 /// lying on its side, not one
 /// standing up. A standing bottle without a flat top is elongated along the image of the vertical;
 /// so is one lying along the line of sight, foreshortened — neither passes.
-fn lies_across(v: &View<'_>, p: &Vec3) -> bool {
+pub(crate) fn lies_across(v: &View<'_>, p: &Vec3) -> bool {
     if v.segment.features.pixel_count < LYING_MIN_PIXELS {
         return false;
     }

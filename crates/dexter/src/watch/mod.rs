@@ -128,6 +128,13 @@ impl Watcher {
             .any(|(tr, &d)| tr.id == id && d >= DOUBT_FRAMES)
     }
 
+    /// Puts track `id` where the chassis pair measured it ([`Watcher::chassis_measure`]): its
+    /// extent, its centroid half its height above the table; the head's views that only
+    /// triangulate it no longer move it. `false` if there is no such track.
+    pub fn locate(&mut self, id: u32, extent: &schema::SeenExtent) -> bool {
+        self.tracker.locate(id, extent, self.table_z)
+    }
+
     /// Whether track `id` was ever seen whole — in both cameras, cut by neither the image border
     /// nor the robot's body. A track born of a cut view has a centroid biased towards its visible
     /// part (the border-cut edge of an object can put it 8 cm off and its top 10 cm too high).
@@ -253,11 +260,32 @@ impl Watcher {
                 }
                 _ => None,
             };
-            let whole = [b.left, b.right].into_iter().flatten().find(|s| !s.cut_off());
+            // One whole view: the footprint from where its silhouette meets the table.
+            let whole = [
+                (crate::vision::Side::Left, b.left),
+                (crate::vision::Side::Right, b.right),
+            ]
+            .into_iter()
+            .find_map(|(side, s)| s.filter(|s| !s.cut_off()).map(|s| (side, s)));
             out.push(measured.or_else(|| {
-                whole.map(|s| ChassisMeasure {
-                    extent: None,
-                    colors: crate::vision::color::kept_color_terms(&s.features.color_terms),
+                whole.map(|(side, s)| {
+                    let segmenter = self.eyes.pipeline(Pair::Chassis).segmenter(side);
+                    let cam = match side {
+                        crate::vision::Side::Left => &cams.left,
+                        crate::vision::Side::Right => &cams.right,
+                    };
+                    let extent = segmenter
+                        .segments()
+                        .iter()
+                        .position(|x| *x == s)
+                        .and_then(|i| one_view_footprint(&s, segmenter.component_map(), i as u32 + 1, cam, table_z))
+                        .filter(|e| (e.center[0] - p.x).hypot(e.center[1] - p.y) < gate);
+                    tracing::trace!("CHASSIS one whole view ({side:?}): footprint {extent:?}");
+                    // By pixels: the footprint is a standing thing's, and a thing lying on its
+                    // side weighed by it came out the colour of its ends (a cola can, development
+                    // seed 4, execute scene 8).
+                    let colors = crate::vision::color::kept_color_terms(&s.features.color_terms);
+                    ChassisMeasure { extent, colors }
                 })
             }));
         }
@@ -447,6 +475,93 @@ impl Watcher {
     }
 }
 
+/// A silhouette this many times wider than tall is not an upright thing's ([`one_view_footprint`]).
+const WIDE_SILHOUETTE: f64 = 1.5;
+
+/// The extent of a thing standing on the plane at `table` from one whole view `seg` of it
+/// (component `id` of `components`, camera `cam`) — what the chassis pair gives when its other
+/// view is cut by the image border: the lowest silhouette pixel of the image of its axis (the
+/// median midpoint of the rows of its lower half), cast onto the plane, is the base's nearest
+/// point; the silhouette's width (the median over those rows) at that range its diameter; the
+/// centre lies a radius beyond the nearest point along the camera's horizontal line of sight, and
+/// the axis column's top pixel, cast onto the vertical plane of the far rim, gives the height.
+/// A disc footprint (model `prism`); `None` when the silhouette has fewer than 4 columns or the
+/// geometry degenerates. Exact for an upright cylinder up to a pixel; a box is taken as the disc
+/// its width spans.
+fn one_view_footprint(
+    seg: &crate::vision::Segment,
+    components: &[u32],
+    id: u32,
+    cam: &crate::vision::Camera,
+    table: f64,
+) -> Option<schema::SeenExtent> {
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    if components.len() != w * h {
+        return None;
+    }
+    let [u0, v0, u1, v1] = seg.bbox.map(|x| x as usize);
+    let (u1, v1) = (u1.min(w - 1), v1.min(h - 1));
+    // Four columns at least, and not wider than tall: a thing lying on its side is no upright
+    // cylinder (a lying cola can measured so came out 2.5 cm off).
+    if u1 < u0 + 3 || (u1 - u0 + 1) as f64 > WIDE_SILHOUETTE * (v1.saturating_sub(v0) + 1) as f64 {
+        return None;
+    }
+    let at_table = |u: usize, v: f64| {
+        let (o, d) = cam.ray(u as f64 + 0.5, v);
+        let s = (table - o.z) / d.z;
+        (s.is_finite() && s > 0.0).then(|| o + d * s)
+    };
+    let c = cam.position();
+    // The rows of the silhouette's lower half: their widths (its top, nearer the camera, looks
+    // wider) and their midpoints (the image of the axis).
+    let mut widths = Vec::with_capacity(v1 - v0 + 1);
+    let mut mids = Vec::with_capacity(v1 - v0 + 1);
+    for v in (v0 + v1) / 2..=v1 {
+        let row = &components[v * w + u0..=v * w + u1];
+        if let (Some(a), Some(b)) = (row.iter().position(|&x| x == id), row.iter().rposition(|&x| x == id)) {
+            widths.push(b - a + 1);
+            mids.push(u0 as f64 + 0.5 * (a + b) as f64);
+        }
+    }
+    if widths.is_empty() {
+        return None;
+    }
+    let k = widths.len() / 2;
+    let width = *widths.select_nth_unstable(k).1;
+    let um = (mids.select_nth_unstable_by(k, f64::total_cmp).1.round() as usize).clamp(u0, u1);
+    // The axis column's lowest pixel on the plane: the base's nearest point.
+    let vb = (v0..=v1).rev().find(|&v| components[v * w + um] == id)?;
+    let near = at_table(um, vb as f64 + 1.0)?;
+    let (dx, dy) = (near.x - c.x, near.y - c.y);
+    let n = dx.hypot(dy);
+    if n < 1e-6 {
+        return None;
+    }
+    let d = [dx / n, dy / n];
+    let depth = (near - c).dot(&cam.axis());
+    let radius = 0.5 * width as f64 * depth / cam.fx;
+    if !(radius.is_finite() && radius > 0.0) {
+        return None;
+    }
+    let center = [near.x + d[0] * radius, near.y + d[1] * radius];
+    // The axis column's top pixel on the far rim's vertical plane.
+    let vt = (v0..=v1).find(|&v| components[v * w + um] == id)?;
+    let (o, dir) = cam.ray(um as f64 + 0.5, vt as f64);
+    let far = n + 2.0 * radius;
+    let along = dir.x * d[0] + dir.y * d[1];
+    let s = (far - ((o.x - c.x) * d[0] + (o.y - c.y) * d[1])) / along;
+    let top = o.z + dir.z * s;
+    let height = top - table;
+    (s.is_finite() && s > 0.0 && height.is_finite() && height > 0.0).then(|| schema::SeenExtent {
+        height: height.min(0.4),
+        center,
+        major_axis: [1.0, 0.0],
+        half_major: radius,
+        half_minor: radius,
+        model: "prism".into(),
+    })
+}
+
 /// The percept of one stereo blob matched in both cameras (`l`, `r`) and triangulated at `c`:
 /// its left view's colours and hue histogram, both pixel counts, and its extent on the support
 /// plane ([`crate::skills::extent_of`]); colours by pixels (the caller weighs them by surface
@@ -504,6 +619,88 @@ mod tests {
             cx: 80.0,
             cy: 60.0,
         }
+    }
+
+    /// An upright cylinder (radius 4.5 cm, 10 cm high, at (0.44, 0.11) on a table at 0.75 m) seen
+    /// by one chassis camera (160 × 120, 60° across, 1 m high in front of the chest, looking down
+    /// at it): its footprint from that one view lies within 5 mm of where it stands, its radius and
+    /// height within 10 % — the location that takes the place of the head's, whose view the chest
+    /// cuts (a sphere fitted to that view lay 5 cm beyond the can).
+    #[test]
+    fn one_whole_view_locates_an_upright_cylinder_on_the_table() {
+        let (table, r, h, at) = (0.75, 0.045, 0.10, [0.44, 0.11]);
+        let world_from_optical = Iso3::face_towards(
+            &Point3::new(0.115, 0.035, 1.0),
+            &Point3::new(0.5, 0.08, 0.75),
+            &Vec3::new(0.0, 0.0, -1.0),
+        );
+        let f = 80.0 / (30f64).to_radians().tan();
+        let cam = Camera {
+            world_from_optical,
+            width: 160,
+            height: 120,
+            fx: f,
+            fy: f,
+            cx: 80.0,
+            cy: 60.0,
+        };
+        // Ray-cast the cylinder: its side and its top disc.
+        let hits = |o: Vec3, d: Vec3| {
+            let (px, py) = (o.x - at[0], o.y - at[1]);
+            let a = d.x * d.x + d.y * d.y;
+            let b = 2.0 * (px * d.x + py * d.y);
+            let c = px * px + py * py - r * r;
+            let disc = b * b - 4.0 * a * c;
+            let side = (disc >= 0.0 && a > 0.0)
+                .then(|| (-b - disc.sqrt()) / (2.0 * a))
+                .is_some_and(|s| s > 0.0 && (table..=table + h).contains(&(o.z + d.z * s)));
+            let s = (table + h - o.z) / d.z;
+            let top = s > 0.0 && {
+                let q = o + d * s;
+                (q.x - at[0]).hypot(q.y - at[1]) <= r
+            };
+            side || top
+        };
+        let (w, hh) = (160usize, 120usize);
+        let mut components = vec![0u32; w * hh];
+        let mut bbox = [u32::MAX, u32::MAX, 0, 0];
+        for v in 0..hh {
+            for u in 0..w {
+                let (o, d) = cam.ray(u as f64 + 0.5, v as f64 + 0.5);
+                if hits(o, d) {
+                    components[v * w + u] = 1;
+                    bbox = [
+                        bbox[0].min(u as u32),
+                        bbox[1].min(v as u32),
+                        bbox[2].max(u as u32),
+                        bbox[3].max(v as u32),
+                    ];
+                }
+            }
+        }
+        assert!(
+            bbox[0] > 0 && bbox[2] < 159 && bbox[1] > 0 && bbox[3] < 119,
+            "whole in view: {bbox:?}"
+        );
+        let seg = crate::vision::Segment {
+            features: crate::vision::segment::SegmentFeatures {
+                pixel_count: components.iter().filter(|&&c| c == 1).count(),
+                centroid: [0.0; 2],
+                covariance: [[0.0; 2]; 2],
+                histogram: Default::default(),
+                mean_rgb: [0.0; 3],
+                mean_hsv: [0.0; 3],
+                color_terms: [0; 10],
+            },
+            bbox,
+            touches_border: false,
+            touches_robot: false,
+        };
+        let e = one_view_footprint(&seg, &components, 1, &cam, table).expect("a footprint");
+        let off = (e.center[0] - at[0]).hypot(e.center[1] - at[1]);
+        assert!(off < 0.005, "{off:.4} m off: {e:?}");
+        assert!((e.half_major - r).abs() < 0.1 * r, "radius {:.4}", e.half_major);
+        assert!((e.height - h).abs() < 0.1 * h, "height {:.4}", e.height);
     }
 
     /// A can of radius 2.4 cm, 4.7 cm high, seen standing at (0.6, 0) on a table at 0.75 m.

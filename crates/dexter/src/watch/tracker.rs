@@ -38,6 +38,9 @@ pub(super) struct Tracker {
     /// measured even when the track kept what it saw whole — from its one uncut view at the
     /// track's height if the other view was cut, else its stereo centroid.
     pub(super) latest: Vec<Option<[f64; 3]>>,
+    /// Per track: whether the chassis pair located it ([`Tracker::locate`]): a view of the head
+    /// that only triangulates it does not move it.
+    pub(super) below: Vec<bool>,
     /// Per hand: the carried track's id and the palm position at the last update.
     pub(super) carried: [Option<(u32, [f64; 3])>; 2],
     /// Per hand: frames in a row the carrying hand did not hold.
@@ -144,6 +147,20 @@ pub const DOUBT_FRAMES: u32 = 3;
 pub(super) const CUT_GATE: f64 = 0.12;
 
 impl Tracker {
+    /// Puts track `id` where the chassis pair measured it (`extent`, its centroid half its height
+    /// above the plane at `table`); a view of the head that only triangulates it no longer moves it
+    /// (until it is seen measured, moved by a hand, or doubted). `false` if there is no such track.
+    pub(super) fn locate(&mut self, id: u32, extent: &schema::SeenExtent, table: f64) -> bool {
+        let Some(j) = self.tracks.iter().position(|t| t.id == id) else {
+            return false;
+        };
+        let t = &mut self.tracks[j];
+        t.centroid = [extent.center[0], extent.center[1], table + 0.5 * extent.height];
+        t.extent = Some(extent.clone());
+        self.below[j] = true;
+        true
+    }
+
     /// Moves carried tracks with their palms; `holding[k]` says whether hand k holds something.
     pub(super) fn predict(&mut self, palms: &[[f64; 3]; 2], holding: [bool; 2]) {
         for k in 0..2 {
@@ -363,6 +380,18 @@ impl Tracker {
             } else if near_palm[j] && px < OCCLUDED_SHARE * self.whole_pixels[j] && !moved {
                 // Partly hidden by the hand: keep what was seen whole.
                 self.tracks[j].seen = true;
+            } else if self.below[j]
+                && !moved
+                && (cut[i] || !measured(&seen[i]))
+                && !(self.doubt[j] >= DOUBT_FRAMES && !near_palm[j] && level)
+            {
+                // Located by the chassis pair, which sees it whole where the head sees its top
+                // above the robot's chest: a view of the head cut by the border or the body, or
+                // one that only triangulates it, says less (a spice jar beside the chest located
+                // by the chassis pair within 4 mm, then measured 3.4 cm beyond from a cut view
+                // of the head, was pushed off the table: development seed 2, execute scene 32).
+                tracing::trace!("KEEP t={t:.2} track {}: located by the chassis pair", self.tracks[j].id);
+                self.tracks[j].seen = true;
             } else if cut[i]
                 && !moved
                 && measured(&self.tracks[j])
@@ -392,6 +421,7 @@ impl Tracker {
                 self.tracks[j].seen = true;
             } else {
                 self.whole[j] |= !cut[i];
+                self.below[j] = false;
                 self.tracks[j] = SegmentPercept { id, ..seen[i].clone() };
                 if !near_palm[j] {
                     // The largest view: an arm not yet near a line of sight may already hide a little.
@@ -457,6 +487,7 @@ impl Tracker {
                 self.whole.push(!cut[i]);
                 self.doubt.push(0);
                 self.latest.push(None);
+                self.below.push(false);
                 self.tracks.push(SegmentPercept { id: self.next_id, ..s });
                 self.last_seen.push(t);
                 self.next_id += 1;
@@ -491,6 +522,7 @@ impl Tracker {
                         self.whole[old] = self.whole[new];
                         self.doubt[old] = self.doubt[new];
                         self.latest[old] = self.latest[new].take();
+                        self.below[old] = self.below[new];
                     }
                     tracing::trace!(
                         "MERGE t={t:.2} track {} into {}",
@@ -557,5 +589,6 @@ impl Tracker {
         retain_mask(&mut self.whole, &keep);
         retain_mask(&mut self.doubt, &keep);
         retain_mask(&mut self.latest, &keep);
+        retain_mask(&mut self.below, &keep);
     }
 }
