@@ -16,17 +16,9 @@ fn dominant(colors: &[(u8, f64)]) -> &'static str {
     COLOR_TERMS[usize::from(t)]
 }
 
-#[test]
-fn standing_objects_are_named_by_the_colour_of_most_of_their_surface() {
-    if cfg!(debug_assertions) {
-        eprintln!("SKIPPED: renders and simulates; run with cargo test --release");
-        return;
-    }
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/scenes/surface-colours.toml");
-    let text = "version = 1\nname = \"surface-colours\"\ncatalog = \"../objects/household.toml\"\nseed = 4\n\n\
-        [table]\nheight = 0.75\ncenter = [0.6, 0.0]\nsize = [0.6, 1.4]\n\n\
-        [[objects]]\npresentation = \"jif\"\nxy = [0.62, 0.12]\n\n\
-        [[objects]]\npresentation = \"soy_sauce\"\nxy = [0.62, -0.12]\n";
+/// The robot's look over the table of the scene `text` (as if read from `path`), parked, with the
+/// workcell's calibration; and where each object stands (x, y: the world's truth).
+fn look_over_table(text: &str, path: &str) -> (Vec<schema::SegmentPercept>, Vec<[f64; 2]>) {
     let scene = Scene::from_toml_str(text, path).unwrap();
     let calibration = dexter_sim::calibrate::workcell_calibration(&scene).unwrap();
     let mut sim = parked_sim(&scene, SimSettings::default()).unwrap();
@@ -41,7 +33,21 @@ fn standing_objects_are_named_by_the_colour_of_most_of_their_surface() {
     let mut sink = NoSink;
     let mut hw = SimRobot::new(&mut sim, &scene, 4).unwrap();
     let mut plant = RobotPlant::new(&mut hw, &ws, calibration, &library, &mut sink).unwrap();
-    let segments = dexter::task::look_over_table(&mut plant).unwrap();
+    (dexter::task::look_over_table(&mut plant).unwrap(), truth)
+}
+
+#[test]
+fn standing_objects_are_named_by_the_colour_of_most_of_their_surface() {
+    if cfg!(debug_assertions) {
+        eprintln!("SKIPPED: renders and simulates; run with cargo test --release");
+        return;
+    }
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/scenes/surface-colours.toml");
+    let text = "version = 1\nname = \"surface-colours\"\ncatalog = \"../objects/household.toml\"\nseed = 4\n\n\
+        [table]\nheight = 0.75\ncenter = [0.6, 0.0]\nsize = [0.6, 1.4]\n\n\
+        [[objects]]\npresentation = \"jif\"\nxy = [0.62, 0.12]\n\n\
+        [[objects]]\npresentation = \"soy_sauce\"\nxy = [0.62, -0.12]\n";
+    let (segments, truth) = look_over_table(text, path);
     for (name, at, colour) in [("jif", truth[0], "red"), ("soy_sauce", truth[1], "black")] {
         let s = segments
             .iter()
@@ -72,15 +78,7 @@ fn an_object_beside_the_chest_is_named_from_the_chassis_pair() {
     let text = "version = 1\nname = \"near-chest\"\ncatalog = \"../objects/household.toml\"\nseed = 4\n\n\
         [table]\nheight = 0.75\ncenter = [0.6, 0.0]\nsize = [0.6, 1.4]\n\n\
         [[objects]]\npresentation = \"red_coffee\"\nxy = [0.433, 0.059]\nyaw_deg = 216.0\n";
-    let scene = Scene::from_toml_str(text, path).unwrap();
-    let calibration = dexter_sim::calibrate::workcell_calibration(&scene).unwrap();
-    let mut sim = parked_sim(&scene, SimSettings::default()).unwrap();
-    let ws = workspace(&scene);
-    let library = schema::Library::builtin();
-    let mut sink = NoSink;
-    let mut hw = SimRobot::new(&mut sim, &scene, 4).unwrap();
-    let mut plant = RobotPlant::new(&mut hw, &ws, calibration, &library, &mut sink).unwrap();
-    let segments = dexter::task::look_over_table(&mut plant).unwrap();
+    let (segments, _) = look_over_table(text, path);
     assert_eq!(segments.len(), 1, "one can, one segment: {segments:?}");
     assert_eq!(
         dominant(&segments[0].colors),
@@ -108,17 +106,8 @@ fn an_object_beside_the_chest_is_located_from_the_chassis_pair() {
         [[objects]]\npresentation = \"red_coffee\"\nxy = [0.428, -0.146]\nyaw_deg = 233.0\n\n\
         [[objects]]\npresentation = \"jif-1\"\nxy = [0.560, -0.200]\nyaw_deg = 285.0\n\n\
         [[objects]]\npresentation = \"jif-1\"\nxy = [0.741, -0.001]\nyaw_deg = 332.0\n";
-    let scene = Scene::from_toml_str(text, path).unwrap();
-    let calibration = dexter_sim::calibrate::workcell_calibration(&scene).unwrap();
-    let mut sim = parked_sim(&scene, SimSettings::default()).unwrap();
-    let p = sim.object_state(0).pose.translation.vector;
-    let at = [p.x, p.y];
-    let ws = workspace(&scene);
-    let library = schema::Library::builtin();
-    let mut sink = NoSink;
-    let mut hw = SimRobot::new(&mut sim, &scene, 4).unwrap();
-    let mut plant = RobotPlant::new(&mut hw, &ws, calibration, &library, &mut sink).unwrap();
-    let segments = dexter::task::look_over_table(&mut plant).unwrap();
+    let (segments, truth) = look_over_table(text, path);
+    let at = truth[0];
     let can = segments
         .iter()
         .find(|s| (s.centroid[0] - at[0]).hypot(s.centroid[1] - at[1]) < 0.08)
