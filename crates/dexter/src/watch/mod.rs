@@ -26,9 +26,11 @@ use tracker::*;
 /// What the chassis pair measured of an object the head saw coarsely ([`Watcher::chassis_measure`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ChassisMeasure {
-    /// Its extent on the support plane, when both chassis views were whole and measured it.
+    /// Its extent on the support plane: measured from both chassis views when both are whole,
+    /// else from the one whole view ([`one_view_footprint`]), within the gate of the query point.
     pub extent: Option<schema::SeenExtent>,
-    /// Its kept colour terms (by surface with an extent, else by the whole view's pixels).
+    /// Its kept colour terms (by surface with an extent measured from both views, else by the
+    /// whole view's pixels).
     pub colors: Vec<(u8, f64)>,
 }
 
@@ -163,10 +165,12 @@ impl Watcher {
     /// What the fixed chassis pair sees, now, of the objects at `points` (world; the head's
     /// coarse centroids): for each point, the one stereo blob with a view cut by neither the image
     /// border nor the robot's body whose box holds the point's image in that camera — `None` when
-    /// no blob or more than one does, or when that blob is another point's too. Of a blob whole in both cameras and measured on the support
-    /// plane (prism, round, lying, standing — not `coarse`) within `gate` (m) of the point on the
-    /// table: its extent and its colours by surface; otherwise the colour terms of its whole view
-    /// by pixels (a side view from in front of the chest: the sides, not the top) and no extent.
+    /// no blob or more than one does, or when that blob is another point's too. Of a blob whole in
+    /// both cameras and measured on the support plane (prism, round, lying, standing — not
+    /// `coarse`) within `gate` (m) of the point on the table: its extent and its colours by
+    /// surface; otherwise the colour terms of a whole view by pixels (a side view from in front of
+    /// the chest: the sides, not the top) and the footprint that view alone gives
+    /// ([`one_view_footprint`], an upright thing's), if within `gate`.
     /// The chassis pair looks at the table from in front of the chest, under the head, so it sees
     /// whole what stands near the robot, where the chest hides the lower part of the head's view
     /// ([`crate::task::look_over_table`]).
