@@ -302,7 +302,7 @@ fn confirm_unseen_coarse(
 }
 
 /// How far (m, on the table) the chassis pair's measured footprint centre may lie from a coarse
-/// track's centroid to be taken as the same object ([`measure_coarse_from_chassis`]): the
+/// track's centroid to be taken as the same object (`measure_coarse_from_chassis`, [`look_over_table`]): the
 /// tracker's own gate between two frames — a coarse centroid of a can beside the chest lay 6.9 cm
 /// beyond where the chassis pair measured it, 1.6 cm from where it stood (development seed 1,
 /// execute scene 21); the chassis blob is found first by its image holding the track's.

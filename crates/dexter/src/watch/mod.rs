@@ -27,7 +27,7 @@ use tracker::*;
 #[derive(Debug, Clone, PartialEq)]
 pub struct ChassisMeasure {
     /// Its extent on the support plane: measured from both chassis views when both are whole,
-    /// else from the one whole view ([`one_view_footprint`]), within the gate of the query point.
+    /// else from the one whole view (`one_view_footprint`), within the gate of the query point.
     pub extent: Option<schema::SeenExtent>,
     /// Its kept colour terms (by surface with an extent measured from both views, else by the
     /// whole view's pixels).
@@ -479,7 +479,7 @@ impl Watcher {
     }
 }
 
-/// A silhouette this many times wider than tall is not an upright thing's ([`one_view_footprint`]).
+/// A silhouette this many times wider than tall is not an upright thing's (`one_view_footprint`).
 const WIDE_SILHOUETTE: f64 = 1.5;
 
 /// The extent of a thing standing on the plane at `table` from one whole view `seg` of it
