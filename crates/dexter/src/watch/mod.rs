@@ -170,7 +170,7 @@ impl Watcher {
     /// `coarse`) within `gate` (m) of the point on the table: its extent and its colours by
     /// surface; otherwise the colour terms of a whole view by pixels (a side view from in front of
     /// the chest: the sides, not the top) and the footprint that view alone gives
-    /// ([`one_view_footprint`], an upright thing's), if within `gate`.
+    /// (`one_view_footprint`, an upright thing's), if within `gate`.
     /// The chassis pair looks at the table from in front of the chest, under the head, so it sees
     /// whole what stands near the robot, where the chest hides the lower part of the head's view
     /// ([`crate::task::look_over_table`]).
