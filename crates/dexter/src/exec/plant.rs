@@ -86,6 +86,20 @@ pub(super) const PLACE_LOOK_SECS: f64 = 0.6;
 /// The footprint radius (m) counted for an object seen in a place: objects lying in a bin are not
 /// measured on the table's plane, and a coarse silhouette disc may take a bin's wall along.
 pub(super) const IN_PLACE_RADIUS: f64 = 0.06;
+/// How far (m) above where the place's floor would take it a lowered object may come to rest
+/// before it is taken to stand on something unseen and put down elsewhere: a bin's floor stands
+/// about 1 cm above the table, and the smallest graspable object is 4 cm across.
+pub(super) const PERCHED: f64 = 0.04;
+/// The least distance (m) between a perched object's spot and the next worth moving it for.
+pub(super) const PERCHED_MOVE: f64 = 0.02;
+/// How far (m) beyond the two footprints' radii something known in a place may stand from a
+/// lowered object for the object to be taken as perched on it.
+pub(super) const PERCHED_BESIDE: f64 = 0.02;
+/// How many times a perched object is lifted off and put down elsewhere.
+pub(super) const PERCHED_TRIES: usize = 1;
+/// The least footprint radius (m) a perched object is taken to have when the next spot is chosen:
+/// it reached farther than measured (a footprint 10 cm across).
+pub(super) const PERCHED_RADIUS: f64 = 0.05;
 
 /// A tall thing seen only coarsely is remembered when it lies this close (m, horizontally) to where
 /// a reach did not get through ([`RobotPlant::tall_things`]): the blocking post stands 7–10 cm from
@@ -303,6 +317,20 @@ pub struct NoSink;
 
 impl ExecSink for NoSink {}
 
+/// Something in a place the robot knows of without seeing it now ([`RobotPlant::put_down`]).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct InPlace {
+    /// The place's name.
+    pub(super) place: String,
+    /// Its centre (x, y).
+    pub(super) at: [f64; 2],
+    /// Its footprint's radius (m).
+    pub(super) radius: f64,
+    /// Felt, not put: a lowered object came to rest on it ([`PERCHED`]). Counted even where a
+    /// segment is seen nearby.
+    pub(super) felt: bool,
+}
+
 /// Dexter driven by the executive.
 pub struct RobotPlant<'a> {
     /// The hardware.
@@ -343,6 +371,10 @@ pub struct RobotPlant<'a> {
     /// Obstacles the carried object met on its way, felt by the fingertips and not seen
     /// ([`RobotPlant::remember_felt_obstacle`]).
     pub(super) felt: Vec<crate::route::Obstacle>,
+    /// What is in a place without being seen now — what this plant put down there, and what an
+    /// object lowered there came to rest on ([`PERCHED`]) — taken as still there when the place
+    /// is looked into ([`RobotPlant::place_spot`]).
+    pub(super) put_down: Vec<InPlace>,
     /// Where the object is to end up (the task's place centre, [`RobotPlant::set_destination`]):
     /// after a hand-over the failed arm carries it there from the handoff spot.
     pub(super) destination: Option<[f64; 2]>,
@@ -423,6 +455,7 @@ impl<'a> RobotPlant<'a> {
             stopped_short: Vec::new(),
             tall_seen: Vec::new(),
             felt: Vec::new(),
+            put_down: Vec::new(),
             destination: None,
             missed: false,
             doubt_checked: None,

@@ -125,6 +125,11 @@ pub(super) fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 
 /// rolling object is not let go on the wall.
 pub(super) const WALL_ROOM: f64 = 0.03;
 
+/// Room (m) between a placed object and a place's walls when the object, lowered at a spot
+/// [`WALL_ROOM`] allowed, came to rest on something there ([`PERCHED`](super::plant::PERCHED)):
+/// the place is crowded, and a finger meeting a wall's top lets go a little high, inside.
+pub(super) const TIGHT_WALL_ROOM: f64 = 0.01;
+
 /// A grasp of an object seen within this distance (m) of where a descent stopped short is a
 /// retry ([`RobotPlant::stopped_short`](super::plant::RobotPlant)): the backing off and a new look
 /// move the seen centre by a few centimetres.
@@ -149,7 +154,19 @@ pub fn free_spot(
     others: &[([f64; 2], f64)],
     from: Option<[f64; 2]>,
 ) -> [f64; 2] {
-    let half = [size[0] / 2.0 - radius - WALL_ROOM, size[1] / 2.0 - radius - WALL_ROOM];
+    free_spot_within(center, size, radius, others, from, WALL_ROOM)
+}
+
+/// [`free_spot`] with the object clear of the walls by `wall_room` (m) instead of [`WALL_ROOM`].
+pub fn free_spot_within(
+    center: [f64; 2],
+    size: [f64; 2],
+    radius: f64,
+    others: &[([f64; 2], f64)],
+    from: Option<[f64; 2]>,
+    wall_room: f64,
+) -> [f64; 2] {
+    let half = [size[0] / 2.0 - radius - wall_room, size[1] / 2.0 - radius - wall_room];
     if half[0] <= 0.0 || half[1] <= 0.0 {
         return center;
     }
