@@ -426,7 +426,9 @@ impl SchemaPlant for RobotPlant<'_> {
                     // (a lying football measured round, 2.8 cm in radius, came to rest on a coffee
                     // can's lid: development seed 1, execute scene 25). Lift it off and put it down
                     // elsewhere in the place, that spot taken as filled and the object as at least
-                    // [`PERCHED_RADIUS`] across — twice at most, then let go where it rests.
+                    // [`PERCHED_RADIUS`] across — [`PERCHED_TRIES`] times, then let go where it
+                    // rests (a second try lost two objects the first one placed: development
+                    // seed 1 scene 25, seed 5 scene 12).
                     let wide = Held {
                         radius: held.radius.max(PERCHED_RADIUS),
                         ..held
