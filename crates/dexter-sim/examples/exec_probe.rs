@@ -2,7 +2,8 @@
 //! exec_probe -- <model.json> <seed> <index> [objects]` prints the report, and (with
 //! `PBD_DEBUG_TRUTH=1`) every object's true position at each change of the robot's activity. Set
 //! `RUST_LOG=schema=info,dexter::exec=debug` to see each action and the monitors after it,
-//! `dexter::watch=trace` for every stereo blob.
+//! `dexter::watch=trace` for every stereo blob; `PBD_DEBUG_MOVES=1` (with `PBD_DEBUG_TRUTH=1`) prints
+//! each object's every move of more than 1 cm, with the time and the robot's activity.
 
 use dexter_sim::execute::{Decider, MAX_ACTIONS, RunLog, Task, execute_scene};
 use dexter_sim::experiment::random_scene;
@@ -15,6 +16,9 @@ struct Truth {
     on: bool,
     last: Vec<(String, [f64; 3])>,
     names: Vec<String>,
+    /// `PBD_DEBUG_MOVES=1`: where each object was when its move was last printed.
+    moves: Option<Vec<[f64; 3]>>,
+    activity: String,
 }
 
 impl RunLog for Truth {
@@ -31,12 +35,46 @@ impl RunLog for Truth {
                 (self.names[i].clone(), [v.x, v.y, v.z])
             })
             .collect();
+        if let Some(moves) = &mut self.moves {
+            if moves.len() != self.last.len() {
+                *moves = self.last.iter().map(|(_, p)| *p).collect();
+            }
+            for ((name, p), at) in self.last.iter().zip(moves.iter_mut()) {
+                let d = ((p[0] - at[0]).powi(2) + (p[1] - at[1]).powi(2) + (p[2] - at[2]).powi(2)).sqrt();
+                if d > 0.01 {
+                    // The robot link whose origin is nearest: who may be pushing it.
+                    let links = &sim.model().links;
+                    let nearest = (0..links.len())
+                        .map(|l| {
+                            let o = sim.link_pose(l).translation.vector;
+                            let d = ((o.x - p[0]).powi(2) + (o.y - p[1]).powi(2) + (o.z - p[2]).powi(2)).sqrt();
+                            (d, l)
+                        })
+                        .min_by(|a, b| a.0.total_cmp(&b.0))
+                        .map(|(d, l)| format!("{} at {d:.3} m", links[l].name))
+                        .unwrap_or_default();
+                    eprintln!(
+                        "[{:7.2}] moved ({}; nearest link {nearest}): {name} ({:.3}, {:.3}, {:.3}) → ({:.3}, {:.3}, {:.3})",
+                        sim.time(),
+                        self.activity,
+                        at[0],
+                        at[1],
+                        at[2],
+                        p[0],
+                        p[1],
+                        p[2]
+                    );
+                    *at = *p;
+                }
+            }
+        }
     }
 
     fn activity(&mut self, t: f64, activity: &str) {
         if !self.on {
             return;
         }
+        self.activity = activity.to_string();
         let objs: Vec<String> = self
             .last
             .iter()
@@ -68,6 +106,8 @@ fn main() {
         on: std::env::var_os("PBD_DEBUG_TRUTH").is_some(),
         last: Vec::new(),
         names: Vec::new(),
+        moves: std::env::var_os("PBD_DEBUG_MOVES").map(|_| Vec::new()),
+        activity: String::new(),
     };
     let model = schema::procedural::ProceduralModel::load(&model).expect("model");
     let task = Task {

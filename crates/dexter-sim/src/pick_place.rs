@@ -11,8 +11,8 @@ use control_basis::{Hardware, Plant};
 use dexter::control::{HandControl, ReachControl};
 use dexter::eyes::Eyes;
 use dexter::skills::{
-    GraspPlan, Held, Observer, choose_arm, contact_center, finger_arc, grasp_and_lift, locate_object,
-    lower_until_supported, plan_top_grasp, plan_top_grasp_geometry, release_and_retreat, transport_over,
+    GraspPlan, Held, Observer, choose_arm, contact_center, finger_arc, grasp_and_lift, locate_object, plan_top_grasp,
+    plan_top_grasp_geometry, release_and_retreat, set_down, transport_over,
 };
 use serde::Serialize;
 
@@ -361,7 +361,7 @@ pub fn pick_and_place_in(
     }
     // Place: lower until the support takes the load.
     phases.push(("place".into(), hw.time_secs() - t0));
-    lower_until_supported(&mut hw, &mut reach, &held, table_z, &mut robs);
+    set_down(&mut hw, &mut reach, &hand, &held, table_z, &mut robs);
     phases.push(("release".into(), hw.time_secs() - t0));
     release_and_retreat(&mut hw, &mut reach, &hand, &mut robs);
     robs.check().map_err(r)?;

@@ -15,8 +15,8 @@ use control_basis::Hardware;
 use dexter::Arm;
 use dexter::control::{HandControl, ReachControl};
 use dexter::skills::{
-    Held, Observer, SeenObject, TouchState, finger_arc, grasp_and_lift, hand_fingertips, locate_object,
-    lower_until_supported, plan_top_grasp, reachable, release_and_retreat, transport_over,
+    Held, Observer, SeenObject, TouchState, finger_arc, grasp_and_lift, hand_fingertips, locate_object, plan_top_grasp,
+    reachable, release_and_retreat, set_down, transport_over,
 };
 use dexter::watch::Watcher;
 use dexter_sim::hardware::{SimRobot, workspace};
@@ -322,7 +322,7 @@ impl SkillSession {
         let hand = HandControl::new(&hw, h.arm)?;
         let mut nothing = |_: &mut dyn Hardware, _: &str| {};
         let mut obs = Observer::new(&mut nothing);
-        let supported = lower_until_supported(&mut hw, &mut reach, &h.held, table_z, &mut obs);
+        let supported = set_down(&mut hw, &mut reach, &hand, &h.held, table_z, &mut obs);
         release_and_retreat(&mut hw, &mut reach, &hand, &mut obs);
         obs.check()?;
         self.holding = None;

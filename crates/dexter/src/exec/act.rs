@@ -9,8 +9,7 @@ use crate::arm::Arm;
 use crate::error::RobotError;
 use crate::skills::{
     FingerRoom, GRASP_FINGER_ROOM, Held, approach_grasp, close_grasp, contact_center, finger_arc, idle, lift_and_weigh,
-    lower_until_supported, park_pose, plan_top_grasp_among, release_and_retreat, run_until, touch_object,
-    transport_over,
+    park_pose, plan_top_grasp_among, release_and_retreat, run_until, set_down, touch_object, transport_over,
 };
 
 use super::plant::*;
@@ -256,6 +255,7 @@ impl SchemaPlant for RobotPlant<'_> {
             Some(Skill::Grasp) => {
                 let arm = parse_arm(action, binding.arm.as_deref())?;
                 let k = arm.index();
+                self.lowered = None;
                 if self.target.is_none() {
                     ActionOutcome::Failed(Failure::new(
                         FailureCause::Precondition,
@@ -344,6 +344,7 @@ impl SchemaPlant for RobotPlant<'_> {
             Some(Skill::Place) => {
                 let arm = parse_arm(action, binding.arm.as_deref())?;
                 let k = arm.index();
+                self.lowered = None;
                 // The objects around (the head still looks at the lifted one and its neighbours).
                 let palm_now = self.reach[k].tool_pose(self.hw).translation.vector;
                 let mut around = self.seen_objects(Some(&palm_now));
@@ -412,7 +413,7 @@ impl SchemaPlant for RobotPlant<'_> {
                 let transfer = binding.transfer;
                 let r = self.with_observer(|hw, reach, hand, obs| {
                     transport_over(hw, &mut reach[k], &held, target, table_z, clear, obs)?;
-                    lower_until_supported(hw, &mut reach[k], &held, table_z, obs);
+                    set_down(hw, &mut reach[k], &hand[k], &held, table_z, obs);
                     if transfer {
                         // The transfer ends with the hand open: the other hand takes it from here.
                         release_and_retreat(hw, &mut reach[k], &hand[k], obs);
@@ -466,9 +467,9 @@ impl SchemaPlant for RobotPlant<'_> {
                             break;
                         }
                         let clear = clear.max(perched + 0.02);
-                        r = self.with_observer(|hw, reach, _, obs| {
+                        r = self.with_observer(|hw, reach, hand, obs| {
                             transport_over(hw, &mut reach[k], &held, again, table_z, clear, obs)?;
-                            lower_until_supported(hw, &mut reach[k], &held, table_z, obs);
+                            set_down(hw, &mut reach[k], &hand[k], &held, table_z, obs);
                             Ok::<(), Failure>(())
                         })?;
                         target = again;
@@ -492,7 +493,7 @@ impl SchemaPlant for RobotPlant<'_> {
                 match r {
                     Ok(()) => {
                         if let Some(name) = place_name {
-                            self.put_down.push(InPlace {
+                            self.lowered = Some(InPlace {
                                 place: name,
                                 at: target,
                                 radius: held.radius,
@@ -535,6 +536,7 @@ impl SchemaPlant for RobotPlant<'_> {
                         "the fingertips still feel the object after opening",
                     ))
                 } else {
+                    self.put_down.extend(self.lowered.take());
                     ActionOutcome::Converged
                 }
             }

@@ -375,6 +375,13 @@ pub struct RobotPlant<'a> {
     /// object lowered there came to rest on ([`PERCHED`]) — taken as still there when the place
     /// is looked into ([`RobotPlant::place_spot`]).
     pub(super) put_down: Vec<InPlace>,
+    /// Where the last Place lowered the held object in a place, while it is still in the hand: it
+    /// joins [`RobotPlant::put_down`] when the Release lets go of it. (A Place the monitors do not
+    /// see succeed is run again, and carries the object elsewhere: remembered at the Place, the
+    /// first spot stayed "taken" by nothing, and the second went to the bin's wall, where the
+    /// opening fingers pushed a cereal box standing outside it over — development seed 6, execute
+    /// scene 35.)
+    pub(super) lowered: Option<InPlace>,
     /// Where the object is to end up (the task's place centre, [`RobotPlant::set_destination`]):
     /// after a hand-over the failed arm carries it there from the handoff spot.
     pub(super) destination: Option<[f64; 2]>,
@@ -456,6 +463,7 @@ impl<'a> RobotPlant<'a> {
             tall_seen: Vec::new(),
             felt: Vec::new(),
             put_down: Vec::new(),
+            lowered: None,
             destination: None,
             missed: false,
             doubt_checked: None,
