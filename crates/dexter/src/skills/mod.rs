@@ -775,9 +775,9 @@ pub const LET_DOWN_TICKS: usize = 20;
 /// above the table and the object hanging above it. The grip is eased — the fingers' flexion
 /// reference brought down from the grasp's towards [`LET_DOWN_OPEN`] below the measured flexion, at
 /// [`LET_DOWN_RATE`] — until the support takes the load (below half the held load for
-/// [`LET_DOWN_TICKS`]), and the reference is held there: the object slides down between the fingertips onto its support
-/// while they still touch it, as the place's net-force monitor expects (§3.3.3), and the Release
-/// that follows opens the hand from there. Without it a Place that did not set its object down was
+/// [`LET_DOWN_TICKS`]), and the reference is held there: the object slides down between the
+/// fingertips onto its support while they still touch it, as the place's net-force monitor expects
+/// (§3.3.3), and the Release that follows opens the hand from there. Without it a Place that did not set its object down was
 /// run again with the same result (three times, then given up: development seed 2, execute scene
 /// 22, a 58 g jar of peanut butter; seed 7 scene 36, a lying pipe dropped from 2 cm after the third).
 /// Whether the support took the load.
